@@ -1,0 +1,48 @@
+// ScanCam: load any supported scanner file into an OrderedScan.
+//
+// Formats (chosen by `format`, or by extension when "auto"):
+//   rotating  .txt/.rot  the paper's rotating 2D scanner, one beam per line
+//                        (see io/rotating_log.h);
+//   ptx       .ptx       Leica PTX, gridded, several scans per file (io/ptx.h);
+//   pcd       .pcd       PCD through PCL: organised, spinning lidar with `ring`,
+//                        or unordered (re-gridded) (io/pcd.h);
+//   rawlog    .rawlog    MRPT rawlogs through MRPT (io/mrpt_rawlog.h).
+// Every reader throws scancam::Error naming the file and the place on bad input.
+#pragma once
+
+#include <string>
+
+#include "scancam/ordered_scan.h"
+#include "scancam/progress.h"
+
+namespace scancam {
+
+struct ScanLoadOptions {
+  std::string format = "auto";  ///< auto | rotating | ptx | pcd | rawlog
+
+  // rotating 2D scanner (overrides the file's header when set)
+  bool has_offsets = false;
+  double dx_m = 0.0;  ///< offset of the rotation axis from the mirror centre, x (eq. 3)
+  double dz_m = 0.0;  ///< same, z
+
+  // PTX
+  int ptx_scan_index = 0;      ///< which scan of a multi-scan file (0-based)
+  bool ptx_apply_pose = false; ///< apply the header's scanner pose (points in the
+                               ///< registered/world frame) instead of the scanner frame
+
+  // PCD / unordered clouds
+  std::string pcd_mode = "auto";  ///< auto | organised | ring | spherical
+  double grid_step_deg = 0.0;     ///< angular cell size for spherical re-gridding; 0 = estimate
+
+  // MRPT
+  int rawlog_index = -1;  ///< which scan-like observation in the rawlog (-1: the first)
+};
+
+/// Loads `path` as an OrderedScan. Throws scancam::Error on bad input.
+OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options = {},
+                     const Progress& progress = {});
+
+/// The format "auto" resolves to for this path, or throws naming the file.
+std::string DetectScanFormat(const std::string& path);
+
+}  // namespace scancam

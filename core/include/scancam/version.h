@@ -1,0 +1,3 @@
+// ScanCam version.
+#pragma once
+#define SCANCAM_VERSION_STRING "0.1.0"

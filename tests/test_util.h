@@ -1,0 +1,44 @@
+// Helpers shared by the tests: where data lives, temporary files.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace scancam::test {
+
+/// ../shared/datasets/<rel>; the test is skipped (with a message) when ../shared is absent.
+inline std::string SharedDataset(const std::string& rel) {
+  return std::string(SCANCAM_SHARED_DIR) + "/datasets/" + rel;
+}
+inline bool HaveShared() { return std::filesystem::exists(SharedDataset("README.md")); }
+#define SCANCAM_REQUIRE_SHARED()                                                        \
+  do {                                                                                  \
+    if (!::scancam::test::HaveShared())                                                 \
+      GTEST_SKIP() << "../shared/datasets not found beside the project: real-data test " \
+                      "skipped (CI always has it)";                                     \
+  } while (0)
+
+/// A fresh temporary directory for one test: <build>/tests/tmp/<suite>.<name>.
+inline std::string TempDir() {
+  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::filesystem::path p = std::filesystem::path(SCANCAM_TEST_TMP) /
+                            (std::string(info->test_suite_name()) + "." + info->name());
+  std::filesystem::remove_all(p);
+  std::filesystem::create_directories(p);
+  return p.string();
+}
+
+inline void WriteFile(const std::string& path, const std::string& content) {
+  std::ofstream f(path, std::ios::binary);
+  f << content;
+}
+
+inline std::string ReadFile(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+}  // namespace scancam::test
