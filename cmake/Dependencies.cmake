@@ -20,3 +20,7 @@ target_compile_definitions(scancam_pcl INTERFACE ${PCL_DEFINITIONS})
 add_library(scancam_opencv INTERFACE)
 target_include_directories(scancam_opencv SYSTEM INTERFACE ${OpenCV_INCLUDE_DIRS})
 target_link_libraries(scancam_opencv INTERFACE ${OpenCV_LIBS})
+
+if(SCANCAM_BUILD_PLUGIN)
+  find_package(Qt5 5.15 REQUIRED COMPONENTS Core Gui Widgets OpenGL Concurrent Test)
+endif()

@@ -65,6 +65,6 @@ std::function<bool(double, const std::string&)> StderrProgress(bool quiet);
 #define SCANCAM_CLI_CONCAT2(a, b) a##b
 #define SCANCAM_CLI_CONCAT(a, b) SCANCAM_CLI_CONCAT2(a, b)
 /// Registers a Command built by the expression `make` at static-initialisation time.
-#define SCANCAM_COMMAND(make) \
+#define SCANCAM_COMMAND(make)                                               \
   static const bool SCANCAM_CLI_CONCAT(scancam_cmd_registered_, __LINE__) = \
       ::scancam::cli::Register(make)

@@ -44,8 +44,7 @@ Args::Args(const std::vector<std::string>& argv, const std::vector<OptionSpec>& 
           if (i + 1 >= argv.size()) throw Error("option " + key + " needs a value " + spec->value);
           value = argv[++i];
         }
-        if (!spec->repeatable && values_.count(key))
-          throw Error("option " + key + " given twice");
+        if (!spec->repeatable && values_.count(key)) throw Error("option " + key + " given twice");
         values_[key].push_back(value);
       }
     } else {

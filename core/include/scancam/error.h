@@ -18,8 +18,7 @@ class Error : public std::runtime_error {
 };
 
 /// Builds "FILE:WHERE: WHAT" (WHERE may be empty, giving "FILE: WHAT").
-inline Error FileError(const std::string& file, const std::string& where,
-                       const std::string& what) {
+inline Error FileError(const std::string& file, const std::string& where, const std::string& what) {
   return Error(file + (where.empty() ? std::string() : ":" + where) + ": " + what);
 }
 

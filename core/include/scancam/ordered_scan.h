@@ -36,9 +36,9 @@ struct OrderedScan {
   std::vector<Eigen::Vector3f> beam_dir;  ///< rows*cols, unit, scanner frame (NaN if unknown)
   std::vector<float> intensity;           ///< rows*cols or empty
   Eigen::Vector3d origin_m = Eigen::Vector3d::Zero();  ///< sensor origin, scanner frame
-  std::string row_axis;                   ///< what a row index means
-  std::string col_axis;                   ///< what a column index means
-  std::string source;                     ///< file (or generator) it came from
+  std::string row_axis;                                ///< what a row index means
+  std::string col_axis;                                ///< what a column index means
+  std::string source;                                  ///< file (or generator) it came from
 
   static constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 

@@ -1,0 +1,185 @@
+#include "ui/image_view.h"
+
+#include <QGraphicsEllipseItem>
+#include <QGraphicsItemGroup>
+#include <QGraphicsPixmapItem>
+#include <QGraphicsScene>
+#include <QGraphicsSimpleTextItem>
+#include <QMouseEvent>
+#include <QScrollBar>
+#include <QWheelEvent>
+#include <cmath>
+
+namespace scancam::ui {
+
+namespace {
+// A press that moves less than this (widget px) is a click, not a pan.
+constexpr int kClickSlopPx = 4;
+}  // namespace
+
+ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
+  setScene(new QGraphicsScene(this));
+  setTransformationAnchor(QGraphicsView::NoAnchor);
+  setResizeAnchor(QGraphicsView::AnchorViewCenter);
+  setDragMode(QGraphicsView::NoDrag);
+  setRenderHint(QPainter::SmoothPixmapTransform, false);  // see the real pixels when zoomed
+  setBackgroundBrush(QColor(40, 40, 40));
+  setMouseTracking(true);
+  pixmap_item_ = scene()->addPixmap(QPixmap());
+  pixmap_item_->setTransformationMode(Qt::FastTransformation);
+  overlay_group_ = scene()->createItemGroup({});
+  marker_group_ = scene()->createItemGroup({});
+  overlay_group_->setZValue(1);
+  marker_group_->setZValue(2);
+}
+
+void ImageView::setImage(const QImage& image) {
+  image_ = image;
+  pixmap_item_->setPixmap(QPixmap::fromImage(image));
+  scene()->setSceneRect(QRectF(0, 0, image.width(), image.height()));
+  if (!fitted_ && !image.isNull()) {
+    fitImage();
+    fitted_ = true;
+  }
+  rebuildMarkers();
+}
+
+void ImageView::fitImage() {
+  if (image_.isNull()) return;
+  fitInView(pixmap_item_, Qt::KeepAspectRatio);
+  rebuildMarkers();
+}
+
+double ImageView::zoom() const { return transform().m11(); }
+
+// Scene coordinates put the top-left pixel's square at [0,1)^2, so its centre is
+// at (0.5, 0.5); OpenCV calls that centre (0, 0).
+QPointF ImageView::widgetToPixel(const QPoint& widget_pos) const {
+  return mapToScene(widget_pos) - QPointF(0.5, 0.5);
+}
+
+QPoint ImageView::pixelToWidget(const QPointF& px) const {
+  return mapFromScene(px + QPointF(0.5, 0.5));
+}
+
+void ImageView::setMarkers(const QVector<Marker>& markers) {
+  markers_ = markers;
+  rebuildMarkers();
+}
+
+void ImageView::setOverlayPoints(const QVector<QPointF>& px, const QColor& colour) {
+  for (auto* item : overlay_group_->childItems()) {
+    overlay_group_->removeFromGroup(item);
+    delete item;
+  }
+  const double r = 0.6;
+  QPen pen(Qt::NoPen);
+  QBrush brush(colour);
+  for (const QPointF& p : px) {
+    auto* dot = new QGraphicsEllipseItem(p.x() + 0.5 - r, p.y() + 0.5 - r, 2 * r, 2 * r);
+    dot->setPen(pen);
+    dot->setBrush(brush);
+    overlay_group_->addToGroup(dot);
+  }
+}
+
+void ImageView::rebuildMarkers() {
+  for (auto* item : marker_group_->childItems()) {
+    marker_group_->removeFromGroup(item);
+    delete item;
+  }
+  // Markers keep a constant on-screen size whatever the zoom.
+  const double scale = zoom() > 0 ? 1.0 / zoom() : 1.0;
+  for (const Marker& m : markers_) {
+    const QPointF c = m.px + QPointF(0.5, 0.5);
+    const double r = (m.selected ? 9.0 : 7.0) * scale;
+    auto* ring = new QGraphicsEllipseItem(c.x() - r, c.y() - r, 2 * r, 2 * r);
+    QPen pen(m.selected ? QColor(Qt::white) : m.colour);
+    pen.setCosmetic(true);
+    pen.setWidth(m.selected ? 3 : 2);
+    ring->setPen(pen);
+    marker_group_->addToGroup(ring);
+    auto* cross_h = new QGraphicsLineItem(c.x() - r * 0.5, c.y(), c.x() + r * 0.5, c.y());
+    auto* cross_v = new QGraphicsLineItem(c.x(), c.y() - r * 0.5, c.x(), c.y() + r * 0.5);
+    QPen thin(m.colour);
+    thin.setCosmetic(true);
+    cross_h->setPen(thin);
+    cross_v->setPen(thin);
+    marker_group_->addToGroup(cross_h);
+    marker_group_->addToGroup(cross_v);
+    auto* label = new QGraphicsSimpleTextItem(QString::number(m.id));
+    label->setBrush(m.colour);
+    QFont f = label->font();
+    f.setBold(true);
+    label->setFont(f);
+    label->setFlag(QGraphicsItem::ItemIgnoresTransformations);
+    label->setPos(c.x() + r, c.y() - 2 * r);
+    marker_group_->addToGroup(label);
+  }
+}
+
+void ImageView::wheelEvent(QWheelEvent* event) {
+  const double steps = event->angleDelta().y() / 120.0;
+  double factor = std::pow(1.25, steps);
+  const double z = zoom();
+  // Keep the zoom between "whole image is a few pixels" and "one pixel is 64 px".
+  if (z * factor > 64.0) factor = 64.0 / z;
+  if (z * factor < 0.02) factor = 0.02 / z;
+  // Keep the image point under the cursor where it is (AnchorUnderMouse follows the
+  // last mouse-move position, not the wheel event's, so anchor by hand).
+  const QPoint cursor = event->position().toPoint();
+  const QPointF scene_before = mapToScene(cursor);
+  scale(factor, factor);
+  const QPoint moved = mapFromScene(scene_before) - cursor;
+  horizontalScrollBar()->setValue(horizontalScrollBar()->value() + moved.x());
+  verticalScrollBar()->setValue(verticalScrollBar()->value() + moved.y());
+  rebuildMarkers();
+  event->accept();
+}
+
+void ImageView::mousePressEvent(QMouseEvent* event) {
+  if (event->button() == Qt::LeftButton || event->button() == Qt::MiddleButton) {
+    press_pos_ = last_pos_ = event->pos();
+    dragging_ = false;
+    event->accept();
+    return;
+  }
+  QGraphicsView::mousePressEvent(event);
+}
+
+void ImageView::mouseMoveEvent(QMouseEvent* event) {
+  if (event->buttons() & (Qt::LeftButton | Qt::MiddleButton)) {
+    if (!dragging_ && (event->pos() - press_pos_).manhattanLength() > kClickSlopPx) {
+      dragging_ = true;
+      setCursor(Qt::ClosedHandCursor);
+    }
+    if (dragging_) {
+      const QPoint d = event->pos() - last_pos_;
+      horizontalScrollBar()->setValue(horizontalScrollBar()->value() - d.x());
+      verticalScrollBar()->setValue(verticalScrollBar()->value() - d.y());
+    }
+    last_pos_ = event->pos();
+    event->accept();
+    return;
+  }
+  QGraphicsView::mouseMoveEvent(event);
+}
+
+void ImageView::mouseReleaseEvent(QMouseEvent* event) {
+  if (event->button() == Qt::LeftButton || event->button() == Qt::MiddleButton) {
+    if (!dragging_ && event->button() == Qt::LeftButton && !image_.isNull()) {
+      const QPointF px = widgetToPixel(event->pos());
+      if (px.x() >= -0.5 && px.y() >= -0.5 && px.x() < image_.width() - 0.5 &&
+          px.y() < image_.height() - 0.5) {
+        emit pixelClicked(px.x(), px.y());
+      }
+    }
+    dragging_ = false;
+    unsetCursor();
+    event->accept();
+    return;
+  }
+  QGraphicsView::mouseReleaseEvent(event);
+}
+
+}  // namespace scancam::ui

@@ -1,0 +1,71 @@
+// qScanCam UI: a zoomable, pannable image view with numbered pair markers.
+//
+// Coordinates: pixels in OpenCV's convention ((0,0) is the centre of the top-left
+// pixel, u right, v down). Wheel zooms about the cursor, a drag with the left or
+// middle button pans, a left click without a drag emits pixelClicked(u, v).
+// Pure Qt (no CloudCompare), so it is unit-tested with QtTest offscreen.
+#pragma once
+
+#include <QColor>
+#include <QGraphicsView>
+#include <QImage>
+#include <QPointF>
+#include <QVector>
+
+class QGraphicsPixmapItem;
+class QGraphicsItemGroup;
+
+namespace scancam::ui {
+
+struct Marker {
+  int id = 0;  ///< the pair number shown beside the marker
+  QPointF px;  ///< OpenCV pixel coordinates
+  QColor colour = Qt::yellow;
+  bool selected = false;
+};
+
+class ImageView : public QGraphicsView {
+  Q_OBJECT
+ public:
+  explicit ImageView(QWidget* parent = nullptr);
+
+  /// Shows `image` (replacing any previous one); keeps markers. Fits it to the view
+  /// the first time an image is shown.
+  void setImage(const QImage& image);
+  const QImage& image() const { return image_; }
+  /// Replaces the markers.
+  void setMarkers(const QVector<Marker>& markers);
+  /// Small dots drawn over the image (e.g. reprojected laser edge points).
+  void setOverlayPoints(const QVector<QPointF>& px, const QColor& colour);
+  /// Zoom so the whole image is visible.
+  void fitImage();
+  /// Current zoom (view pixels per image pixel).
+  double zoom() const;
+  /// Maps between widget positions and image pixels (OpenCV convention).
+  QPointF widgetToPixel(const QPoint& widget_pos) const;
+  QPoint pixelToWidget(const QPointF& px) const;
+
+ signals:
+  void pixelClicked(double u, double v);
+
+ protected:
+  void wheelEvent(QWheelEvent* event) override;
+  void mousePressEvent(QMouseEvent* event) override;
+  void mouseMoveEvent(QMouseEvent* event) override;
+  void mouseReleaseEvent(QMouseEvent* event) override;
+
+ private:
+  void rebuildMarkers();
+
+  QImage image_;
+  QGraphicsPixmapItem* pixmap_item_ = nullptr;
+  QGraphicsItemGroup* marker_group_ = nullptr;
+  QGraphicsItemGroup* overlay_group_ = nullptr;
+  QVector<Marker> markers_;
+  bool fitted_ = false;
+  bool dragging_ = false;
+  QPoint press_pos_;
+  QPoint last_pos_;
+};
+
+}  // namespace scancam::ui
