@@ -1,0 +1,199 @@
+#include "scancam/solve/refine.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <cmath>
+
+#include "scancam/error.h"
+#include "scancam/rotation_rpy.h"
+#include "scancam/solve/ransac_pose.h"
+
+namespace scancam {
+namespace {
+
+// Eq. 7 residual for one pair, as a smooth 2-vector whose squared norm is the
+// squared geodesic angle (see refine.h).
+struct GeodesicResidual {
+  GeodesicResidual(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p) : b(bearing), p(p) {
+    b.normalize();
+    // Any orthonormal basis of the tangent plane at b.
+    const Eigen::Vector3d helper =
+        std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    e1 = b.cross(helper).normalized();
+    e2 = b.cross(e1);
+  }
+
+  template <typename T>
+  bool operator()(const T* q_xyzw, const T* t, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(q_xyzw);
+    const Eigen::Matrix<T, 3, 1> pc = q * p.cast<T>() + Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t);
+    const T x = e1.cast<T>().dot(pc);
+    const T y = e2.cast<T>().dot(pc);
+    const T c = b.cast<T>().dot(pc);
+    const T s2 = x * x + y * y;
+    // theta / s with s = |(x, y)|; at s -> 0 it tends to 1 / c (c > 0). The
+    // branch keeps derivatives finite exactly at a perfect fit.
+    T scale;
+    if (s2 > T(1e-30)) {
+      const T s = sqrt(s2);
+      scale = atan2(s, c) / s;
+    } else {
+      scale = T(1.0) / c;
+    }
+    r[0] = scale * x;
+    r[1] = scale * y;
+    return true;
+  }
+
+  Eigen::Vector3d b, p, e1, e2;
+};
+
+// Ceres' EigenQuaternionManifold: Plus(q, d) = [cos|d|, sin|d| d/|d|] * q, i.e.
+// a rotation by 2|d| about d, applied on the left (camera frame).
+Eigen::Quaterniond PlusDelta(const Eigen::Quaterniond& q, const Eigen::Vector3d& d) {
+  const double n = d.norm();
+  Eigen::Quaterniond dq(1, 0, 0, 0);
+  if (n > 0) {
+    const Eigen::Vector3d v = std::sin(n) * d / n;
+    dq = Eigen::Quaterniond(std::cos(n), v.x(), v.y(), v.z());
+  }
+  return dq * q;
+}
+
+}  // namespace
+
+RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
+                        const std::vector<Eigen::Vector3d>& p_scan, const Eigen::Isometry3d& T_init,
+                        const RefineOptions& options, const std::vector<bool>& use) {
+  const std::size_t n = bearing_cam.size();
+  if (p_scan.size() != n || (!use.empty() && use.size() != n)) {
+    throw Error("RefinePose: bearings, points and flags differ in count");
+  }
+  RefineResult res;
+  res.T_cam_scan = T_init;
+  std::size_t used = 0;
+  for (std::size_t i = 0; i < n; ++i) used += (use.empty() || use[i]) ? 1 : 0;
+
+  auto rms_of = [&](const Eigen::Isometry3d& T) {
+    double s = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      if (use.empty() || use[i])
+        s += std::pow(AngularError(T, bearing_cam[i].normalized(), p_scan[i]), 2);
+    return used ? std::sqrt(s / used) : 0.0;
+  };
+  res.initial_rms_rad = rms_of(T_init);
+  if (used < 3) {
+    res.message = "fewer than 3 pairs: nothing to refine";
+    res.final_rms_rad = res.initial_rms_rad;
+    return res;
+  }
+
+  Eigen::Quaterniond q(T_init.linear());
+  q.normalize();
+  double qv[4] = {q.x(), q.y(), q.z(), q.w()};
+  Eigen::Vector3d t = T_init.translation();
+  double tv[3] = {t.x(), t.y(), t.z()};
+
+  ceres::Problem problem;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(use.empty() || use[i])) continue;
+    ceres::LossFunction* loss = nullptr;
+    if (options.loss == "huber") {
+      loss = new ceres::HuberLoss(options.loss_scale_rad);
+    } else if (options.loss == "cauchy") {
+      loss = new ceres::CauchyLoss(options.loss_scale_rad);
+    } else if (options.loss != "none") {
+      throw Error("unknown loss '" + options.loss + "' (expected none, huber or cauchy)");
+    }
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GeodesicResidual, 2, 4, 3>(
+                                 new GeodesicResidual(bearing_cam[i], p_scan[i])),
+                             loss, qv, tv);
+  }
+  problem.SetManifold(qv, new ceres::EigenQuaternionManifold);
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  so.max_num_iterations = options.max_iterations;
+  so.function_tolerance = 1e-14;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-14;
+  so.num_threads = 1;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  res.converged = summary.termination_type == ceres::CONVERGENCE;
+  res.iterations = static_cast<int>(summary.iterations.size());
+  res.message = summary.BriefReport();
+
+  const Eigen::Quaterniond qf(qv[3], qv[0], qv[1], qv[2]);
+  res.T_cam_scan = Eigen::Isometry3d::Identity();
+  res.T_cam_scan.linear() = qf.normalized().toRotationMatrix();
+  res.T_cam_scan.translation() = Eigen::Vector3d(tv[0], tv[1], tv[2]);
+  res.final_rms_rad = rms_of(res.T_cam_scan);
+  res.error_rad.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    res.error_rad[i] = AngularError(res.T_cam_scan, bearing_cam[i].normalized(), p_scan[i]);
+
+  if (!options.compute_covariance) return res;
+  if (used < 4) {
+    res.message += "; covariance needs >= 4 pairs";
+    return res;
+  }
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;  // small problem: SVD copes with rank deficiency
+  co.null_space_rank = -1;
+  co.min_reciprocal_condition_number = 1e-14;
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> blocks = {{qv, qv}, {qv, tv}, {tv, tv}};
+  if (!cov.Compute(blocks, &problem)) {
+    res.message += "; covariance could not be computed (degenerate configuration)";
+    return res;
+  }
+  Eigen::Matrix<double, 6, 6> C;
+  double full[6 * 6];
+  std::vector<const double*> params = {qv, tv};
+  if (!cov.GetCovarianceMatrixInTangentSpace(params, full)) {
+    res.message += "; covariance extraction failed";
+    return res;
+  }
+  C = Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(full);
+  // Ceres assumes unit-variance residuals; scale by the observed variance
+  // (2 residuals per pair, 6 parameters).
+  double ss = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (use.empty() || use[i]) ss += res.error_rad[i] * res.error_rad[i];
+  const double dof = 2.0 * used - 6.0;
+  res.sigma_rad = dof > 0 ? std::sqrt(ss / dof) : 0.0;
+  C *= res.sigma_rad * res.sigma_rad;
+
+  // Tangent delta d rotates by 2|d| (see PlusDelta): rotation vector = 2 d.
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
+  J.topLeftCorner<3, 3>() *= 2.0;
+  res.covariance = J * C * J.transpose();
+  res.has_covariance = true;
+
+  // Roll/pitch/yaw standard deviations through a central-difference Jacobian of
+  // rpy(Plus(q, d)) at d = 0.
+  Eigen::Matrix3d Jrpy;
+  const double h = 1e-7;
+  for (int k = 0; k < 3; ++k) {
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d(k) = h;
+    Eigen::Vector3d a = RotationToRpyDeg(PlusDelta(qf, d).toRotationMatrix());
+    Eigen::Vector3d b = RotationToRpyDeg(PlusDelta(qf, -d).toRotationMatrix());
+    Eigen::Vector3d diff = a - b;
+    for (int m = 0; m < 3; ++m) {  // unwrap +-180 deg jumps
+      while (diff(m) > 180) diff(m) -= 360;
+      while (diff(m) < -180) diff(m) += 360;
+    }
+    Jrpy.col(k) = diff / (2 * h);
+  }
+  const Eigen::Matrix3d Crpy = Jrpy * C.topLeftCorner<3, 3>() * Jrpy.transpose();
+  res.std_rpy_deg = Crpy.diagonal().cwiseMax(0).cwiseSqrt();
+  res.std_t_m = C.bottomRightCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
+  return res;
+}
+
+}  // namespace scancam
