@@ -1,0 +1,48 @@
+#include "scan_options.h"
+
+namespace scancam::cli {
+
+std::vector<OptionSpec> ScanLoadOptionSpecs() {
+  return {
+      {"--format", "FMT",
+       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog), rotating, "
+       "ptx, pcd or rawlog. Default auto."},
+      {"--dx-m", "M",
+       "Rotating 2D scanner: offset d_x of the rotation axis from the mirror centre, metres "
+       "(eq. 3). Overrides the log's header; giving only one of --dx-m/--dz-m sets the other "
+       "to 0."},
+      {"--dz-m", "M", "Rotating 2D scanner: offset d_z, metres (see --dx-m)."},
+      {"--ptx-scan", "N", "PTX: which scan of a multi-scan file, 0-based. Default 0."},
+      {"--ptx-apply-pose", "",
+       "PTX: apply the header's scanner pose (points in the registered frame) instead of "
+       "keeping the scanner's own frame."},
+      {"--pcd-mode", "MODE",
+       "PCD: auto | organised (the file's own HEIGHT x WIDTH grid) | ring (spinning lidar: one "
+       "row per ring, columns by azimuth) | spherical (re-grid an unordered cloud on an "
+       "azimuth/elevation grid). Default auto: organised if HEIGHT > 1, else ring if there is "
+       "a ring field, else spherical."},
+      {"--grid-step-deg", "DEG",
+       "PCD ring/spherical: angular cell size in degrees; 0 = estimate from the data. "
+       "Default 0."},
+      {"--rawlog-index", "N",
+       "MRPT rawlog: which scan-like observation, 0-based; -1 = the first. Default -1."},
+  };
+}
+
+ScanLoadOptions ParseScanLoadOptions(const Args& args) {
+  ScanLoadOptions load;
+  load.format = args.get("--format", load.format);
+  if (args.has("--dx-m") || args.has("--dz-m")) {
+    load.has_offsets = true;
+    load.dx_m = args.get_double("--dx-m", 0.0);
+    load.dz_m = args.get_double("--dz-m", 0.0);
+  }
+  load.ptx_scan_index = args.get_int("--ptx-scan", load.ptx_scan_index);
+  load.ptx_apply_pose = args.has("--ptx-apply-pose");
+  load.pcd_mode = args.get("--pcd-mode", load.pcd_mode);
+  load.grid_step_deg = args.get_double("--grid-step-deg", load.grid_step_deg);
+  load.rawlog_index = args.get_int("--rawlog-index", load.rawlog_index);
+  return load;
+}
+
+}  // namespace scancam::cli

@@ -1,0 +1,93 @@
+// ScanCam: calibration from picked pairs — the one entry point shared by the CLI
+// and the plugin.
+//
+// Input: pairs (image pixel <-> laser point, io/pairs_csv.h), the ordered scan the
+// scan cells refer to (may be null when every pair gives x,y,z), and the camera.
+// Every pixel becomes a unit bearing (CameraModel::Unproject), so one path serves
+// every camera model. Methods:
+//   paper    the paper's linear PnP (Quan & Lan) + closed-form rigid motion;
+//   ransac   RANSAC over OpenGV P3P (Kneip) with an angular threshold, re-fit on
+//            the inliers with EPnP (default: finds a badly picked pair);
+//   epnp     OpenGV EPnP on all pairs;   upnp   OpenGV UPnP on all pairs.
+// then (unless refine = false) Ceres refinement of eq. 7 on the inliers, and the
+// parameter covariance.
+//
+// Errors (scancam::Error, naming the pairs file and line): fewer than 4 usable
+// pairs, a pixel outside the image / field of view, a scan cell with no return,
+// duplicate pairs, collinear laser points or bearings. Warnings (in the result):
+// fewer than 6 pairs, pairs clustered in one part of the image or the scan (the
+// paper's Figs. 6-7 show the bias this causes), flagged outliers.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scancam/camera/camera_model.h"
+#include "scancam/io/pairs_csv.h"
+#include "scancam/ordered_scan.h"
+#include "scancam/solve/ransac_pose.h"
+#include "scancam/solve/refine.h"
+
+namespace scancam {
+
+struct CalibrateOptions {
+  std::string method = "ransac";  ///< paper | ransac | epnp | upnp
+  bool refine = true;             ///< Ceres refinement of eq. 7 after the initial solve
+  double threshold_deg = 1.0;     ///< inlier angular error (RANSAC, and flagging for others)
+  std::uint64_t seed = 1;         ///< RANSAC random seed
+  RefineOptions refine_options;
+  std::string pairs_source = "pairs";  ///< name used in error messages (the pairs file)
+};
+
+/// One pair's result.
+struct PairResult {
+  int index = 0;  ///< 0-based position in the input
+  int line = 0;   ///< line in the pairs file (0 if not from a file)
+  std::string label;
+  Eigen::Vector2d image_px = Eigen::Vector2d::Zero();
+  double scan_row = PointPair::kNaN, scan_col = PointPair::kNaN;
+  Eigen::Vector3d p_scan = Eigen::Vector3d::Zero();  ///< laser point, scanner frame, m
+  bool inlier = true;
+  double error_deg = 0;  ///< angle between the pixel's bearing and the projected laser point
+  double error_px = 0;   ///< |reprojection - pixel| (NaN when it does not project)
+  std::optional<Eigen::Vector2d> reprojected_px;
+};
+
+struct Calibration {
+  Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d rotation_rpy_deg = Eigen::Vector3d::Zero();  ///< rotation_rpy.h convention
+  std::string method;
+  bool refined = false;
+  // Errors over the inliers (the paper's Table I) ...
+  double mean_px = 0, std_px = 0, max_px = 0;
+  double mean_deg = 0, std_deg = 0, max_deg = 0;
+  int pair_count = 0, inlier_count = 0;
+  // ... and the uncertainty of the parameters (from the refinement).
+  bool has_covariance = false;
+  Eigen::Vector3d std_rpy_deg = Eigen::Vector3d::Zero();
+  Eigen::Vector3d std_t_m = Eigen::Vector3d::Zero();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  std::vector<PairResult> pairs;
+  std::vector<std::string> warnings;
+};
+
+/// Calibrates. Throws scancam::Error on unusable input (see file comment).
+Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
+                      const CameraModel& camera, const CalibrateOptions& options = {});
+
+/// The calibration as JSON: T_cam_scan (4x4 row-major), rotation_rpy_deg,
+/// translation_m, errors, parameter std, per-pair table, method, and `inputs`
+/// (free-form: file names the caller adds).
+nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inputs = {});
+
+/// T_cam_scan from a calibration JSON (this tool's, or any JSON with a 4x4
+/// "T_cam_scan"; also the simulator's ground_truth.json). Throws naming the file.
+Eigen::Isometry3d ReadCalibrationPose(const std::string& path);
+
+/// A readable multi-line summary (what `scancam calibrate` prints).
+std::string FormatCalibrationSummary(const Calibration& c);
+
+}  // namespace scancam

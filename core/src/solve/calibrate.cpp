@@ -1,0 +1,311 @@
+#include "scancam/solve/calibrate.h"
+
+#include <Eigen/SVD>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "scancam/error.h"
+#include "scancam/io/json_util.h"
+#include "scancam/rotation_rpy.h"
+#include "scancam/solve/linear_pnp.h"
+
+namespace scancam {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+std::string Where(const CalibrateOptions& o, const PointPair& p, std::size_t i) {
+  return o.pairs_source + ":" +
+         (p.line > 0 ? std::to_string(p.line) : "pair " + std::to_string(i + 1));
+}
+
+// Second singular value of the centred point set relative to the first: ~0 when
+// the points lie on a line.
+double LineSpread(const std::vector<Eigen::Vector3d>& pts) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& p : pts) c += p;
+  c /= double(pts.size());
+  Eigen::MatrixXd M(pts.size(), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i) M.row(i) = (pts[i] - c).transpose();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(M);
+  const auto s = svd.singularValues();
+  return s(0) > 0 ? s(1) / s(0) : 0.0;
+}
+
+void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* mx) {
+  *mean = *sd = *mx = 0;
+  if (v.empty()) return;
+  for (double x : v) {
+    *mean += x / v.size();
+    *mx = std::max(*mx, x);
+  }
+  for (double x : v) *sd += (x - *mean) * (x - *mean);
+  *sd = v.size() > 1 ? std::sqrt(*sd / (v.size() - 1)) : 0.0;
+}
+
+}  // namespace
+
+Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
+                      const CameraModel& camera, const CalibrateOptions& options) {
+  if (!camera.valid()) throw Error("calibration: no camera model");
+  const std::size_t n = pairs.size();
+  if (n < 4) {
+    throw Error(options.pairs_source + ": " + std::to_string(n) +
+                " pairs; at least 4 are needed to calibrate (6 or more, spread over the scene, "
+                "are recommended)");
+  }
+  Calibration cal;
+  cal.method = options.method;
+  std::vector<Eigen::Vector3d> bearings(n), points(n);
+  cal.pairs.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const PointPair& p = pairs[i];
+    PairResult& r = cal.pairs[i];
+    r.index = static_cast<int>(i);
+    r.line = p.line;
+    r.label = p.label;
+    r.image_px = Eigen::Vector2d(p.image_u, p.image_v);
+    r.scan_row = p.scan_row;
+    r.scan_col = p.scan_col;
+    const auto b = camera.Unproject(r.image_px);
+    if (!b) {
+      std::ostringstream m;
+      m << "pixel (" << p.image_u << ", " << p.image_v << ") is outside the image ("
+        << camera.width() << "x" << camera.height()
+        << ") or the camera's field of view: check that the pairs belong to this camera";
+      throw Error(Where(options, p, i) + ": " + m.str());
+    }
+    const auto x = PairLaserPoint(p, scan);
+    if (!x) {
+      std::ostringstream m;
+      m << "no laser point for scan cell (" << p.scan_row << ", " << p.scan_col << ")";
+      if (!scan && !p.point_m)
+        m << ": no scan given and no x,y,z in the pair";
+      else
+        m << ": the cell has no return (or lies outside the " << (scan ? scan->rows : 0) << " x "
+          << (scan ? scan->cols : 0) << " grid)";
+      throw Error(Where(options, p, i) + ": " + m.str());
+    }
+    bearings[i] = *b;
+    points[i] = *x;
+    r.p_scan = *x;
+  }
+  // Duplicates: the same pixel or the same laser point twice adds no information
+  // and usually means a double click.
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const bool same_px = (cal.pairs[i].image_px - cal.pairs[j].image_px).norm() < 0.5;
+      const bool same_pt = (points[i] - points[j]).norm() < 1e-3;
+      if (same_px || same_pt) {
+        throw Error(Where(options, pairs[j], j) + ": duplicate of the pair at " +
+                    Where(options, pairs[i], i) + " (same " + (same_px ? "pixel" : "laser point") +
+                    "): remove one of them");
+      }
+    }
+  }
+  if (LineSpread(points) < 1e-3) {
+    throw Error(options.pairs_source +
+                ": the laser points are (nearly) collinear: the rotation about their line is "
+                "undetermined; pick points that are not on one line");
+  }
+  if (LineSpread(bearings) < 1e-4) {
+    throw Error(options.pairs_source +
+                ": the image points are (nearly) on one line through the camera centre; pick "
+                "points spread over the image");
+  }
+
+  // Initial pose.
+  const double thr = options.threshold_deg * kDeg;
+  std::vector<bool> inlier(n, true);
+  std::optional<Eigen::Isometry3d> T0;
+  if (options.method == "paper") {
+    if (auto r = LinearPnpQuanLan(bearings, points)) T0 = r->T_cam_scan;
+  } else if (options.method == "ransac") {
+    RansacOptions ro;
+    ro.threshold_rad = thr;
+    ro.seed = options.seed;
+    if (auto r = RansacPose(bearings, points, ro)) {
+      T0 = r->T_cam_scan;
+      inlier = r->inlier;
+    }
+  } else if (options.method == "epnp" || options.method == "upnp") {
+    T0 = SolvePoseOpenGV(bearings, points, ParsePoseSolver(options.method));
+  } else {
+    throw Error("unknown calibration method '" + options.method +
+                "' (expected paper, ransac, epnp or upnp)");
+  }
+  if (!T0) {
+    throw Error(options.pairs_source + ": the " + options.method +
+                " solver found no pose consistent with at least 4 pairs; check the pairs "
+                "(a mirrored or swapped pick?) or raise the threshold");
+  }
+  cal.T_cam_scan = *T0;
+  if (options.refine) {
+    const RefineResult rr = RefinePose(bearings, points, *T0, options.refine_options, inlier);
+    cal.T_cam_scan = rr.T_cam_scan;
+    cal.refined = true;
+    cal.has_covariance = rr.has_covariance;
+    cal.std_rpy_deg = rr.std_rpy_deg;
+    cal.std_t_m = rr.std_t_m;
+    cal.covariance = rr.covariance;
+    if (!rr.has_covariance) cal.warnings.push_back("no parameter uncertainty: " + rr.message);
+  }
+  cal.rotation_rpy_deg = RotationToRpyDeg(cal.T_cam_scan.linear());
+
+  // Per-pair errors; non-RANSAC methods flag by the same threshold after the fact.
+  std::vector<double> px_err, deg_err;
+  for (std::size_t i = 0; i < n; ++i) {
+    PairResult& r = cal.pairs[i];
+    r.error_deg = AngularError(cal.T_cam_scan, bearings[i], points[i]) / kDeg;
+    r.reprojected_px = camera.ProjectUnbounded(cal.T_cam_scan * points[i]);
+    r.error_px = r.reprojected_px ? (*r.reprojected_px - r.image_px).norm()
+                                  : std::numeric_limits<double>::quiet_NaN();
+    r.inlier = options.method == "ransac" ? bool(inlier[i]) : r.error_deg < options.threshold_deg;
+    if (r.inlier) {
+      deg_err.push_back(r.error_deg);
+      if (std::isfinite(r.error_px)) px_err.push_back(r.error_px);
+    }
+  }
+  cal.pair_count = static_cast<int>(n);
+  cal.inlier_count = static_cast<int>(deg_err.size());
+  MeanStdMax(px_err, &cal.mean_px, &cal.std_px, &cal.max_px);
+  MeanStdMax(deg_err, &cal.mean_deg, &cal.std_deg, &cal.max_deg);
+
+  // Warnings a user can act on.
+  for (const auto& r : cal.pairs) {
+    if (!r.inlier) {
+      std::ostringstream m;
+      m << "pair " << (r.index + 1) << (r.line ? " (line " + std::to_string(r.line) + ")" : "")
+        << (r.label.empty() ? "" : " '" + r.label + "'") << " is an outlier: " << std::fixed
+        << std::setprecision(2) << r.error_deg << " deg / " << r.error_px
+        << " px from the solution; re-pick it or remove it";
+      cal.warnings.push_back(m.str());
+    }
+  }
+  if (n < 6) {
+    cal.warnings.push_back("only " + std::to_string(n) +
+                           " pairs: results are unstable below 6 (the paper's Figs. 6-7); add "
+                           "pairs spread over the whole scene");
+  }
+  {
+    // Image coverage: bounding box of the inlier pixels relative to the image.
+    Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+    for (const auto& r : cal.pairs) {
+      lo = lo.cwiseMin(r.image_px);
+      hi = hi.cwiseMax(r.image_px);
+    }
+    const double frac = (hi - lo).prod() / (double(camera.width()) * camera.height());
+    if (frac < 0.15) {
+      std::ostringstream m;
+      m << "the pairs cover only " << std::fixed << std::setprecision(0) << frac * 100
+        << "% of the image (their bounding box): clustered picks bias the result; add pairs in "
+           "other parts of the image";
+      cal.warnings.push_back(m.str());
+    }
+    // Scan coverage: spread of the laser points' directions seen from the scanner.
+    std::vector<Eigen::Vector3d> dirs;
+    for (const auto& p : points) dirs.push_back(p.normalized());
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& d : dirs) mean += d / double(dirs.size());
+    const double spread_deg = std::acos(std::clamp(mean.norm(), 0.0, 1.0)) / kDeg;
+    if (spread_deg < 15.0) {
+      std::ostringstream m;
+      m << "the laser points span only ~" << std::fixed << std::setprecision(0) << spread_deg
+        << " deg around their mean direction: clustered picks bias the result; add pairs in "
+           "other parts of the scan";
+      cal.warnings.push_back(m.str());
+    }
+  }
+  return cal;
+}
+
+nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inputs) {
+  nlohmann::json j;
+  j["T_cam_scan"] = PoseToJson(c.T_cam_scan);
+  j["convention"] =
+      "T_cam_scan maps scanner-frame points into the camera frame (X_cam = R X_scan + t, "
+      "metres); camera frame = OpenCV (x right, y down, z forward); rotation_rpy_deg: R = "
+      "Rz(yaw) Ry(pitch) Rx(roll)";
+  j["rotation_rpy_deg"] = Vector3ToJson(c.rotation_rpy_deg);
+  j["translation_m"] = Vector3ToJson(c.T_cam_scan.translation());
+  j["method"] = c.method;
+  j["refined"] = c.refined;
+  j["pair_count"] = c.pair_count;
+  j["inlier_count"] = c.inlier_count;
+  j["errors"] = {{"reprojection_px", {{"mean", c.mean_px}, {"std", c.std_px}, {"max", c.max_px}}},
+                 {"angular_deg", {{"mean", c.mean_deg}, {"std", c.std_deg}, {"max", c.max_deg}}}};
+  if (c.has_covariance) {
+    j["std"] = {{"rotation_rpy_deg", Vector3ToJson(c.std_rpy_deg)},
+                {"translation_m", Vector3ToJson(c.std_t_m)}};
+    nlohmann::json cov = nlohmann::json::array();
+    for (int r = 0; r < 6; ++r) {
+      nlohmann::json row = nlohmann::json::array();
+      for (int k = 0; k < 6; ++k) row.push_back(c.covariance(r, k));
+      cov.push_back(row);
+    }
+    j["covariance_rotvec_rad_t_m"] = cov;
+  }
+  nlohmann::json pairs = nlohmann::json::array();
+  for (const auto& p : c.pairs) {
+    nlohmann::json q;
+    q["index"] = p.index + 1;
+    if (p.line) q["line"] = p.line;
+    if (!p.label.empty()) q["label"] = p.label;
+    q["image_px"] = {p.image_px.x(), p.image_px.y()};
+    if (std::isfinite(p.scan_row)) q["scan_cell"] = {p.scan_row, p.scan_col};
+    q["p_scan_m"] = Vector3ToJson(p.p_scan);
+    q["inlier"] = p.inlier;
+    q["error_deg"] = p.error_deg;
+    if (std::isfinite(p.error_px)) q["error_px"] = p.error_px;
+    if (p.reprojected_px) q["reprojected_px"] = {p.reprojected_px->x(), p.reprojected_px->y()};
+    pairs.push_back(q);
+  }
+  j["pairs"] = pairs;
+  j["warnings"] = c.warnings;
+  if (!inputs.is_null()) j["inputs"] = inputs;
+  return j;
+}
+
+Eigen::Isometry3d ReadCalibrationPose(const std::string& path) {
+  const nlohmann::json j = ReadJsonFile(path);
+  return PoseFromJson(JsonField(j, "T_cam_scan", path), path, "T_cam_scan");
+}
+
+std::string FormatCalibrationSummary(const Calibration& c) {
+  std::ostringstream o;
+  o << std::fixed;
+  o << "method: " << c.method << (c.refined ? " + refinement (eq. 7)" : "") << ", "
+    << c.inlier_count << " of " << c.pair_count << " pairs inliers\n";
+  o << "T_cam_scan (X_cam = R X_scan + t):\n";
+  const Eigen::Matrix4d M = c.T_cam_scan.matrix();
+  for (int r = 0; r < 4; ++r) {
+    o << "  ";
+    for (int k = 0; k < 4; ++k) o << std::setw(11) << std::setprecision(6) << M(r, k);
+    o << "\n";
+  }
+  o << std::setprecision(3);
+  o << "rotation roll/pitch/yaw: " << c.rotation_rpy_deg.x() << " " << c.rotation_rpy_deg.y() << " "
+    << c.rotation_rpy_deg.z() << " deg";
+  if (c.has_covariance)
+    o << "  (std " << c.std_rpy_deg.x() << " " << c.std_rpy_deg.y() << " " << c.std_rpy_deg.z()
+      << ")";
+  o << "\ntranslation x/y/z:       " << std::setprecision(4) << c.T_cam_scan.translation().x()
+    << " " << c.T_cam_scan.translation().y() << " " << c.T_cam_scan.translation().z() << " m";
+  if (c.has_covariance)
+    o << "  (std " << c.std_t_m.x() << " " << c.std_t_m.y() << " " << c.std_t_m.z() << ")";
+  o << "\nreprojection error: mean " << std::setprecision(2) << c.mean_px << " px, std " << c.std_px
+    << ", max " << c.max_px << "   angular: mean " << std::setprecision(3) << c.mean_deg
+    << " deg, max " << c.max_deg << "\n";
+  o << "pair   image (u, v)        error px   error deg  inlier  label\n";
+  for (const auto& p : c.pairs) {
+    o << std::setw(4) << p.index + 1 << "  " << std::setprecision(1) << std::setw(8)
+      << p.image_px.x() << " " << std::setw(8) << p.image_px.y() << "  " << std::setprecision(2)
+      << std::setw(9) << p.error_px << "  " << std::setprecision(3) << std::setw(9) << p.error_deg
+      << "  " << (p.inlier ? "  yes " : "  NO  ") << "  " << p.label << "\n";
+  }
+  for (const auto& w : c.warnings) o << "warning: " << w << "\n";
+  return o.str();
+}
+
+}  // namespace scancam

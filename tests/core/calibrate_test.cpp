@@ -1,0 +1,196 @@
+// Calibration entry point (solve/calibrate.h) and `scancam calibrate`: recovers
+// a known transform through real camera models, flags a wrong pair, refuses
+// unusable input with messages naming the file and line.
+#include "scancam/solve/calibrate.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "scancam/camera/camera_io.h"
+#include "scancam/error.h"
+#include "scancam/io/json_util.h"
+#include "scancam/rotation_rpy.h"
+#include "test_util.h"
+
+namespace scancam {
+namespace {
+
+Eigen::Isometry3d TruePose() {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  // Scanner x forward, z up -> camera z forward, y down, plus a small offset.
+  const Eigen::Matrix3d base = (Eigen::Matrix3d() << 0, -1, 0, 0, 0, -1, 1, 0, 0).finished();
+  T.linear() = RpyDegToRotation({2.0, -1.5, 3.0}) * base;
+  T.translation() = Eigen::Vector3d(0.05, -0.2, 0.1);
+  return T;
+}
+
+CameraModel Pinhole() {
+  return CameraModel::Pinhole(800, 800, 639.5, 479.5, {-0.1, 0.02, 0.001, -0.0005, 0.0}, 1280, 960,
+                              "test-pinhole");
+}
+
+// Pairs at random points in front of the camera, pixels from the true projection
+// plus Gaussian picking noise.
+std::vector<PointPair> MakePairs(const CameraModel& cam, const Eigen::Isometry3d& T, int n,
+                                 double sigma_px, std::uint32_t seed, double spread = 1.0) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1), depth(2, 8);
+  std::normal_distribution<double> g(0, sigma_px);
+  std::vector<PointPair> out;
+  while (static_cast<int>(out.size()) < n) {
+    const Eigen::Vector2d px(cam.width() * (0.5 + 0.45 * spread * u(rng)),
+                             cam.height() * (0.5 + 0.45 * spread * u(rng)));
+    const auto b = cam.Unproject(px);
+    if (!b) continue;
+    const Eigen::Vector3d p_cam = *b * depth(rng);
+    PointPair p;
+    p.point_m = T.inverse() * p_cam;
+    p.image_u = px.x() + g(rng);
+    p.image_v = px.y() + g(rng);
+    p.line = static_cast<int>(out.size()) + 2;
+    out.push_back(p);
+  }
+  return out;
+}
+
+double RotErrDeg(const Eigen::Isometry3d& A, const Eigen::Isometry3d& B) {
+  return Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle() * 180 / M_PI;
+}
+
+TEST(Calibrate, EveryMethodRecoversTheTruePose) {
+  const auto cam = Pinhole();
+  const auto T = TruePose();
+  const auto pairs = MakePairs(cam, T, 12, 0.3, 1);
+  for (const std::string method : {"ransac", "paper", "epnp", "upnp"}) {
+    CalibrateOptions o;
+    o.method = method;
+    const auto c = Calibrate(pairs, nullptr, cam, o);
+    EXPECT_LT(RotErrDeg(c.T_cam_scan, T), 0.1) << method;
+    EXPECT_LT((c.T_cam_scan.translation() - T.translation()).norm(), 0.03) << method;
+    EXPECT_EQ(c.inlier_count, 12) << method;
+    EXPECT_LT(c.mean_px, 1.0) << method;
+    EXPECT_TRUE(c.has_covariance) << method;
+    EXPECT_GT(c.std_t_m.minCoeff(), 0.0) << method;
+  }
+}
+
+TEST(Calibrate, RansacFlagsAWrongPairAndKeepsThePose) {
+  const auto cam = Pinhole();
+  const auto T = TruePose();
+  auto pairs = MakePairs(cam, T, 10, 0.5, 2);
+  pairs[6].image_u += 60;  // picked on the wrong corner
+  pairs[6].label = "wrong:test";
+  const auto c = Calibrate(pairs, nullptr, cam, {});
+  EXPECT_FALSE(c.pairs[6].inlier);
+  EXPECT_EQ(c.inlier_count, 9);
+  EXPECT_GT(c.pairs[6].error_px, 40.0);
+  EXPECT_LT(RotErrDeg(c.T_cam_scan, T), 0.1);
+  bool warned = false;
+  for (const auto& w : c.warnings) warned |= w.find("pair 7") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+TEST(Calibrate, WarnsAboutFewAndClusteredPairs) {
+  const auto cam = Pinhole();
+  const auto pairs = MakePairs(cam, TruePose(), 5, 0.3, 3, /*spread=*/0.15);
+  const auto c = Calibrate(pairs, nullptr, cam, {});
+  bool few = false, clustered = false;
+  for (const auto& w : c.warnings) {
+    few |= w.find("only 5 pairs") != std::string::npos;
+    clustered |= w.find("% of the image") != std::string::npos;
+  }
+  EXPECT_TRUE(few);
+  EXPECT_TRUE(clustered);
+}
+
+TEST(Calibrate, RefusesUnusableInput) {
+  const auto cam = Pinhole();
+  const auto T = TruePose();
+  CalibrateOptions o;
+  o.pairs_source = "picks.csv";
+  auto three = MakePairs(cam, T, 3, 0, 4);
+  try {
+    Calibrate(three, nullptr, cam, o);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("picks.csv: 3 pairs; at least 4"), std::string::npos);
+  }
+  auto dup = MakePairs(cam, T, 6, 0, 5);
+  dup[4] = dup[1];
+  dup[4].line = 6;
+  try {
+    Calibrate(dup, nullptr, cam, o);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("picks.csv:6: duplicate"), std::string::npos) << e.what();
+  }
+  auto outside = MakePairs(cam, T, 6, 0, 6);
+  outside[2].image_u = 5000;
+  try {
+    Calibrate(outside, nullptr, cam, o);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("picks.csv:4: pixel"), std::string::npos) << e.what();
+  }
+  auto collinear = MakePairs(cam, T, 6, 0, 7);
+  for (std::size_t i = 0; i < collinear.size(); ++i) {
+    const Eigen::Vector3d p = Eigen::Vector3d(3, 0, 0) + double(i) * Eigen::Vector3d(0.1, 0.2, 0);
+    collinear[i].point_m = p;
+    const auto px = cam.Project(T * p);
+    ASSERT_TRUE(px);
+    collinear[i].image_u = px->x();
+    collinear[i].image_v = px->y();
+  }
+  try {
+    Calibrate(collinear, nullptr, cam, o);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("collinear"), std::string::npos) << e.what();
+  }
+  auto no_point = MakePairs(cam, T, 6, 0, 8);
+  no_point[0].point_m.reset();
+  no_point[0].scan_row = 3;
+  no_point[0].scan_col = 4;
+  EXPECT_THROW(Calibrate(no_point, nullptr, cam, o), Error);
+}
+
+TEST(Calibrate, JsonCarriesThePoseAndTheTable) {
+  const auto cam = Pinhole();
+  const auto T = TruePose();
+  const auto c = Calibrate(MakePairs(cam, T, 8, 0.2, 9), nullptr, cam, {});
+  const std::string path = test::TempDir() + "/calib.json";
+  WriteJsonFile(path, CalibrationToJson(c, {{"camera", "cam.yaml"}}));
+  const Eigen::Isometry3d back = ReadCalibrationPose(path);
+  EXPECT_TRUE(back.matrix().isApprox(c.T_cam_scan.matrix(), 1e-12));
+  const auto j = ReadJsonFile(path);
+  EXPECT_EQ(j["pairs"].size(), 8u);
+  EXPECT_EQ(j["inputs"]["camera"], "cam.yaml");
+  EXPECT_NEAR(j["rotation_rpy_deg"][2].get<double>(), c.rotation_rpy_deg.z(), 1e-12);
+  EXPECT_TRUE(j.contains("std"));
+}
+
+TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
+  const std::string dir = test::TempDir();
+  const auto cam = Pinhole();
+  SaveCamera(cam, dir + "/cam.yaml");
+  WritePairsCsv(dir + "/pairs.csv", MakePairs(cam, TruePose(), 10, 0.3, 10));
+  const std::string cmd = std::string(SCANCAM_CLI) + " calibrate --camera " + dir +
+                          "/cam.yaml --pairs " + dir + "/pairs.csv --out " + dir +
+                          "/calib.json > " + dir + "/stdout.txt 2>&1";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/calib.json"), TruePose()), 0.1);
+  EXPECT_NE(test::ReadFile(dir + "/stdout.txt").find("reprojection error"), std::string::npos);
+
+  test::WriteFile(dir + "/bad.csv", "image_u,image_v,x,y,z\n1,2,3,4\n");
+  const std::string bad = std::string(SCANCAM_CLI) + " calibrate --camera " + dir +
+                          "/cam.yaml --pairs " + dir + "/bad.csv --out " + dir + "/c2.json > " +
+                          dir + "/err.txt 2>&1";
+  const int rc = std::system(bad.c_str());
+  EXPECT_EQ(WEXITSTATUS(rc), 1);
+  EXPECT_NE(test::ReadFile(dir + "/err.txt").find("bad.csv:2"), std::string::npos)
+      << test::ReadFile(dir + "/err.txt");
+}
+
+}  // namespace
+}  // namespace scancam
