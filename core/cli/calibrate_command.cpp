@@ -41,6 +41,7 @@ int RunCalibrate(const Args& args) {
   CalibrateOptions opt;
   opt.method = args.get("--method", opt.method);
   opt.refine = !args.has("--no-refine");
+  opt.threshold_px = args.get_double("--threshold-px", opt.threshold_px);
   opt.threshold_deg = args.get_double("--threshold-deg", opt.threshold_deg);
   opt.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   opt.refine_options.loss = args.get("--loss", opt.refine_options.loss);

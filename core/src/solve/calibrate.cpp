@@ -1,6 +1,7 @@
 #include "scancam/solve/calibrate.h"
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -115,15 +116,39 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
                 "points spread over the image");
   }
 
+  // Per-pair angular thresholds.
+  std::vector<double> thr(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (options.threshold_deg > 0) {
+      thr[i] = options.threshold_deg * kDeg;
+      continue;
+    }
+    // The angle one pixel subtends here (mean of the u and v directions, with a
+    // one-sided step at the image border).
+    const Eigen::Vector2d px = cal.pairs[i].image_px;
+    double sum = 0;
+    int cnt = 0;
+    for (const Eigen::Vector2d& d : {Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1)}) {
+      auto nb = camera.Unproject(px + d);
+      if (!nb) nb = camera.Unproject(px - d);
+      if (nb) {
+        sum += std::atan2(bearings[i].cross(*nb).norm(), bearings[i].dot(*nb));
+        ++cnt;
+      }
+    }
+    const double per_px = cnt ? sum / cnt : 1e-3;
+    thr[i] = options.threshold_px * per_px;
+  }
+  for (std::size_t i = 0; i < n; ++i) cal.pairs[i].threshold_deg = thr[i] / kDeg;
+
   // Initial pose.
-  const double thr = options.threshold_deg * kDeg;
   std::vector<bool> inlier(n, true);
   std::optional<Eigen::Isometry3d> T0;
   if (options.method == "paper") {
     if (auto r = LinearPnpQuanLan(bearings, points)) T0 = r->T_cam_scan;
   } else if (options.method == "ransac") {
     RansacOptions ro;
-    ro.threshold_rad = thr;
+    ro.threshold_rad_per_pair = thr;
     ro.seed = options.seed;
     if (auto r = RansacPose(bearings, points, ro)) {
       T0 = r->T_cam_scan;
@@ -142,7 +167,20 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   }
   cal.T_cam_scan = *T0;
   if (options.refine) {
-    const RefineResult rr = RefinePose(bearings, points, *T0, options.refine_options, inlier);
+    RefineResult rr = RefinePose(bearings, points, *T0, options.refine_options, inlier);
+    if (options.method == "ransac") {
+      // The minimal-sample consensus can reject a good pair that lies near the
+      // threshold; re-classify with the refined pose and refine again until the
+      // inlier set is stable (a few rounds at most).
+      for (int round = 0; round < 3; ++round) {
+        std::vector<bool> again(n);
+        for (std::size_t i = 0; i < n; ++i)
+          again[i] = AngularError(rr.T_cam_scan, bearings[i], points[i]) < thr[i];
+        if (again == inlier || std::count(again.begin(), again.end(), true) < 4) break;
+        inlier = again;
+        rr = RefinePose(bearings, points, rr.T_cam_scan, options.refine_options, inlier);
+      }
+    }
     cal.T_cam_scan = rr.T_cam_scan;
     cal.refined = true;
     cal.has_covariance = rr.has_covariance;
@@ -161,7 +199,7 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
     r.reprojected_px = camera.ProjectUnbounded(cal.T_cam_scan * points[i]);
     r.error_px = r.reprojected_px ? (*r.reprojected_px - r.image_px).norm()
                                   : std::numeric_limits<double>::quiet_NaN();
-    r.inlier = options.method == "ransac" ? bool(inlier[i]) : r.error_deg < options.threshold_deg;
+    r.inlier = options.method == "ransac" ? bool(inlier[i]) : r.error_deg * kDeg < thr[i];
     if (r.inlier) {
       deg_err.push_back(r.error_deg);
       if (std::isfinite(r.error_px)) px_err.push_back(r.error_px);
@@ -257,6 +295,7 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
     q["p_scan_m"] = Vector3ToJson(p.p_scan);
     q["inlier"] = p.inlier;
     q["error_deg"] = p.error_deg;
+    q["threshold_deg"] = p.threshold_deg;
     if (std::isfinite(p.error_px)) q["error_px"] = p.error_px;
     if (p.reprojected_px) q["reprojected_px"] = {p.reprojected_px->x(), p.reprojected_px->y()};
     pairs.push_back(q);

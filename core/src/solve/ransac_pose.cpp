@@ -128,6 +128,16 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
   opengv::points_t pts(p_scan.begin(), p_scan.end());
   CentralAbsoluteAdapter adapter(bv, pts);
 
+  if (!options.threshold_rad_per_pair.empty() &&
+      static_cast<int>(options.threshold_rad_per_pair.size()) != n) {
+    throw Error("RansacPose: threshold_rad_per_pair has " +
+                std::to_string(options.threshold_rad_per_pair.size()) + " values for " +
+                std::to_string(n) + " pairs");
+  }
+  auto thr = [&](int i) {
+    return options.threshold_rad_per_pair.empty() ? options.threshold_rad
+                                                  : options.threshold_rad_per_pair[i];
+  };
   const int k = std::min(SampleSize(options.minimal_solver), n);
   std::mt19937_64 rng(options.seed);
   std::vector<int> perm(n);
@@ -150,11 +160,14 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
       double score = 0;  // MSAC-style: inliers by error, outliers by the threshold
       for (int i = 0; i < n; ++i) {
         const double e = AngularError(T, b[i], p_scan[i]);
-        if (e < options.threshold_rad) {
+        // Scores are normalised by each pair's threshold so that pairs with
+        // different pixel scales weigh alike.
+        const double r = e / thr(i);
+        if (r < 1.0) {
           ++count;
-          score += e * e;
+          score += r * r;
         } else {
-          score += options.threshold_rad * options.threshold_rad;
+          score += 1.0;
         }
       }
       if (count > best_count || (count == best_count && score < best_score)) {
@@ -182,7 +195,7 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
   for (int round = 0; round < 2; ++round) {
     std::vector<Eigen::Vector3d> ib, ip;
     for (int i = 0; i < n; ++i) {
-      if (AngularError(best.T_cam_scan, b[i], p_scan[i]) < options.threshold_rad) {
+      if (AngularError(best.T_cam_scan, b[i], p_scan[i]) < thr(i)) {
         ib.push_back(b[i]);
         ip.push_back(p_scan[i]);
       }
@@ -193,8 +206,8 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
     // Keep the re-fit only if it does not lose consensus.
     int c_old = 0, c_new = 0;
     for (int i = 0; i < n; ++i) {
-      c_old += AngularError(best.T_cam_scan, b[i], p_scan[i]) < options.threshold_rad;
-      c_new += AngularError(*refit, b[i], p_scan[i]) < options.threshold_rad;
+      c_old += AngularError(best.T_cam_scan, b[i], p_scan[i]) < thr(i);
+      c_new += AngularError(*refit, b[i], p_scan[i]) < thr(i);
     }
     if (c_new >= c_old) best.T_cam_scan = *refit;
   }
@@ -202,7 +215,7 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
   best.error_rad.assign(n, 0.0);
   for (int i = 0; i < n; ++i) {
     best.error_rad[i] = AngularError(best.T_cam_scan, b[i], p_scan[i]);
-    best.inlier[i] = best.error_rad[i] < options.threshold_rad;
+    best.inlier[i] = best.error_rad[i] < thr(i);
   }
   best.iterations = it;
   return best;

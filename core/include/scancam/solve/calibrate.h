@@ -36,8 +36,12 @@ namespace scancam {
 struct CalibrateOptions {
   std::string method = "ransac";  ///< paper | ransac | epnp | upnp
   bool refine = true;             ///< Ceres refinement of eq. 7 after the initial solve
-  double threshold_deg = 1.0;     ///< inlier angular error (RANSAC, and flagging for others)
-  std::uint64_t seed = 1;         ///< RANSAC random seed
+  /// Inlier threshold (RANSAC, and flagging outliers for the other methods) in image
+  /// pixels: each pair's angular threshold is threshold_px times the angle one pixel
+  /// subtends at that pair's pixel, so it means the same on every camera model.
+  double threshold_px = 5.0;
+  double threshold_deg = 0.0;  ///< when > 0: a fixed angular threshold instead of threshold_px
+  std::uint64_t seed = 1;      ///< RANSAC random seed
   RefineOptions refine_options;
   std::string pairs_source = "pairs";  ///< name used in error messages (the pairs file)
 };
@@ -51,8 +55,9 @@ struct PairResult {
   double scan_row = PointPair::kNaN, scan_col = PointPair::kNaN;
   Eigen::Vector3d p_scan = Eigen::Vector3d::Zero();  ///< laser point, scanner frame, m
   bool inlier = true;
-  double error_deg = 0;  ///< angle between the pixel's bearing and the projected laser point
-  double error_px = 0;   ///< |reprojection - pixel| (NaN when it does not project)
+  double threshold_deg = 0;  ///< the inlier threshold used for this pair
+  double error_deg = 0;      ///< angle between the pixel's bearing and the projected laser point
+  double error_px = 0;       ///< |reprojection - pixel| (NaN when it does not project)
   std::optional<Eigen::Vector2d> reprojected_px;
 };
 

@@ -27,6 +27,9 @@ struct RansacOptions {
   PoseSolver minimal_solver = PoseSolver::kP3PKneip;  ///< hypothesis generator
   PoseSolver final_solver = PoseSolver::kEPnP;        ///< re-fit on the inliers (EPnP or UPnP)
   double threshold_rad = 0.5 * 3.14159265358979323846 / 180.0;  ///< inlier angular error
+  /// Per-pair thresholds [rad] (e.g. a pixel threshold converted with each pair's local
+  /// pixel scale); when non-empty it replaces threshold_rad and must have one per pair.
+  std::vector<double> threshold_rad_per_pair;
   int max_iterations = 2000;
   double confidence = 0.999;  ///< stop when this sure of an all-inlier sample
   std::uint64_t seed = 1;
