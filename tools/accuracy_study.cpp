@@ -224,26 +224,33 @@ Err RunOpenCv(const Bench& b, const std::vector<PointPair>& pairs) {
 // ---- plots (Figs. 6-7 style: error vs N, mean +- std, one panel per component) ----
 void Plot(const std::map<std::string, std::vector<Stats>>& by_method, bool rotation,
           const std::string& path, const std::string& title) {
-  const int W = 1500, H = 470, pw = 460, ph = 340, top = 70, left = 60;
+  const int W = 1580, H = 480, pw = 460, ph = 340, top = 80, left = 60;
   cv::Mat img(H, W, CV_8UC3, cv::Scalar(255, 255, 255));
   const char* names_r[] = {"roll error (deg)", "pitch error (deg)", "yaw error (deg)"};
   const char* names_t[] = {"x error (m)", "y error (m)", "z error (m)"};
   const cv::Scalar colours[] = {{200, 80, 0},  {0, 140, 0},  {0, 0, 220},  {160, 0, 160},
                                 {0, 160, 200}, {90, 90, 90}, {40, 40, 160}};
-  cv::putText(img, title, {left, 30}, cv::FONT_HERSHEY_SIMPLEX, 0.7, {0, 0, 0}, 2);
+  cv::putText(img, title, {left, 24}, cv::FONT_HERSHEY_SIMPLEX, 0.55, {0, 0, 0}, 1);
   for (int k = 0; k < 3; ++k) {
     const int x0 = left + k * (pw + 40), y0 = top;
-    double lim = 0;
+    // Y range: the 70th percentile of |mean| + std over every method and N, so one
+    // diverging method at N = 4 does not flatten the rest; longer bars are clipped.
+    std::vector<double> ext;
     for (const auto& [m, v] : by_method)
       for (const auto& s : v) {
         const double mean = rotation ? s.mean_rpy(k) : s.mean_t(k);
         const double sd = rotation ? s.std_rpy(k) : s.std_t(k);
-        lim = std::max(lim, std::abs(mean) + sd);
+        ext.push_back(std::abs(mean) + sd);
       }
+    std::sort(ext.begin(), ext.end());
+    double lim = ext.empty() ? 1.0 : ext[ext.size() * 7 / 10];
     lim = lim > 0 ? lim * 1.1 : 1;
     cv::rectangle(img, {x0, y0}, {x0 + pw, y0 + ph}, {0, 0, 0}, 1);
     auto X = [&](double n) { return int(x0 + (n - 3.5) / 7.0 * pw); };
-    auto Y = [&](double v) { return int(y0 + ph / 2 - v / lim * (ph / 2)); };
+    auto Y = [&](double v) {
+      const double c = std::clamp(v / lim, -1.0, 1.0);
+      return int(y0 + ph / 2 - c * (ph / 2));
+    };
     cv::line(img, {x0, Y(0)}, {x0 + pw, Y(0)}, {180, 180, 180}, 1);
     for (int n = 4; n <= 10; ++n) {
       cv::putText(img, std::to_string(n), {X(n) - 5, y0 + ph + 18}, cv::FONT_HERSHEY_SIMPLEX, 0.45,
@@ -273,9 +280,8 @@ void Plot(const std::map<std::string, std::vector<Stats>>& by_method, bool rotat
         if (prev.x >= 0) cv::line(img, prev, c, col, 1, cv::LINE_AA);
         prev = c;
       }
-      if (k == 2) {
-        cv::putText(img, m, {x0 + pw - 150, y0 + 18 + 16 * mi}, cv::FONT_HERSHEY_SIMPLEX, 0.42, col,
-                    1);
+      if (k == 0) {  // legend: one row under the title
+        cv::putText(img, m, {left + 135 * mi, 48}, cv::FONT_HERSHEY_SIMPLEX, 0.42, col, 1);
       }
       ++mi;
     }
