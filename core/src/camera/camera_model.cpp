@@ -1,0 +1,467 @@
+#include "scancam/camera/camera_model.h"
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "scancam/error.h"
+
+namespace scancam {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string Where(const CameraModel& c) {
+  std::string s = c.source().empty() ? std::string("camera") : c.source();
+  if (!c.name().empty() && c.name() != c.source()) s += " (" + c.name() + ")";
+  return s;
+}
+
+// First x in (0, x_end] where ok(x) becomes false, found by scanning `steps` samples and then
+// bisecting; x_end when ok holds everywhere. Used for the fold-back limits, which are properties
+// of one-dimensional polynomials: a fine scan cannot miss a sign change that matters in practice
+// (a dip narrower than the step would be narrower than a pixel).
+template <typename F>
+double FirstFailure(const F& ok, double x_end, int steps) {
+  double prev = 0.0;
+  for (int i = 1; i <= steps; ++i) {
+    const double x = x_end * i / steps;
+    if (!ok(x)) {
+      double lo = prev, hi = x;
+      for (int it = 0; it < 80; ++it) {
+        const double m = 0.5 * (lo + hi);
+        (ok(m) ? lo : hi) = m;
+      }
+      return lo;
+    }
+    prev = x;
+  }
+  return x_end;
+}
+
+}  // namespace
+
+const char* CameraTypeName(CameraType type) {
+  return VisitCameraModel(type, [](auto m) { return decltype(m)::kName; });
+}
+
+std::optional<CameraType> CameraTypeFromName(const std::string& name) {
+  for (CameraType t : {CameraType::kPinhole, CameraType::kFisheye, CameraType::kOmni,
+                       CameraType::kOCam, CameraType::kEquirect}) {
+    if (name == CameraTypeName(t)) return t;
+  }
+  return std::nullopt;
+}
+
+CameraModel::CameraModel(CameraType type, std::vector<double> params, int width, int height,
+                         std::string name)
+    : type_(type),
+      params_(std::move(params)),
+      width_(width),
+      height_(height),
+      name_(std::move(name)) {
+  Init();
+}
+
+CameraModel CameraModel::Pinhole(double fx, double fy, double cx, double cy,
+                                 const std::vector<double>& dist, int width, int height,
+                                 std::string name) {
+  if (dist.size() != 0 && dist.size() != 4 && dist.size() != 5 && dist.size() != 8) {
+    throw Error(
+        "pinhole camera: expected 0, 4, 5 or 8 distortion coefficients (k1 k2 p1 p2 "
+        "[k3 [k4 k5 k6]]), got " +
+        std::to_string(dist.size()));
+  }
+  std::vector<double> p(PinholeModel::kNumParams, 0.0);
+  p[0] = fx, p[1] = fy, p[2] = cx, p[3] = cy;
+  for (std::size_t i = 0; i < dist.size(); ++i) p[4 + i] = dist[i];
+  return CameraModel(CameraType::kPinhole, std::move(p), width, height, std::move(name));
+}
+
+CameraModel CameraModel::Fisheye(double fx, double fy, double cx, double cy,
+                                 const std::array<double, 4>& k, int width, int height,
+                                 std::string name) {
+  return CameraModel(CameraType::kFisheye, {fx, fy, cx, cy, k[0], k[1], k[2], k[3]}, width, height,
+                     std::move(name));
+}
+
+CameraModel CameraModel::Omni(double xi, double fx, double fy, double cx, double cy, double skew,
+                              const std::array<double, 4>& dist, int width, int height,
+                              std::string name) {
+  return CameraModel(CameraType::kOmni,
+                     {fx, fy, cx, cy, skew, xi, dist[0], dist[1], dist[2], dist[3]}, width, height,
+                     std::move(name));
+}
+
+CameraModel CameraModel::OCam(const OCamParams& o, int width, int height, std::string name) {
+  if (o.pol.empty() || o.pol.size() > static_cast<std::size_t>(OCamModel::kMaxPol)) {
+    throw Error("ocam camera: the direct polynomial needs 1 to " +
+                std::to_string(OCamModel::kMaxPol) + " coefficients, got " +
+                std::to_string(o.pol.size()));
+  }
+  if (o.invpol.size() > static_cast<std::size_t>(OCamModel::kMaxInv)) {
+    throw Error("ocam camera: the inverse polynomial may have at most " +
+                std::to_string(OCamModel::kMaxInv) + " coefficients, got " +
+                std::to_string(o.invpol.size()));
+  }
+  std::vector<double> p(OCamModel::kNumParams, 0.0);
+  p[0] = o.center_u, p[1] = o.center_v, p[2] = o.c, p[3] = o.d, p[4] = o.e;
+  p[OCamModel::kIdxNPol] = static_cast<double>(o.pol.size());
+  std::copy(o.pol.begin(), o.pol.end(), p.begin() + OCamModel::kIdxPol);
+  p[OCamModel::kIdxNInv] = static_cast<double>(o.invpol.size());
+  std::copy(o.invpol.begin(), o.invpol.end(), p.begin() + OCamModel::kIdxInv);
+  return CameraModel(CameraType::kOCam, std::move(p), width, height, std::move(name));
+}
+
+CameraModel CameraModel::Equirect(int width, int height, std::string name) {
+  return CameraModel(CameraType::kEquirect,
+                     {width / (2.0 * M_PI), height / M_PI, (width - 1) / 2.0, (height - 1) / 2.0},
+                     width, height, std::move(name));
+}
+
+OCamParams CameraModel::ocam_params() const {
+  if (type_ != CameraType::kOCam) {
+    throw Error(Where(*this) + ": ocam_params() asked of a " + CameraTypeName(type_) + " camera");
+  }
+  OCamParams o;
+  o.center_u = params_[0], o.center_v = params_[1];
+  o.c = params_[2], o.d = params_[3], o.e = params_[4];
+  const int n = static_cast<int>(params_[OCamModel::kIdxNPol]);
+  const int ni = static_cast<int>(params_[OCamModel::kIdxNInv]);
+  o.pol.assign(params_.begin() + OCamModel::kIdxPol, params_.begin() + OCamModel::kIdxPol + n);
+  o.invpol.assign(params_.begin() + OCamModel::kIdxInv, params_.begin() + OCamModel::kIdxInv + ni);
+  return o;
+}
+
+void CameraModel::Init() {
+  const std::string where = name_.empty() ? std::string("camera") : name_;
+  auto fail = [&](const std::string& what) {
+    throw Error(where + " (" + CameraTypeName(type_) + "): " + what);
+  };
+  if (width_ <= 0 || height_ <= 0) {
+    fail("image size must be positive, got " + std::to_string(width_) + "x" +
+         std::to_string(height_));
+  }
+  const int n = NumCameraParams(type_);
+  if (static_cast<int>(params_.size()) != n) {
+    fail("expected " + std::to_string(n) + " parameters, got " + std::to_string(params_.size()));
+  }
+  for (std::size_t i = 0; i < params_.size(); ++i) {
+    if (!std::isfinite(params_[i])) fail("parameter " + std::to_string(i) + " is not finite");
+  }
+  auto positive = [&](int i, const char* what) {
+    if (!(params_[i] > 0.0))
+      fail(std::string(what) + " must be > 0, got " + std::to_string(params_[i]));
+  };
+
+  switch (type_) {
+    case CameraType::kPinhole: {
+      positive(0, "fx");
+      positive(1, "fy");
+      const double* k = params_.data() + 4;
+      // The radial map g(r) = r * radial(r) must increase and its denominator stay positive.
+      auto ok = [k](double r) {
+        using J = ceres::Jet<double, 1>;
+        const J rj(r, 0);
+        J xd, yd;
+        const double kr[8] = {k[0], k[1], 0.0, 0.0, k[4], k[5], k[6], k[7]};
+        camera_internal::DistortRadTan8(kr, rj, J(0.0), &xd, &yd);
+        const double r2 = r * r;
+        const double den = 1.0 + r2 * (k[5] + r2 * (k[6] + r2 * k[7]));
+        return den > 0.0 && xd.v[0] > 0.0;
+      };
+      // Scan in angle (r = tan(angle)) so that wide lenses are sampled evenly.
+      const double amax = 89.9 * M_PI / 180.0;
+      const double a = FirstFailure([&](double ang) { return ok(std::tan(ang)); }, amax, 20000);
+      r_max_ = std::tan(a);
+      model_max_angle_rad_ = a;
+      break;
+    }
+    case CameraType::kFisheye: {
+      positive(0, "fx");
+      positive(1, "fy");
+      const double* k = params_.data() + 4;
+      auto ok = [k](double t) {
+        const double t2 = t * t;
+        return 1.0 + t2 * (3 * k[0] + t2 * (5 * k[1] + t2 * (7 * k[2] + t2 * 9 * k[3]))) > 0.0;
+      };
+      r_max_ = FirstFailure(ok, M_PI, 20000);
+      model_max_angle_rad_ = r_max_;
+      break;
+    }
+    case CameraType::kOmni: {
+      positive(0, "fx");
+      positive(1, "fy");
+      const double xi = params_[5];
+      if (!(xi >= 0.0)) fail("xi must be >= 0, got " + std::to_string(xi));
+      const double w = xi > 1.0 ? 1.0 / xi : xi;
+      const double a_w = std::acos(-w);  // Xs.z = -w
+      const double k1 = params_[6], k2 = params_[7];
+      // Unified-plane radius r_u(a) = sin a / (cos a + xi) increases on [0, a_w); the radial
+      // distortion r (1 + k1 r^2 + k2 r^4) must increase too.
+      auto ok = [&](double a) {
+        const double ru = std::sin(a) / (std::cos(a) + xi);
+        const double r2 = ru * ru;
+        return std::isfinite(ru) && ru >= 0.0 && 1.0 + 3 * k1 * r2 + 5 * k2 * r2 * r2 > 0.0;
+      };
+      // Stay just inside a_w, where r_u is finite (xi <= 1) or the fold is (xi > 1).
+      const double a_end = a_w * (1.0 - 1e-9);
+      model_max_angle_rad_ = FirstFailure(ok, a_end, 20000);
+      r_max_ = std::sin(model_max_angle_rad_) / (std::cos(model_max_angle_rad_) + xi);
+      break;
+    }
+    case CameraType::kOCam: {
+      const int np = static_cast<int>(params_[OCamModel::kIdxNPol]);
+      const int ni = static_cast<int>(params_[OCamModel::kIdxNInv]);
+      if (np < 1 || np > OCamModel::kMaxPol || np != params_[OCamModel::kIdxNPol]) {
+        fail("pol length must be 1.." + std::to_string(OCamModel::kMaxPol));
+      }
+      if (ni < 0 || ni > OCamModel::kMaxInv || ni != params_[OCamModel::kIdxNInv]) {
+        fail("invpol length must be 0.." + std::to_string(OCamModel::kMaxInv));
+      }
+      const double* pol = params_.data() + OCamModel::kIdxPol;
+      if (!(pol[0] < 0.0)) {
+        fail("pol[0] (a0) must be negative (OCamCalib's z axis points backwards), got " +
+             std::to_string(pol[0]));
+      }
+      const double c = params_[2], d = params_[3], e = params_[4];
+      const double det = c - d * e;
+      if (!(std::abs(det) > 1e-9)) fail("the affine matrix [c d; e 1] is singular");
+      // Sensor radius of the farthest image corner.
+      double r_img = 0.0;
+      for (double u : {-0.5, width_ - 0.5}) {
+        for (double v : {-0.5, height_ - 0.5}) {
+          const double dr = v - params_[1], dc = u - params_[0];
+          const double mr = (dr - d * dc) / det, mc = (-e * dr + c * dc) / det;
+          r_img = std::max(r_img, std::hypot(mr, mc));
+        }
+      }
+      r_img += 2.0;
+      auto ok = [&](double rho) {
+        double da;
+        OCamModel::Alpha(pol, np, rho, &da);
+        return da > 0.0;
+      };
+      const double rho_max = FirstFailure(ok, r_img, std::max(1000, static_cast<int>(r_img * 4)));
+      params_[OCamModel::kIdxRhoMax] = rho_max;
+      r_max_ = rho_max;
+      model_max_angle_rad_ = OCamModel::Alpha(pol, np, rho_max);
+      break;
+    }
+    case CameraType::kEquirect: {
+      if (!(params_[0] != 0.0) || !(params_[1] != 0.0)) fail("fu and fv must be non-zero");
+      model_max_angle_rad_ = M_PI;
+      r_max_ = 0.0;
+      break;
+    }
+  }
+
+  // Reduce the limit to what the image shows: the largest angle over the border pixels.
+  max_angle_rad_ = model_max_angle_rad_;
+  cos_max_angle_ = std::cos(max_angle_rad_);
+  if (type_ != CameraType::kEquirect) {
+    double a_img = 0.0;
+    bool all = true;
+    auto visit = [&](double u, double v) {
+      const Eigen::Vector2d px(u, v);
+      Eigen::Vector3d b;
+      if (!UnprojectT(type_, params_.data(), px.data(), b.data()) || !b.allFinite()) {
+        all = false;
+        return;
+      }
+      const double ang = std::atan2(b.head<2>().norm(), b.z());
+      if (ang > model_max_angle_rad_) all = false;
+      a_img = std::max(a_img, ang);
+    };
+    const double u1 = width_ - 0.5, v1 = height_ - 0.5;
+    for (int i = 0; i <= width_ && all; ++i) {
+      visit(-0.5 + i, -0.5);
+      visit(-0.5 + i, v1);
+    }
+    for (int j = 0; j <= height_ && all; ++j) {
+      visit(-0.5, -0.5 + j);
+      visit(u1, -0.5 + j);
+    }
+    if (all) {
+      max_angle_rad_ = std::min(model_max_angle_rad_, a_img + 1e-3);
+      cos_max_angle_ = std::cos(max_angle_rad_);
+    }
+  }
+}
+
+bool CameraModel::WithinFov(const Eigen::Vector3d& p) const {
+  const double n = p.norm();
+  if (!(n > 0.0) || !std::isfinite(n)) return false;
+  if (max_angle_rad_ >= M_PI) return true;
+  return p.z() >= n * cos_max_angle_;
+}
+
+std::optional<Eigen::Vector2d> CameraModel::ProjectNoImage(const Eigen::Vector3d& p) const {
+  if (!WithinFov(p)) return std::nullopt;
+  Eigen::Vector2d uv;
+  if (!scancam::ProjectT(type_, params_.data(), p.data(), uv.data()) || !uv.allFinite()) {
+    return std::nullopt;
+  }
+  return uv;
+}
+
+std::optional<Eigen::Vector2d> CameraModel::ProjectUnbounded(const Eigen::Vector3d& p) const {
+  if (!valid()) return std::nullopt;
+  return ProjectNoImage(p);
+}
+
+std::optional<Eigen::Vector2d> CameraModel::Project(const Eigen::Vector3d& p) const {
+  if (!valid()) return std::nullopt;
+  auto uv = ProjectNoImage(p);
+  if (!uv || !InImage(*uv)) return std::nullopt;
+  return uv;
+}
+
+std::optional<Eigen::Vector3d> CameraModel::Unproject(const Eigen::Vector2d& px) const {
+  if (!valid() || !InImage(px)) return std::nullopt;
+  Eigen::Vector3d b;
+  if (!UnprojectT(type_, params_.data(), px.data(), b.data()) || !b.allFinite()) {
+    return std::nullopt;
+  }
+  b.normalize();
+  // Newton may land on a root beyond the fold-back: those are not this pixel's ray.
+  if (type_ != CameraType::kEquirect &&
+      std::atan2(b.head<2>().norm(), b.z()) > model_max_angle_rad_) {
+    return std::nullopt;
+  }
+  return b;
+}
+
+namespace {
+
+// One model's batch loop: the model's Project is inlined, so the loop body has no switch.
+template <typename Model>
+void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs, double w, double h,
+               const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Eigen::Vector3f* pts,
+               std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
+  const double* prm = params.data();
+  const float fnan = std::numeric_limits<float>::quiet_NaN();
+#pragma omp parallel for schedule(static, 4096)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d p = R * pts[i].cast<double>() + t;
+    const double nn = p.norm();
+    bool ok = nn > 0.0 && std::isfinite(nn) && (all_dirs || p.z() >= nn * cos_max);
+    double px[2] = {0.0, 0.0};
+    if (ok) ok = Model::Project(prm, p.data(), px);
+    ok = ok && px[0] >= -0.5 && px[1] >= -0.5 && px[0] < w - 0.5 && px[1] < h - 0.5;
+    uv[i] = ok ? Eigen::Vector2f(static_cast<float>(px[0]), static_cast<float>(px[1]))
+               : Eigen::Vector2f(fnan, fnan);
+    valid[i] = ok ? 1 : 0;
+  }
+}
+
+}  // namespace
+
+void CameraModel::ProjectBatch(const Eigen::Isometry3d& T_cam_src, const Eigen::Vector3f* points,
+                               std::size_t n, Eigen::Vector2f* uv, std::uint8_t* valid) const {
+  if (!this->valid()) {
+    std::fill(valid, valid + n, std::uint8_t{0});
+    std::fill(uv, uv + n, Eigen::Vector2f::Constant(std::numeric_limits<float>::quiet_NaN()));
+    return;
+  }
+  const Eigen::Matrix3d R = T_cam_src.linear();
+  const Eigen::Vector3d t = T_cam_src.translation();
+  const bool all_dirs = max_angle_rad_ >= M_PI;
+  VisitCameraModel(type_, [&](auto m) {
+    BatchLoop<decltype(m)>(params_, cos_max_angle_, all_dirs, width_, height_, R, t, points,
+                           static_cast<std::ptrdiff_t>(n), uv, valid);
+    return 0;
+  });
+}
+
+void CameraModel::ProjectBatch(const std::vector<Eigen::Vector3d>& p_cam,
+                               std::vector<Eigen::Vector2d>* uv,
+                               std::vector<std::uint8_t>* valid) const {
+  const std::ptrdiff_t n = static_cast<std::ptrdiff_t>(p_cam.size());
+  uv->resize(p_cam.size());
+  valid->resize(p_cam.size());
+#pragma omp parallel for schedule(static, 4096)
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const auto r = Project(p_cam[i]);
+    (*valid)[i] = r ? 1 : 0;
+    (*uv)[i] = r ? *r : Eigen::Vector2d(kNaN, kNaN);
+  }
+}
+
+std::vector<double> FitOCamInvPol(const CameraModel& ocam, double max_error_px) {
+  if (ocam.type() != CameraType::kOCam) {
+    throw Error(Where(ocam) + ": FitOCamInvPol needs an ocam camera, not " +
+                CameraTypeName(ocam.type()));
+  }
+  const std::vector<double>& p = ocam.params();
+  const int n = static_cast<int>(p[OCamModel::kIdxNPol]);
+  const double* pol = p.data() + OCamModel::kIdxPol;
+  const double rho_max = p[OCamModel::kIdxRhoMax];
+  const int m = 1000;
+  Eigen::VectorXd theta(m + 1), rho(m + 1);
+  for (int i = 0; i <= m; ++i) {
+    rho[i] = rho_max * i / m;
+    theta[i] = OCamModel::Alpha(pol, n, rho[i]) - M_PI / 2;
+  }
+  std::vector<double> best;
+  double best_err = std::numeric_limits<double>::infinity();
+  for (int len = 2; len <= OCamModel::kMaxInv - 1; ++len) {
+    Eigen::MatrixXd A(m + 1, len);
+    for (int i = 0; i <= m; ++i) {
+      double t = 1.0;
+      for (int j = 0; j < len; ++j, t *= theta[i]) A(i, j) = t;
+    }
+    const Eigen::VectorXd c = A.colPivHouseholderQr().solve(rho);
+    const double err = (A * c - rho).cwiseAbs().maxCoeff();
+    if (err < best_err) {
+      best_err = err;
+      best.assign(c.data(), c.data() + len);
+    }
+    if (err <= max_error_px) break;
+  }
+  return best;
+}
+
+std::string CameraModel::Describe() const {
+  std::ostringstream s;
+  s.precision(10);
+  s << CameraTypeName(type_) << " " << width_ << "x" << height_;
+  if (!name_.empty()) s << " '" << name_ << "'";
+  auto list = [&](const char* label, int from, int to) {
+    s << " " << label << "=[";
+    for (int i = from; i < to; ++i) s << (i > from ? " " : "") << params_[i];
+    s << "]";
+  };
+  switch (type_) {
+    case CameraType::kPinhole:
+      list("f,c", 0, 4);
+      list("k1 k2 p1 p2 k3 k4 k5 k6", 4, 12);
+      break;
+    case CameraType::kFisheye:
+      list("f,c", 0, 4);
+      list("k1..k4", 4, 8);
+      break;
+    case CameraType::kOmni:
+      list("f,c,s", 0, 5);
+      s << " xi=" << params_[5];
+      list("k1 k2 p1 p2", 6, 10);
+      break;
+    case CameraType::kOCam: {
+      const OCamParams o = ocam_params();
+      s << " centre(u,v)=(" << o.center_u << "," << o.center_v << ") affine=(" << o.c << "," << o.d
+        << "," << o.e << ")";
+      list("pol", OCamModel::kIdxPol, OCamModel::kIdxPol + static_cast<int>(o.pol.size()));
+      s << " invpol: " << o.invpol.size() << " coefficients";
+      break;
+    }
+    case CameraType::kEquirect:
+      list("fu fv cu cv", 0, 4);
+      break;
+  }
+  s << " max_angle=" << max_angle_rad_ * 180.0 / M_PI << "deg";
+  return s.str();
+}
+
+}  // namespace scancam

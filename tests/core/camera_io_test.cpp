@@ -1,0 +1,377 @@
+// Camera files: every supported format (share/cameras examples and the real road-pinhole JSON),
+// write / read round trips, bad files, image-size checks.
+#include "scancam/camera/camera_io.h"
+
+#include <filesystem>
+
+#include "scancam/error.h"
+#include "test_util.h"
+
+namespace scancam {
+namespace {
+
+using test::ReadFile;
+using test::TempDir;
+using test::WriteFile;
+
+std::string Example(const std::string& name) {
+  return std::string(SCANCAM_SOURCE_DIR) + "/share/cameras/" + name;
+}
+
+// The error message of f(), or "" when it does not throw scancam::Error.
+template <typename F>
+std::string ErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+#define EXPECT_ERROR_MENTIONS(expr, ...)                                   \
+  do {                                                                     \
+    const std::string msg_ = ErrorOf([&] { (void)(expr); });               \
+    ASSERT_FALSE(msg_.empty()) << #expr " did not throw scancam::Error";   \
+    for (const std::string& part_ : std::vector<std::string>{__VA_ARGS__}) \
+      EXPECT_NE(msg_.find(part_), std::string::npos)                       \
+          << "message '" << msg_ << "' lacks '" << part_ << "'";           \
+  } while (0)
+
+void ExpectSameCamera(const CameraModel& a, const CameraModel& b) {
+  EXPECT_EQ(a.type(), b.type());
+  EXPECT_EQ(a.width(), b.width());
+  EXPECT_EQ(a.height(), b.height());
+  ASSERT_EQ(a.params().size(), b.params().size());
+  for (std::size_t i = 0; i < a.params().size(); ++i) {
+    EXPECT_EQ(a.params()[i], b.params()[i]) << "param " << i;
+  }
+}
+
+// The numbers written in the example files.
+const CameraModel kFront = CameraModel::Pinhole(
+    912.35, 910.87, 641.22, 358.91, {-0.3412, 0.1235, 0.00041, -0.00027, 0.0}, 1280, 720, "front");
+const CameraModel kFisheye = CameraModel::Fisheye(285.72, 285.91, 424.6, 400.3,
+                                                  {-0.0082, 0.0413, -0.0392, 0.0069}, 848, 800);
+const CameraModel kOmni = CameraModel::Omni(1.1, 700.4, 699.9, 639.1, 481.7, 0.0,
+                                            {-0.2512, 0.0613, 0.00052, -0.00031}, 1280, 960);
+const CameraModel kWide = CameraModel::Pinhole(
+    612.4, 611.8, 639.7, 359.2, {2.1, 0.52, 0.0008, -0.0004, 0.011, 2.45, 1.21, 0.093}, 1280, 720);
+OCamParams OCamExample() {
+  OCamParams o;
+  o.center_u = 319.82, o.center_v = 241.37;
+  o.c = 1.000412, o.d = 0.000187, o.e = -0.000231;
+  o.pol = {-148.3, 0.0, 3.05e-3, -4.1e-6, 1.9e-8};
+  o.invpol = {219.889898, 141.444476, 15.586937, 17.540619, 9.602540, 4.878022,
+              2.156500,   0.963271,   0.856533,  1.025804,  0.630164, 0.134471};
+  return o;
+}
+
+// ---- the example files -----------------------------------------------------------------------
+
+TEST(CameraIo, PinholeExamplesInEveryFormatLoadToTheSameNumbers) {
+  const std::vector<std::pair<std::string, CameraFileFormat>> files = {
+      {"pinhole_opencv.yaml", CameraFileFormat::kOpenCv},
+      {"pinhole_opencv.json", CameraFileFormat::kOpenCv},
+      {"pinhole_ros_plumb_bob.yaml", CameraFileFormat::kRosCameraInfo},
+      {"pinhole_opencalib.json", CameraFileFormat::kOpenCalib},
+      {"kalibr_camchain.yaml", CameraFileFormat::kKalibr}};
+  for (const auto& [name, fmt] : files) {
+    SCOPED_TRACE(name);
+    EXPECT_EQ(DetectCameraFileFormat(Example(name)), fmt);
+    const CameraModel c = LoadCamera(Example(name));
+    ExpectSameCamera(c, kFront);
+    EXPECT_EQ(c.source(), Example(name));
+  }
+  EXPECT_EQ(LoadCamera(Example("pinhole_opencv.yaml")).name(), "front");
+  EXPECT_EQ(LoadCamera(Example("pinhole_opencalib.json")).name(), "front");
+}
+
+TEST(CameraIo, FisheyeOmniRationalOCamEquirectExamples) {
+  ExpectSameCamera(LoadCamera(Example("fisheye_opencv.yaml")), kFisheye);
+  ExpectSameCamera(LoadCamera(Example("fisheye_ros_equidistant.yaml")), kFisheye);
+  LoadCameraOptions cam1;
+  cam1.kalibr_camera = "cam1";
+  ExpectSameCamera(LoadCamera(Example("kalibr_camchain.yaml"), cam1), kFisheye);
+  ExpectSameCamera(LoadCamera(Example("omni_opencv.yaml")), kOmni);
+  LoadCameraOptions cam2;
+  cam2.kalibr_camera = "cam2";
+  ExpectSameCamera(LoadCamera(Example("kalibr_camchain.yaml"), cam2), kOmni);
+  ExpectSameCamera(LoadCamera(Example("pinhole_rational_ros.yaml")), kWide);
+  ExpectSameCamera(LoadCamera(Example("pinhole_rational_opencv.yaml")), kWide);
+
+  const CameraModel ocam_ref = CameraModel::OCam(OCamExample(), 640, 480);
+  EXPECT_EQ(DetectCameraFileFormat(Example("ocam_calib_results.txt")),
+            CameraFileFormat::kOCamCalib);
+  const CameraModel ocam = LoadCamera(Example("ocam_calib_results.txt"));
+  ExpectSameCamera(ocam, ocam_ref);
+  // The file's centre is "row column": 241.37 is the row, i.e. v.
+  EXPECT_EQ(ocam.ocam_params().center_v, 241.37);
+  EXPECT_EQ(ocam.ocam_params().center_u, 319.82);
+  EXPECT_EQ(ocam.ocam_params().invpol.size(), 12u);
+  ExpectSameCamera(LoadCamera(Example("ocam_opencv.yaml")), ocam_ref);
+
+  ExpectSameCamera(LoadCamera(Example("equirect_opencv.yaml")), CameraModel::Equirect(4000, 2000));
+}
+
+// Every file in share/cameras is covered above; a new one must be added to the tests.
+TEST(CameraIo, EveryExampleFileLoads) {
+  int n = 0;
+  for (const auto& e : std::filesystem::directory_iterator(Example(""))) {
+    const std::string p = e.path().string();
+    if (e.path().extension() == ".md") continue;
+    SCOPED_TRACE(p);
+    EXPECT_NO_THROW(LoadCamera(p));
+    ++n;
+  }
+  EXPECT_EQ(n, 13);
+}
+
+TEST(CameraIo, RoadPinholeOpenCalibJson) {
+  SCANCAM_REQUIRE_SHARED();
+  const std::string path = test::SharedDataset("road-pinhole/camera-intrinsic.json");
+  EXPECT_EQ(DetectCameraFileFormat(path), CameraFileFormat::kOpenCalib);
+  const CameraModel c = LoadCamera(path);
+  ExpectSameCamera(c, CameraModel::Pinhole(
+                          2117.31, 2113.29, 924.681, 656.457,
+                          {-0.102933, -0.040925, 0.00057951, -0.00419933, 0.429959}, 1920, 1200));
+  EXPECT_EQ(c.name(), "center_camera");
+  EXPECT_NO_THROW(CheckImageSize(c, 1920, 1200, "image.png"));
+  EXPECT_ERROR_MENTIONS(CheckImageSize(c, 960, 600, "half.png"), "half.png", "960x600", "1920x1200",
+                        path);
+}
+
+// ---- write / read round trips ----------------------------------------------------------------
+
+TEST(CameraIo, SaveLoadRoundTripIsExact) {
+  const std::string dir = TempDir();
+  OCamParams o = OCamExample();
+  o.invpol.clear();
+  const std::vector<CameraModel> cams = {
+      kFront,
+      kFisheye,
+      kOmni,
+      kWide,
+      CameraModel::Omni(0.9, 500.123456789, 501.5, 320.25, 240.75, 0.3125, {0.1, -0.01, 1e-4, 2e-4},
+                        640, 480),
+      CameraModel::OCam(OCamExample(), 640, 480),
+      CameraModel::OCam(o, 640, 480),
+      CameraModel::Equirect(2048, 1024),
+      CameraModel(CameraType::kEquirect, {300.0, 310.0, 1000.5, 400.25}, 2000, 700)};
+  int i = 0;
+  for (const CameraModel& c : cams) {
+    for (const char* ext : {".yaml", ".json"}) {
+      const std::string path = dir + "/cam" + std::to_string(i) + ext;
+      SaveCamera(c, path);
+      SCOPED_TRACE(path + "\n" + ReadFile(path));
+      const CameraModel r = LoadCamera(path);
+      ExpectSameCamera(r, c);
+    }
+    ++i;
+  }
+  // Other formats, for the models they can hold.
+  struct Case {
+    CameraModel cam;
+    CameraFileFormat fmt;
+    const char* file;
+  };
+  const std::vector<Case> others = {
+      {kFront, CameraFileFormat::kRosCameraInfo, "ros.yaml"},
+      {kWide, CameraFileFormat::kRosCameraInfo, "ros_rational.yaml"},
+      {kFisheye, CameraFileFormat::kRosCameraInfo, "ros_fisheye.yaml"},
+      {kFront, CameraFileFormat::kKalibr, "kalibr.yaml"},
+      {kFisheye, CameraFileFormat::kKalibr, "kalibr_fe.yaml"},
+      {kOmni, CameraFileFormat::kKalibr, "kalibr_omni.yaml"},
+      {kFront, CameraFileFormat::kOpenCalib, "opencalib.json"},
+      {CameraModel::OCam(OCamExample(), 640, 480), CameraFileFormat::kOCamCalib, "calib.txt"},
+      {CameraModel::OCam(o, 640, 480), CameraFileFormat::kOCamCalib, "calib_noinv.txt"},
+  };
+  for (const Case& c : others) {
+    const std::string path = dir + "/" + c.file;
+    SaveCamera(c.cam, path, c.fmt);
+    SCOPED_TRACE(path + "\n" + ReadFile(path));
+    EXPECT_EQ(DetectCameraFileFormat(path), c.fmt);
+    ExpectSameCamera(LoadCamera(path), c.cam);
+  }
+  // Models a format cannot hold are refused, naming the file.
+  EXPECT_ERROR_MENTIONS(SaveCamera(kOmni, dir + "/x.yaml", CameraFileFormat::kRosCameraInfo),
+                        "x.yaml", "omni");
+  EXPECT_ERROR_MENTIONS(SaveCamera(kWide, dir + "/y.yaml", CameraFileFormat::kKalibr), "y.yaml");
+  EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/z.txt", CameraFileFormat::kOCamCalib), "z.txt",
+                        "ocam");
+  EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/cam.txt"), "cam.txt", ".yaml");
+  EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/no/such/dir/cam.yaml"), "cam.yaml");
+}
+
+// A simulator writes the OCam camera it used; the toolbox-format file keeps every digit.
+TEST(CameraIo, OCamCalibFileKeepsFullPrecisionAndRowColumnOrder) {
+  const std::string path = TempDir() + "/calib_results.txt";
+  OCamParams o = OCamExample();
+  o.center_u = 320.123456789012, o.center_v = 240.987654321098;
+  const CameraModel c = CameraModel::OCam(o, 640, 480);
+  SaveCamera(c, path, CameraFileFormat::kOCamCalib);
+  const std::string text = ReadFile(path);
+  EXPECT_NE(text.find("240.98765432109"), std::string::npos);  // row first
+  EXPECT_LT(text.find("240.98765432109"), text.find("320.12345678901"));
+  EXPECT_NE(text.find("\n480 640\n"), std::string::npos);  // height width
+  ExpectSameCamera(LoadCamera(path), c);
+}
+
+// ---- bad files -------------------------------------------------------------------------------
+
+TEST(CameraIo, BadFilesNameTheFileAndTheField) {
+  const std::string dir = TempDir();
+  auto write = [&](const std::string& name, const std::string& content) {
+    const std::string p = dir + "/" + name;
+    WriteFile(p, content);
+    return p;
+  };
+  EXPECT_ERROR_MENTIONS(LoadCamera(dir + "/missing.yaml"), "missing.yaml", "not found");
+  std::string p = write("empty.yaml", "  \n");
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "empty");
+  p = write("binary.bin", std::string("\x89PNG\r\n\x1a\n\0\0\0", 11));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p);
+  p = write("garbage.yaml", "this is not a camera\n");
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p);
+  p = write("garbage.json", "{\"a\": [1, 2,");
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "JSON");
+  p = write("unknown.yaml", "foo: 1\nbar: [1, 2]\n");
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "unrecognised");
+
+  // OpenCV YAML
+  const std::string ocv = ReadFile(Example("pinhole_opencv.yaml"));
+  auto without = [](std::string s, const std::string& from, const std::string& to) {
+    const std::size_t a = s.find(from);
+    const std::size_t b = to.empty() ? s.size() : s.find(to, a);
+    return s.erase(a, b - a);
+  };
+  p = write("no_width.yaml", without(ocv, "image_width", "image_height"));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "image_width", "missing");
+  p = write("no_k.yaml", without(ocv, "camera_matrix", "distortion_coefficients"));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "camera_matrix", "missing");
+  std::string s = ocv;
+  s.replace(s.find("cols: 5"), 7, "cols: 3")
+      .replace(s.find("0.00041, -0.00027, 0. ]"), 23, "0.00041 ]");
+  p = write("three_dist.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "distortion_coefficients", "found 3");
+  s = ocv;
+  s.replace(s.find("model: pinhole"), 14, "model: kb8");
+  p = write("bad_model.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "model", "kb8");
+  s = ocv;
+  s.replace(s.find("912.35, 0., 641.22"), 18, "912.35, 3., 641.22");
+  p = write("skew.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "skew");
+  s = ocv;
+  s.replace(s.find("912.35"), 6, "-912.3");
+  p = write("neg_f.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "fx");
+  p = write("broken_ocv.yaml", "%YAML:1.0\n---\nmodel: [pinhole\n");
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p);
+  s = ReadFile(Example("omni_opencv.yaml"));
+  p = write("omni_no_xi.yaml", without(s, "xi: 1.1", "distortion_coefficients"));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "xi", "missing");
+
+  // Kalibr
+  const std::string kal = ReadFile(Example("kalibr_camchain.yaml"));
+  LoadCameraOptions cam7;
+  cam7.kalibr_camera = "cam7";
+  EXPECT_ERROR_MENTIONS(LoadCamera(Example("kalibr_camchain.yaml"), cam7), "kalibr_camchain.yaml",
+                        "cam7", "cam0, cam1, cam2");
+  s = kal;
+  s.replace(s.find("intrinsics: [912.35, 910.87, 641.22, 358.91]"), 44,
+            "intrinsics: [912.35, 910.87, 641.22]");
+  p = write("kalibr_intr.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam0.intrinsics", "line 8", "found 3");
+  s = kal;
+  s.replace(s.find("distortion_model: radtan"), 24, "distortion_model: fov");
+  p = write("kalibr_fov.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam0.distortion_model", "fov");
+  s = kal;
+  s.replace(s.find("camera_model: pinhole"), 21, "camera_model: ds");
+  p = write("kalibr_ds.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam0.camera_model", "ds");
+  s = kal;
+  s.replace(s.find("resolution: [1280, 720]"), 23, "resolution: [1280, abc]");
+  p = write("kalibr_res.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam0.resolution", "abc");
+  s = kal;
+  p = write("kalibr_no_res.yaml", without(s, "  resolution: [1280, 720]\n", "  rostopic"));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam0.resolution", "missing");
+  p = write("kalibr_unterminated.yaml", "cam0:\n  camera_model: pinhole\n  intrinsics: [1, 2,\n");
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "line 3", "unterminated");
+
+  // ROS
+  const std::string ros = ReadFile(Example("pinhole_ros_plumb_bob.yaml"));
+  s = ros;
+  s.replace(s.find("data: [912.35, 0, 641.22, 0, 910.87, 358.91, 0, 0, 1]"), 53,
+            "data: [912.35, 0, 641.22, 0, 910.87, 358.91, 0, 0]");
+  p = write("ros_k8.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "camera_matrix.data", "rows x cols");
+  s = ros;
+  s.replace(s.find("distortion_model: plumb_bob"), 27, "distortion_model: weird");
+  p = write("ros_weird.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "distortion_model", "weird");
+  p = write("ros_no_height.yaml", without(ros, "image_height: 720\n", "camera_name"));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "image_height", "missing");
+  s = ros;
+  s.replace(s.find("image_width: 1280"), 17, "image_width: 12.5");
+  p = write("ros_w.yaml", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "image_width", "integer");
+
+  // OpenCalib
+  const std::string oc = ReadFile(Example("pinhole_opencalib.json"));
+  s = oc;
+  s.replace(s.find("\"img_dist_h\": 720"), 17, "\"img_dist_h\": \"720\"");
+  p = write("opencalib_h.json", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "param.img_dist_h");
+  s = oc;
+  s.replace(s.find("[0, 0, 1.0]"), 11, "[0, 0]");
+  p = write("opencalib_k.json", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam_K.data", "found 8");
+  s = oc;
+  s.replace(s.find("[912.35, 0, 641.22]"), 19, "[912.35, null, 641.22]");
+  p = write("opencalib_null.json", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "cam_K.data", "null");
+
+  // OCamCalib
+  const std::string ocam = ReadFile(Example("ocam_calib_results.txt"));
+  s = ocam;
+  s.replace(s.find("5 -1.483000e+02"), 15, "6 -1.483000e+02");
+  p = write("ocam_len.txt", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "line 3", "length says 6", "5 follow");
+  s = ocam;
+  s.replace(s.find("1.000412 0.000187 -0.000231"), 27, "1.000412 0.000187");
+  p = write("ocam_affine.txt", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "line 15", "affine", "found 2");
+  p = write("ocam_short.txt", ocam.substr(0, ocam.find("#affine")));
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "ends early", "affine");
+  s = ocam;
+  s.replace(s.find("480 640"), 7, "480 -640");
+  p = write("ocam_size.txt", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "line 19", "height width");
+  s = ocam;
+  s.replace(s.find("5 -1.483000e+02"), 15, "5 1.483000e+02");
+  p = write("ocam_a0.txt", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "a0", "negative");
+  s = ocam;
+  s.replace(s.find("241.370000"), 10, "241.37x");
+  p = write("ocam_text.txt", s);
+  EXPECT_ERROR_MENTIONS(LoadCamera(p), p);
+}
+
+TEST(CameraIo, ImageSizeMismatchIsAnError) {
+  const CameraModel c = LoadCamera(Example("pinhole_opencv.yaml"));
+  EXPECT_NO_THROW(CheckImageSize(c, 1280, 720, "frame.png"));
+  EXPECT_ERROR_MENTIONS(CheckImageSize(c, 1920, 1080, "frame.png"), "frame.png", "1920x1080",
+                        "1280x720", "pinhole_opencv.yaml", "never rescaled");
+  EXPECT_ERROR_MENTIONS(CheckImageSize(c, 720, 1280, "rotated.png"), "rotated.png");
+}
+
+TEST(CameraIo, FormatNames) {
+  EXPECT_STREQ(CameraFileFormatName(CameraFileFormat::kKalibr), "kalibr");
+  EXPECT_STREQ(CameraFileFormatName(CameraFileFormat::kOCamCalib), "ocamcalib");
+}
+
+}  // namespace
+}  // namespace scancam
