@@ -9,6 +9,8 @@ find_package(opengv REQUIRED)
 find_package(mrpt-obs REQUIRED)
 find_package(mrpt-io REQUIRED)
 find_package(mrpt-serialization REQUIRED)
+# CObservationRotatingScan (and its fromVelodyne) lives in mrpt-maps in MRPT 2.5.
+find_package(mrpt-maps REQUIRED)
 
 # PCL's config is slow and noisy; ask only for what is used and wrap it in one target.
 find_package(PCL 1.13 REQUIRED COMPONENTS common io surface)

@@ -26,9 +26,9 @@ struct ScanLoadOptions {
   double dz_m = 0.0;  ///< same, z
 
   // PTX
-  int ptx_scan_index = 0;      ///< which scan of a multi-scan file (0-based)
-  bool ptx_apply_pose = false; ///< apply the header's scanner pose (points in the
-                               ///< registered/world frame) instead of the scanner frame
+  int ptx_scan_index = 0;       ///< which scan of a multi-scan file (0-based)
+  bool ptx_apply_pose = false;  ///< apply the header's scanner pose (points in the
+                                ///< registered/world frame) instead of the scanner frame
 
   // PCD / unordered clouds
   std::string pcd_mode = "auto";  ///< auto | organised | ring | spherical

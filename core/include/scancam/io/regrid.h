@@ -1,0 +1,84 @@
+// ScanCam: ordering an unordered cloud into a grid (spherical projection), and ordering a
+// spinning lidar's points by ring and azimuth. Used by the PCD importer and by the
+// CloudCompare plugin for clouds without a scan grid.
+//
+// Angles are measured in the SENSOR frame (x forward, y left, z up), given by `origin` and
+// RegridOptions::orientation (sensor axes in the cloud frame); points, beam directions and
+// origin_m of the result stay in the CLOUD frame.
+//     azimuth   = atan2(y_s, x_s)            (counter-clockwise seen from above, 0 = forward)
+//     elevation = atan2(z_s, hypot(x_s, y_s))
+//
+// Grid layout (both functions): the image looks like the scene seen from the sensor, upright
+// and not mirrored:
+//   - row 0 is the highest elevation, rows go downwards;
+//   - columns go by DECREASING azimuth from left to right (left of the sensor on the left).
+//     When the points cover the full turn (no empty azimuth arc wider than 90 deg) the grid
+//     spans 360 deg, column 0 starting just below azimuth +180 deg (behind, turning left), so
+//     that straight ahead (azimuth 0) is the middle column. Otherwise the grid is cropped to
+//     the occupied arc, column 0 at its highest azimuth.
+//   - A cell is `step` wide; cell centres are placed so that a regular scan's beams fall on
+//     cell centres (the sub-step phase of the azimuths, and of the elevations for the
+//     spherical grid, is estimated as a circular mean).
+// Cell contents: when several points fall in one cell the NEAREST one (smallest range from
+// the origin) wins; its intensity is kept. Points that are not finite or lie at the origin are
+// ignored. Empty cells have range NaN, point NaN and the beam direction of the cell's angles
+// (cell-centre azimuth; cell-centre elevation, or the ring's elevation for RegridRings), so
+// every cell has a beam direction. range_m = |point - origin|, beam_dir = unit(point - origin)
+// for filled cells.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scancam/ordered_scan.h"
+#include "scancam/progress.h"
+
+namespace scancam {
+
+struct RegridOptions {
+  /// Azimuth cell size in degrees; 0 = estimate (EstimateAngularStepDeg for RegridSpherical,
+  /// the median azimuth spacing along each ring for RegridRings). The value actually used is
+  /// adjusted so that a whole number of cells makes 360 deg.
+  double step_deg = 0.0;
+  /// Elevation cell size in degrees for RegridSpherical; 0 = same as the azimuth step.
+  double elevation_step_deg = 0.0;
+  /// Sensor axes in the cloud frame (e.g. a PCD VIEWPOINT's quaternion).
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+  /// Refuse grids larger than this (a too fine step on a wide cloud); throws scancam::Error.
+  std::size_t max_cells = 200u * 1000u * 1000u;
+  /// Written to OrderedScan::source (and used in error messages).
+  std::string source = "cloud";
+};
+
+/// Spherical re-gridding of an unordered cloud, layout above. `intensity` may be null, else
+/// it has one value per point. Rows = elevation bins, cols = azimuth bins. Throws
+/// scancam::Error (naming options.source) when there is no usable point or the grid would
+/// exceed max_cells.
+OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
+                            const std::vector<float>* intensity, const Eigen::Vector3d& origin,
+                            RegridOptions options = {}, const Progress& progress = {});
+
+/// Spinning lidar: one row per ring (laser), rows sorted by the ring's median elevation,
+/// highest first; columns by azimuth as above. Each ring's azimuths are shifted by less than
+/// half a step so that its regular firings land on cell centres (rings of lidars with
+/// per-laser azimuth offsets, like road-pinhole/'s 64-beam lidar, then never collide with
+/// themselves); the columns of different rings agree to within half a step. Rows are the distinct
+/// ring values present (any integers, also those of non-finite points); a ring without a single
+/// finite point cannot be placed by elevation and goes last, with NaN beam directions. Throws
+/// scancam::Error when there is no usable point or `ring` is not one value per point.
+OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::vector<int>& ring,
+                        const std::vector<float>* intensity, const Eigen::Vector3d& origin,
+                        RegridOptions options = {}, const Progress& progress = {});
+
+/// Median nearest-neighbour spacing, in degrees, of the points' (azimuth, elevation) as seen
+/// from `origin` (measured on samples of the cloud, so O(N)). For a terrestrial scanner's
+/// regular grid this is its angular step (the smaller of the two for an anisotropic grid).
+/// Returns 0 when it cannot tell (fewer than 2 usable points).
+double EstimateAngularStepDeg(
+    const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
+    const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
+
+}  // namespace scancam

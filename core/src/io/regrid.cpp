@@ -1,0 +1,465 @@
+#include "scancam/io/regrid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <limits>
+#include <map>
+
+#include "scancam/error.h"
+
+namespace scancam {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+// Angles of the usable points as seen from the sensor (radians, metres).
+struct Polar {
+  std::vector<std::uint32_t> index;  // point index
+  std::vector<double> az, el, range;
+};
+
+Polar ToPolar(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
+              const Eigen::Quaterniond& orientation) {
+  const Eigen::Matrix3d rt = orientation.normalized().toRotationMatrix().transpose();
+  Polar p;
+  p.index.reserve(points.size());
+  p.az.reserve(points.size());
+  p.el.reserve(points.size());
+  p.range.reserve(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) continue;
+    const Eigen::Vector3d d = rt * (points[i].cast<double>() - origin);
+    const double r = d.norm();
+    if (!(r > 0.0)) continue;
+    p.index.push_back(static_cast<std::uint32_t>(i));
+    p.az.push_back(std::atan2(d.y(), d.x()));
+    p.el.push_back(std::atan2(d.z(), std::hypot(d.x(), d.y())));
+    p.range.push_back(r);
+  }
+  return p;
+}
+
+// Circular mean of the sub-step phase of angles: the offset in (-step/2, step/2] at which a
+// regular sequence of angles sits relative to multiples of `step`.
+class PhaseAccumulator {
+ public:
+  explicit PhaseAccumulator(double step) : step_(step) {}
+  void Add(double angle) {
+    const double t = 2.0 * kPi * angle / step_;
+    sum_ += std::complex<double>(std::cos(t), std::sin(t));
+  }
+  double Phase() const {
+    if (std::abs(sum_) == 0.0) return 0.0;
+    return std::arg(sum_) / (2.0 * kPi) * step_;
+  }
+
+ private:
+  double step_;
+  std::complex<double> sum_{0.0, 0.0};
+};
+
+// Wraps an angle difference into (-step/2, step/2].
+double WrapHalf(double x, double step) { return x - step * std::round(x / step); }
+
+long long FloorMod(long long a, long long n) {
+  const long long m = a % n;
+  return m < 0 ? m + n : m;
+}
+
+// The azimuth layout shared by both grids: integer cell k has centre phase + k * step;
+// column c is cell k0 - c (mod n_full); ncols columns.
+struct AzimuthLayout {
+  double step = 0.0;
+  double phase = 0.0;
+  long long n_full = 1;
+  long long k0 = 0;
+  int ncols = 0;
+
+  long long Cell(double az) const { return std::llround((az - phase) / step); }
+  // Column of a cell, or -1 when outside the cropped arc.
+  int Column(long long k) const {
+    const long long c = FloorMod(k0 - k, n_full);
+    return c < ncols ? static_cast<int>(c) : -1;
+  }
+  double Centre(int col) const { return phase + static_cast<double>(k0 - col) * step; }
+};
+
+// A whole number of cells per turn, and the cell-centre phase (wrapped once, here only, so
+// that cells computed with Cell() and the columns chosen below agree).
+AzimuthLayout MakeAzimuthLayout(double step, double phase) {
+  AzimuthLayout l;
+  l.n_full = std::max(1LL, std::llround(2.0 * kPi / step));
+  l.step = 2.0 * kPi / static_cast<double>(l.n_full);
+  l.phase = WrapHalf(phase, l.step);
+  return l;
+}
+
+// Chooses columns from the occupied cells (decreasing azimuth; full turn from +180 deg, or
+// the occupied arc when an empty arc wider than 90 deg exists).
+void ChooseColumns(AzimuthLayout& l, const std::vector<long long>& cells) {
+  std::vector<char> occupied(static_cast<std::size_t>(l.n_full), 0);
+  for (long long k : cells) occupied[static_cast<std::size_t>(FloorMod(k, l.n_full))] = 1;
+  // Largest circular run of empty cells.
+  long long best_len = 0, best_end = -1;  // the run ends just before cell best_end
+  {
+    long long first_occ = -1;
+    for (long long k = 0; k < l.n_full; ++k) {
+      if (occupied[static_cast<std::size_t>(k)]) {
+        first_occ = k;
+        break;
+      }
+    }
+    if (first_occ >= 0) {
+      long long run = 0;
+      for (long long i = 1; i <= l.n_full; ++i) {
+        const long long k = FloorMod(first_occ + i, l.n_full);
+        if (occupied[static_cast<std::size_t>(k)]) {
+          if (run > best_len) {
+            best_len = run;
+            best_end = k;
+          }
+          run = 0;
+        } else {
+          ++run;
+        }
+      }
+    }
+  }
+  if (best_end >= 0 && static_cast<double>(best_len) * l.step > kPi / 2) {
+    // Cropped: from the cell just before the gap (highest azimuth) down to best_end.
+    const long long k_high = best_end + (l.n_full - best_len - 1);
+    l.k0 = k_high;
+    l.ncols = static_cast<int>(l.n_full - best_len);
+  } else {
+    // Full turn: column 0 is the cell with the largest centre azimuth not above +pi.
+    l.k0 = static_cast<long long>(std::floor((kPi - l.phase) / l.step));
+    l.ncols = static_cast<int>(l.n_full);
+  }
+}
+
+double MedianOf(std::vector<double>& v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+Eigen::Vector3f Direction(const Eigen::Matrix3d& r, double az, double el) {
+  const double ce = std::cos(el);
+  return (r * Eigen::Vector3d(ce * std::cos(az), ce * std::sin(az), std::sin(el))).cast<float>();
+}
+
+// Keeps the nearest point per cell, then fills the scan.
+void FillWinners(OrderedScan& scan, const std::vector<Eigen::Vector3f>& points,
+                 const std::vector<float>* intensity, const Polar& polar,
+                 const std::vector<std::int64_t>& cell_of) {
+  std::vector<std::int64_t> winner(scan.size(), -1);
+  for (std::size_t i = 0; i < cell_of.size(); ++i) {
+    const std::int64_t cell = cell_of[i];
+    if (cell < 0) continue;
+    std::int64_t& w = winner[static_cast<std::size_t>(cell)];
+    if (w < 0 || polar.range[i] < polar.range[static_cast<std::size_t>(w)]) {
+      w = static_cast<std::int64_t>(i);
+    }
+  }
+  if (intensity) scan.intensity.assign(scan.size(), OrderedScan::kNaN);
+  for (std::size_t cell = 0; cell < winner.size(); ++cell) {
+    if (winner[cell] < 0) continue;
+    const std::uint32_t pi = polar.index[static_cast<std::size_t>(winner[cell])];
+    const int r = static_cast<int>(cell / static_cast<std::size_t>(scan.cols));
+    const int c = static_cast<int>(cell % static_cast<std::size_t>(scan.cols));
+    scan.set_point(r, c, points[pi], intensity ? (*intensity)[pi] : OrderedScan::kNaN);
+  }
+}
+
+void CheckInputs(const std::vector<Eigen::Vector3f>& points, const std::vector<float>* intensity,
+                 const RegridOptions& o) {
+  if (intensity && intensity->size() != points.size()) {
+    throw Error(o.source + ": " + std::to_string(intensity->size()) + " intensities for " +
+                std::to_string(points.size()) + " points");
+  }
+  if (!(o.step_deg >= 0.0) || !std::isfinite(o.step_deg) || !(o.elevation_step_deg >= 0.0) ||
+      !std::isfinite(o.elevation_step_deg)) {
+    throw Error(o.source + ": grid step must be a finite, non-negative number of degrees");
+  }
+}
+
+void CheckCells(long long rows, long long cols, const RegridOptions& o, double step_deg) {
+  const long double cells = static_cast<long double>(rows) * static_cast<long double>(cols);
+  if (cells > static_cast<long double>(o.max_cells)) {
+    throw Error(o.source + ": a grid of " + std::to_string(rows) + " x " + std::to_string(cols) +
+                " cells at a step of " + std::to_string(step_deg) +
+                " deg is larger than allowed (" + std::to_string(o.max_cells) +
+                " cells); give a larger grid step");
+  }
+}
+
+}  // namespace
+
+double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
+                              const Eigen::Vector3d& origin,
+                              const Eigen::Quaterniond& orientation) {
+  const Polar p = ToPolar(points, origin, orientation);
+  const std::size_t n = p.az.size();
+  if (n < 2) return 0.0;
+  // 1) Occupied area on a 1-degree histogram gives a first spacing h0 = sqrt(area / n).
+  auto bin_of = [&](std::size_t i, double bin_deg, long long nx) {
+    const long long bx =
+        std::min(nx - 1, static_cast<long long>((p.az[i] / kDeg + 180.0) / bin_deg));
+    const long long by = static_cast<long long>((p.el[i] / kDeg + 90.0) / bin_deg);
+    return by * nx + bx;
+  };
+  double h0 = 0.0;
+  {
+    std::vector<char> occ(360 * 181, 0);
+    std::size_t area = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      char& o = occ[static_cast<std::size_t>(bin_of(i, 1.0, 360))];
+      area += o ? 0 : 1;
+      o = 1;
+    }
+    h0 = std::sqrt(static_cast<double>(area) / static_cast<double>(n));
+  }
+  // 2) Sample bins about 20 spacings wide (clamped so the histogram stays small) and measure
+  //    exact nearest-neighbour distances inside them; O(n) plus the samples' cost.
+  const double bin_deg = std::clamp(20.0 * h0, 0.1, 10.0);
+  const long long nx = static_cast<long long>(std::ceil(360.0 / bin_deg));
+  const long long ny = static_cast<long long>(std::ceil(180.0 / bin_deg)) + 1;
+  std::vector<std::uint32_t> count(static_cast<std::size_t>(nx * ny), 0);
+  std::vector<long long> bins(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    bins[i] = bin_of(i, bin_deg, nx);
+    ++count[static_cast<std::size_t>(bins[i])];
+  }
+  std::vector<std::pair<std::uint32_t, long long>> occupied;
+  for (long long b = 0; b < nx * ny; ++b) {
+    if (count[static_cast<std::size_t>(b)] >= 8) occupied.emplace_back(count[b], b);
+  }
+  if (occupied.empty()) {
+    for (long long b = 0; b < nx * ny; ++b) {
+      if (count[static_cast<std::size_t>(b)] >= 2) occupied.emplace_back(count[b], b);
+    }
+  }
+  if (occupied.empty()) return h0;  // too sparse to measure: the density estimate
+  // Bins of typical density (the middle half by count), spread over that list.
+  std::sort(occupied.begin(), occupied.end());
+  const std::size_t lo = occupied.size() / 4, hi = std::max(lo + 1, occupied.size() * 3 / 4);
+  const std::size_t want = std::min<std::size_t>(32, hi - lo);
+  std::vector<int> slot(count.size(), -1);
+  for (std::size_t s = 0; s < want; ++s) {
+    const std::size_t pick = lo + s * (hi - lo) / want;
+    slot[static_cast<std::size_t>(occupied[pick].second)] = static_cast<int>(s);
+  }
+  std::vector<std::vector<std::pair<double, double>>> samples(want);  // (az, el) in degrees
+  for (std::size_t i = 0; i < n; ++i) {
+    const int s = slot[static_cast<std::size_t>(bins[i])];
+    if (s >= 0) samples[static_cast<std::size_t>(s)].emplace_back(p.az[i] / kDeg, p.el[i] / kDeg);
+  }
+  std::vector<double> nn;
+  for (auto& pts : samples) {
+    if (pts.size() > 20000) pts.resize(20000);  // bins are bounded; keep the cost bounded too
+    std::sort(pts.begin(), pts.end());
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t j = i + 1; j < pts.size() && pts[j].first - pts[i].first < best; ++j) {
+        const double d = std::hypot(pts[j].first - pts[i].first, pts[j].second - pts[i].second);
+        if (d > 0.0) best = std::min(best, d);
+      }
+      for (std::size_t j = i; j-- > 0 && pts[i].first - pts[j].first < best;) {
+        const double d = std::hypot(pts[j].first - pts[i].first, pts[j].second - pts[i].second);
+        if (d > 0.0) best = std::min(best, d);
+      }
+      if (std::isfinite(best)) nn.push_back(best);
+    }
+  }
+  if (nn.empty()) return h0;
+  return MedianOf(nn);
+}
+
+OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
+                            const std::vector<float>* intensity, const Eigen::Vector3d& origin,
+                            RegridOptions o, const Progress& progress) {
+  CheckInputs(points, intensity, o);
+  progress(0.0, "re-gridding");
+  const Polar p = ToPolar(points, origin, o.orientation);
+  if (p.az.empty()) {
+    throw Error(o.source + ": no finite point away from the sensor origin to re-grid (" +
+                std::to_string(points.size()) + " points)");
+  }
+  double step_deg = o.step_deg;
+  if (step_deg == 0.0) {
+    step_deg = EstimateAngularStepDeg(points, origin, o.orientation);
+    if (!(step_deg > 0.0)) {
+      throw Error(o.source + ": cannot estimate the angular grid step from " +
+                  std::to_string(p.az.size()) + " points; give one");
+    }
+  }
+  // Coarse sanity before building anything (the layout adjusts the step slightly).
+  const double el_step_deg = o.elevation_step_deg > 0.0 ? o.elevation_step_deg : step_deg;
+  const double el_min = *std::min_element(p.el.begin(), p.el.end());
+  const double el_max = *std::max_element(p.el.begin(), p.el.end());
+  CheckCells(static_cast<long long>((el_max - el_min) / (el_step_deg * kDeg)) + 2,
+             static_cast<long long>(360.0 / step_deg) + 1, o, step_deg);
+  progress(0.3, "re-gridding");
+
+  const double az_step = 2.0 * kPi / std::max(1.0, std::round(360.0 / step_deg));
+  PhaseAccumulator az_phase(az_step), el_phase(el_step_deg * kDeg);
+  for (std::size_t i = 0; i < p.az.size(); ++i) {
+    az_phase.Add(p.az[i]);
+    el_phase.Add(p.el[i]);
+  }
+  const double est = el_step_deg * kDeg;
+  const double eph = el_phase.Phase();
+  std::vector<long long> cells(p.az.size());
+  AzimuthLayout layout = MakeAzimuthLayout(az_step, az_phase.Phase());
+  for (std::size_t i = 0; i < p.az.size(); ++i) cells[i] = layout.Cell(p.az[i]);
+  ChooseColumns(layout, cells);
+  const long long m_max = std::llround((el_max - eph) / est);
+  const long long m_min = std::llround((el_min - eph) / est);
+  const long long rows = m_max - m_min + 1;
+  CheckCells(rows, layout.ncols, o, step_deg);
+
+  OrderedScan scan = OrderedScan::Empty(static_cast<int>(rows), layout.ncols);
+  scan.origin_m = origin;
+  scan.source = o.source;
+  scan.row_axis = "elevation bin (highest first), spherical re-grid";
+  scan.col_axis = "azimuth bin (decreasing azimuth left to right), spherical re-grid";
+  const Eigen::Matrix3d rot = o.orientation.normalized().toRotationMatrix();
+  for (int r = 0; r < scan.rows; ++r) {
+    const double el = eph + static_cast<double>(m_max - r) * est;
+    for (int c = 0; c < scan.cols; ++c)
+      scan.beam_dir[scan.index(r, c)] = Direction(rot, layout.Centre(c), el);
+  }
+  std::vector<std::int64_t> cell_of(p.az.size(), -1);
+  for (std::size_t i = 0; i < p.az.size(); ++i) {
+    const int col = layout.Column(cells[i]);
+    const long long row = m_max - std::llround((p.el[i] - eph) / est);
+    if (col < 0 || row < 0 || row >= rows) continue;
+    cell_of[i] = row * scan.cols + col;
+  }
+  progress(0.6, "re-gridding");
+  FillWinners(scan, points, intensity, p, cell_of);
+  progress(1.0, "re-gridding");
+  return scan;
+}
+
+OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::vector<int>& ring,
+                        const std::vector<float>* intensity, const Eigen::Vector3d& origin,
+                        RegridOptions o, const Progress& progress) {
+  CheckInputs(points, intensity, o);
+  if (ring.size() != points.size()) {
+    throw Error(o.source + ": " + std::to_string(ring.size()) + " ring values for " +
+                std::to_string(points.size()) + " points");
+  }
+  progress(0.0, "ordering rings");
+  const Polar p = ToPolar(points, origin, o.orientation);
+  if (p.az.empty()) {
+    throw Error(o.source + ": no finite point away from the sensor origin (" +
+                std::to_string(points.size()) + " points)");
+  }
+  // Rings: all distinct values; elevation = median over the ring's usable points.
+  std::map<int, int> ring_slot;
+  for (int r : ring) ring_slot.emplace(r, 0);
+  std::vector<int> ring_values;
+  for (auto& [value, slot] : ring_slot) {
+    slot = static_cast<int>(ring_values.size());
+    ring_values.push_back(value);
+  }
+  const std::size_t nr = ring_values.size();
+  std::vector<std::vector<double>> ring_el(nr), ring_az(nr);
+  std::vector<int> slot_of(p.az.size());
+  for (std::size_t i = 0; i < p.az.size(); ++i) {
+    const int s = ring_slot[ring[p.index[i]]];
+    slot_of[i] = s;
+    ring_el[s].push_back(p.el[i]);
+    ring_az[s].push_back(p.az[i]);
+  }
+  std::vector<double> elevation(nr, std::nan(""));
+  for (std::size_t s = 0; s < nr; ++s) {
+    if (!ring_el[s].empty()) elevation[s] = MedianOf(ring_el[s]);
+  }
+  // Row order: elevation descending; rings without points last, by ring value.
+  std::vector<int> order(nr);
+  for (std::size_t s = 0; s < nr; ++s) order[s] = static_cast<int>(s);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    const bool ha = !std::isnan(elevation[a]), hb = !std::isnan(elevation[b]);
+    if (ha != hb) return ha;
+    return ha && elevation[a] > elevation[b];
+  });
+  std::vector<int> row_of_slot(nr);
+  for (std::size_t r = 0; r < nr; ++r) row_of_slot[static_cast<std::size_t>(order[r])] = int(r);
+
+  // Azimuth step: given, or the median spacing of sorted azimuths within each ring.
+  double step = o.step_deg * kDeg;
+  if (step == 0.0) {
+    std::vector<double> gaps;
+    for (auto& az : ring_az) {
+      std::vector<double> a = az;
+      std::sort(a.begin(), a.end());
+      for (std::size_t i = 1; i < a.size(); ++i) {
+        const double g = a[i] - a[i - 1];
+        if (g > 1e-7) gaps.push_back(g);
+      }
+    }
+    if (gaps.empty()) {
+      throw Error(o.source +
+                  ": cannot estimate the azimuth step (no ring has two distinct "
+                  "azimuths); give one");
+    }
+    step = MedianOf(gaps);
+  }
+  const long long n_full = std::max(1LL, std::llround(2.0 * kPi / step));
+  step = 2.0 * kPi / static_cast<double>(n_full);
+  CheckCells(static_cast<long long>(nr), n_full, o, step / kDeg);
+  progress(0.3, "ordering rings");
+
+  // Per-ring phase; the grid phase is the mean over all points; each ring is shifted by less
+  // than half a step onto it.
+  PhaseAccumulator all(step);
+  std::vector<PhaseAccumulator> per_ring(nr, PhaseAccumulator(step));
+  for (std::size_t i = 0; i < p.az.size(); ++i) {
+    all.Add(p.az[i]);
+    per_ring[static_cast<std::size_t>(slot_of[i])].Add(p.az[i]);
+  }
+  AzimuthLayout layout = MakeAzimuthLayout(step, all.Phase());
+  std::vector<double> shift(nr, 0.0);
+  for (std::size_t s = 0; s < nr; ++s) {
+    if (!ring_az[s].empty()) shift[s] = WrapHalf(layout.phase - per_ring[s].Phase(), step);
+  }
+  std::vector<long long> cells(p.az.size());
+  for (std::size_t i = 0; i < p.az.size(); ++i) {
+    cells[i] = layout.Cell(p.az[i] + shift[static_cast<std::size_t>(slot_of[i])]);
+  }
+  ChooseColumns(layout, cells);
+
+  OrderedScan scan = OrderedScan::Empty(static_cast<int>(nr), layout.ncols);
+  scan.origin_m = origin;
+  scan.source = o.source;
+  scan.row_axis = "ring (laser), sorted by elevation, highest first";
+  scan.col_axis = "azimuth bin (decreasing azimuth left to right)";
+  const Eigen::Matrix3d rot = o.orientation.normalized().toRotationMatrix();
+  for (std::size_t s = 0; s < nr; ++s) {
+    if (std::isnan(elevation[s])) continue;
+    const int r = row_of_slot[s];
+    for (int c = 0; c < scan.cols; ++c) {
+      scan.beam_dir[scan.index(r, c)] = Direction(rot, layout.Centre(c) - shift[s], elevation[s]);
+    }
+  }
+  std::vector<std::int64_t> cell_of(p.az.size(), -1);
+  for (std::size_t i = 0; i < p.az.size(); ++i) {
+    const int col = layout.Column(cells[i]);
+    if (col < 0) continue;
+    cell_of[i] =
+        static_cast<std::int64_t>(row_of_slot[static_cast<std::size_t>(slot_of[i])]) * scan.cols +
+        col;
+  }
+  progress(0.6, "ordering rings");
+  FillWinners(scan, points, intensity, p, cell_of);
+  progress(1.0, "ordering rings");
+  return scan;
+}
+
+}  // namespace scancam

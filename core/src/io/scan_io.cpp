@@ -1,0 +1,61 @@
+// Dispatch of LoadScan to the format readers.
+#include "scancam/io/scan_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include "scancam/error.h"
+#include "scancam/io/mrpt_rawlog.h"
+#include "scancam/io/pcd.h"
+#include "scancam/io/ptx.h"
+#include "scancam/io/rotating_log.h"
+
+namespace scancam {
+
+std::string DetectScanFormat(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext == ".txt" || ext == ".rot") return "rotating";
+  if (ext == ".ptx") return "ptx";
+  if (ext == ".pcd") return "pcd";
+  if (ext == ".rawlog") return "rawlog";
+  throw FileError(path, "",
+                  "unknown scan format (extension '" + ext +
+                      "'); expected .txt/.rot (rotating), .ptx, .pcd or .rawlog, or give the "
+                      "format explicitly");
+}
+
+OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
+                     const Progress& progress) {
+  const std::string format = options.format == "auto" ? DetectScanFormat(path) : options.format;
+  OrderedScan scan;
+  if (format == "rotating") {
+    RotatingScanData data = ReadRotatingLog(path, progress);
+    if (options.has_offsets) {
+      data.dx_m = options.dx_m;
+      data.dz_m = options.dz_m;
+    }
+    scan = ToOrderedScan(data, path);
+  } else if (format == "ptx") {
+    scan = LoadPtx(path, options.ptx_scan_index, options.ptx_apply_pose, progress);
+  } else if (format == "pcd") {
+    PcdLoadOptions pcd;
+    pcd.mode = options.pcd_mode;
+    pcd.grid_step_deg = options.grid_step_deg;
+    scan = LoadPcd(path, pcd, progress);
+  } else if (format == "rawlog") {
+    scan = LoadMrptRawlog(path, options.rawlog_index, progress);
+  } else {
+    throw FileError(path, "",
+                    "unknown scan format '" + format +
+                        "' (expected auto, rotating, ptx, pcd or "
+                        "rawlog)");
+  }
+  scan.source = path;
+  CheckScan(scan, path);
+  return scan;
+}
+
+}  // namespace scancam

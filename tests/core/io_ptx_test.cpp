@@ -1,0 +1,242 @@
+// Leica PTX: grid order (CloudCompare's), several scans, pose, writer round trip, bad input.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+
+#include "scancam/error.h"
+#include "scancam/io/ptx.h"
+#include "scancam/io/scan_io.h"
+#include "test_util.h"
+
+namespace scancam {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+template <typename F>
+void ExpectError(F f, const std::vector<std::string>& parts) {
+  try {
+    f();
+    ADD_FAILURE() << "no error thrown; expected one containing '" << parts.front() << "'";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    for (const std::string& p : parts) {
+      EXPECT_NE(msg.find(p), std::string::npos) << "message '" << msg << "' lacks '" << p << "'";
+    }
+  }
+}
+
+const char* kHeader23 =
+    "2\n3\n"
+    "0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+    "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";
+
+// A synthetic terrestrial scan: PTX column r at azimuth az_r, PTX row c at elevation el_c.
+PtxScan MakeScan(int columns, int rows, unsigned seed, bool rgb) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> range(1.f, 40.f);
+  PtxScan s;
+  s.columns = columns;
+  s.rows = rows;
+  for (int r = 0; r < columns; ++r) {
+    const double az = 0.3 - 0.02 * r;
+    for (int c = 0; c < rows; ++c) {
+      const double el = -0.5 + 0.03 * c;
+      const bool hole = (r * rows + c) % 9 == 4;
+      const float rho = range(rng);
+      s.xyz.push_back(hole ? Eigen::Vector3f::Zero()
+                           : Eigen::Vector3f(float(rho * std::cos(el) * std::cos(az)),
+                                             float(rho * std::cos(el) * std::sin(az)),
+                                             float(rho * std::sin(el))));
+      s.intensity.push_back(static_cast<float>((r * 31 + c * 7) % 100) / 99.f);
+      if (rgb) {
+        s.rgb.push_back({static_cast<std::uint8_t>(r * 10), static_cast<std::uint8_t>(c * 5),
+                         static_cast<std::uint8_t>(200)});
+      }
+    }
+  }
+  return s;
+}
+
+TEST(Ptx, GridFollowsCloudComparesOrder) {
+  // 2 PTX columns of 3 rows: the file's k-th point is cell k = row * 3 + col, rows = columns.
+  const std::string path = test::TempDir() + "/grid.ptx";
+  test::WriteFile(path, std::string(kHeader23) +
+                            "1 0 0 0.1\n2 0 0 0.2\n0 0 0 0.3\n"
+                            "0 4 0 0.4\n0 5 0 0.5\n0 6 1 0.6\n");
+  const OrderedScan s = LoadScan(path);
+  ASSERT_EQ(s.rows, 2);  // first header number: PTX columns
+  ASSERT_EQ(s.cols, 3);  // second: PTX rows
+  EXPECT_EQ(s.valid_count(), 5u);
+  EXPECT_EQ(s.point_m[s.index(0, 1)], Eigen::Vector3f(2, 0, 0));
+  EXPECT_FALSE(s.valid(0, 2));  // "0 0 0"
+  EXPECT_EQ(s.point_m[s.index(1, 0)], Eigen::Vector3f(0, 4, 0));
+  EXPECT_EQ(s.point_m[s.index(1, 2)], Eigen::Vector3f(0, 6, 1));
+  EXPECT_FLOAT_EQ(s.range_m[s.index(1, 2)], std::sqrt(37.f));
+  EXPECT_FLOAT_EQ(s.intensity[s.index(1, 1)], 0.5f);
+  // The no-return cell (0, 2) takes its PTX column's azimuth (0) and its PTX row's
+  // elevation (atan2(1, 6)).
+  const Eigen::Vector3f b = s.beam_dir[s.index(0, 2)];
+  const double el = std::atan2(1.0, 6.0);
+  EXPECT_NEAR(b.x(), std::cos(el), 1e-6);
+  EXPECT_NEAR(b.y(), 0.0, 1e-6);
+  EXPECT_NEAR(b.z(), std::sin(el), 1e-6);
+}
+
+TEST(Ptx, RoundTripSeveralScansIsExact) {
+  const std::string path = test::TempDir() + "/multi.ptx";
+  std::vector<PtxScan> scans = {MakeScan(6, 5, 1, false), MakeScan(4, 7, 2, true),
+                                MakeScan(3, 3, 3, false)};
+  Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+  t.block<3, 3>(0, 0) =
+      Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -0.3, 1).normalized()).toRotationMatrix();
+  t.block<3, 1>(0, 3) = Eigen::Vector3d(12.5, -3.25, 1.125);
+  scans[1].transform = t;
+  scans[1].scanner_position = t.block<3, 1>(0, 3);
+  scans[1].scanner_axes = t.block<3, 3>(0, 0);
+  WritePtx(path, scans);
+  EXPECT_EQ(CountPtxScans(path), 3);
+  for (int i = 0; i < 3; ++i) {
+    const PtxScan r = ReadPtxScan(path, i);
+    EXPECT_EQ(r.columns, scans[i].columns);
+    EXPECT_EQ(r.rows, scans[i].rows);
+    EXPECT_EQ(r.xyz, scans[i].xyz);
+    EXPECT_EQ(r.intensity, scans[i].intensity);
+    EXPECT_EQ(r.rgb, scans[i].rgb);
+    EXPECT_EQ(r.transform, scans[i].transform);
+    EXPECT_EQ(r.scanner_position, scans[i].scanner_position);
+    EXPECT_EQ(r.scanner_axes, scans[i].scanner_axes);
+  }
+  // Scan selection through LoadScan.
+  ScanLoadOptions o;
+  o.ptx_scan_index = 1;
+  const OrderedScan s1 = LoadScan(path, o);
+  EXPECT_EQ(s1.rows, 4);
+  EXPECT_EQ(s1.cols, 7);
+  ExpectError(
+      [&] {
+        o.ptx_scan_index = 3;
+        LoadScan(path, o);
+      },
+      {"multi.ptx", "has only 3 scans"});
+}
+
+TEST(Ptx, PoseIsAppliedOnlyWhenAsked) {
+  const std::string path = test::TempDir() + "/pose.ptx";
+  PtxScan scan = MakeScan(5, 4, 7, false);
+  Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+  t.block<3, 3>(0, 0) = Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  t.block<3, 1>(0, 3) = Eigen::Vector3d(10, 20, 1);
+  scan.transform = t;
+  WritePtx(path, {scan});
+  const OrderedScan local = LoadPtx(path, 0, false);
+  const OrderedScan world = LoadPtx(path, 0, true);
+  EXPECT_EQ(local.origin_m, Eigen::Vector3d::Zero());
+  EXPECT_NEAR((world.origin_m - Eigen::Vector3d(10, 20, 1)).norm(), 0.0, 1e-12);
+  int checked = 0;
+  for (std::size_t k = 0; k < local.size(); ++k) {
+    // The beam directions of both frames are related by the rotation, also on no-return cells.
+    const Eigen::Vector3d b = t.block<3, 3>(0, 0) * local.beam_dir[k].cast<double>();
+    EXPECT_NEAR((world.beam_dir[k].cast<double>() - b).norm(), 0.0, 1e-6);
+    if (!local.valid(k)) continue;
+    const Eigen::Vector3f p = local.point_m[k];
+    // Rotation by 90 deg about z then translation: (x, y, z) -> (10 - y, 20 + x, 1 + z).
+    EXPECT_NEAR(world.point_m[k].x(), 10 - p.y(), 1e-4);
+    EXPECT_NEAR(world.point_m[k].y(), 20 + p.x(), 1e-4);
+    EXPECT_NEAR(world.point_m[k].z(), 1 + p.z(), 1e-4);
+    EXPECT_FLOAT_EQ(world.range_m[k], local.range_m[k]);
+    // Origin, point, direction and range agree in the world frame too.
+    const Eigen::Vector3d q =
+        world.origin_m + double(world.range_m[k]) * world.beam_dir[k].cast<double>();
+    EXPECT_NEAR((q - world.point_m[k].cast<double>()).norm(), 0.0, 1e-4);
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST(Ptx, NoReturnCellsGetTheirLineAndRowAngles) {
+  const std::string path = test::TempDir() + "/holes.ptx";
+  const PtxScan scan = MakeScan(6, 5, 4, false);
+  WritePtx(path, {scan});
+  const OrderedScan s = LoadScan(path);
+  int holes = 0;
+  for (int r = 0; r < s.rows; ++r) {
+    for (int c = 0; c < s.cols; ++c) {
+      if (s.valid(r, c)) continue;
+      ++holes;
+      const double az = 0.3 - 0.02 * r, el = -0.5 + 0.03 * c;
+      const Eigen::Vector3d expect(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
+                                   std::sin(el));
+      EXPECT_NEAR((s.beam_dir[s.index(r, c)].cast<double>() - expect).norm(), 0.0, 1e-5);
+    }
+  }
+  EXPECT_GT(holes, 0);
+}
+
+TEST(Ptx, OrderedScanRoundTripThroughPtx) {
+  const std::string path = test::TempDir() + "/os.ptx";
+  const PtxScan scan = MakeScan(4, 6, 5, false);
+  const OrderedScan a = PtxToOrderedScan(scan, false, "mem");
+  WritePtx(path, {PtxFromOrderedScan(a)});
+  const OrderedScan b = LoadScan(path);
+  ASSERT_EQ(a.rows, b.rows);
+  ASSERT_EQ(a.cols, b.cols);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    ASSERT_EQ(a.valid(k), b.valid(k));
+    if (a.valid(k)) {
+      EXPECT_EQ(a.point_m[k], b.point_m[k]);
+      EXPECT_EQ(a.range_m[k], b.range_m[k]);
+    }
+    EXPECT_EQ(a.intensity[k], b.intensity[k]);
+  }
+}
+
+TEST(Ptx, BadInputsNameFileLineAndProblem) {
+  const std::string dir = test::TempDir();
+  const std::string h = kHeader23;
+  struct Case {
+    std::string name, content;
+    std::vector<std::string> parts;
+  };
+  const std::vector<Case> cases = {
+      {"empty.ptx", "", {"empty.ptx", "empty file"}},
+      {"truncated.ptx", h + "1 0 0 0.1\n2 0 0 0.2\n", {"truncated.ptx:13", "after 2 of its 6"}},
+      {"header.ptx", "2\n3\n0 0 0\n1 0 0\n", {"header.ptx:5", "truncated"}},
+      {"count.ptx", "x\n3\n", {"count.ptx:1", "number of columns"}},
+      {"zero.ptx", "2\n0\n", {"zero.ptx:2", "number of rows"}},
+      {"axis.ptx", "2\n3\n0 0 0\n1 0\n", {"axis.ptx:4", "expected 3 numbers, found 2"}},
+      {"matrix.ptx",
+       "2\n3\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0 0\n0 1 0\n",
+       {"matrix.ptx:8", "expected 4 numbers"}},
+      {"nan.ptx", h + "1 0 0 0.1\nnan 0 0 0.2\n", {"nan.ptx:12", "x: expected a finite"}},
+      {"fields.ptx", h + "1 0 0 0.1\n1 0 0\n", {"fields.ptx:12", "found 3 fields"}},
+      {"fields0.ptx", h + "1 0 0\n", {"fields0.ptx:11", "4 or 7"}},
+      {"rgb.ptx", h + "1 0 0 0.1 1 2 300\n", {"rgb.ptx:11", "[0, 255]"}},
+      {"allzero.ptx",
+       h + "0 0 0 0\n0 0 0 0\n0 0 0 0\n0 0 0 0\n0 0 0 0\n0 0 0 0\n",
+       {"allzero.ptx", "no point with a return"}},
+      {"garbage.ptx",
+       std::string("2\n3\n\x89PNG\x00\x01\x02", 11),
+       {"garbage.ptx:byte 8", "binary"}},
+      {"huge.ptx", "100000000\n100000000\n", {"huge.ptx:2", "more than this reader accepts"}},
+  };
+  for (const Case& c : cases) {
+    const std::string path = dir + "/" + c.name;
+    test::WriteFile(path, c.content);
+    SCOPED_TRACE(c.name);
+    ExpectError([&] { LoadScan(path); }, c.parts);
+  }
+  ExpectError([&] { LoadScan(dir + "/missing.ptx"); }, {"missing.ptx", "cannot open"});
+  // A second scan that is broken is found when counting, and when reading past it.
+  const std::string two = dir + "/two.ptx";
+  test::WriteFile(two, h + "1 0 0 0.1\n2 0 0 0.2\n0 0 0 0.3\n0 4 0 0.4\n0 5 0 0.5\n0 6 1 0.6\n" +
+                           "2\n3\n0 0 0\n");
+  ExpectError([&] { CountPtxScans(two); }, {"two.ptx:20", "truncated"});
+  EXPECT_NO_THROW(LoadPtx(two, 0, false));
+  ExpectError([&] { LoadPtx(two, 1, false); }, {"two.ptx:20", "truncated"});
+}
+
+}  // namespace
+}  // namespace scancam
