@@ -1,11 +1,17 @@
 // qScanCam: everything that differs between CloudCompare 2.11 and 2.12+ in one place,
 // so that a later port touches only this file.
 //   2.11: core namespace CCLib, interface IIDs edf.rd.CloudCompare.*/3.1 and /1.4
+//         (declared by ccStdPluginInterface.h itself; the plugin only names its own IID)
 //   2.12+: CCCoreLib, cccorp.cloudcompare.*/1.5
+// Never define CC_GL_WINDOW_USE_QWINDOW: Debian's ccGLWindow derives from QOpenGLWidget.
 #pragma once
 
 #include <GenericProgressCallback.h>
+#include <ScalarField.h>
 
 namespace scancam_cc {
 namespace cclib = ::CCLib;  // 2.12+: ::CCCoreLib
+
+using GenericProgressCallback = cclib::GenericProgressCallback;
+using ScalarField = cclib::ScalarField;
 }  // namespace scancam_cc

@@ -1,37 +1,346 @@
 #include "qScanCam.h"
 
+#include <ccGBLSensor.h>
+#include <ccPickingHub.h>
 #include <ccPointCloud.h>
 
 #include <QAction>
+#include <QFileInfo>
 #include <QIcon>
+#include <QMainWindow>
+#include <QMessageBox>
+#include <QSettings>
 
 #include "cc_compat.h"
+#include "cc_progress.h"
+#include "commands.h"
+#include "scancam/colour/colourise.h"
+#include "scancam/error.h"
+#include "scancam/io/regrid.h"
+#include "ui/calibration_window.h"
+#include "ui/regrid_dialog.h"
+
+namespace {
+
+ccMainAppInterface::ConsoleMessageLevel ToCcLevel(int level) {
+  switch (level) {
+    case scancam::ui::CalibrationWindow::kError:
+      return ccMainAppInterface::ERR_CONSOLE_MESSAGE;
+    case scancam::ui::CalibrationWindow::kWarning:
+      return ccMainAppInterface::WRN_CONSOLE_MESSAGE;
+    default:
+      return ccMainAppInterface::STD_CONSOLE_MESSAGE;
+  }
+}
+
+ccPointCloud* SingleSelectedCloud(const ccHObject::Container& selected) {
+  if (selected.size() != 1 || !selected.front() || !selected.front()->isA(CC_TYPES::POINT_CLOUD))
+    return nullptr;
+  return static_cast<ccPointCloud*>(selected.front());
+}
+
+constexpr char kSettingsGroup[] = "qScanCam";
+
+}  // namespace
 
 qScanCam::qScanCam(QObject* parent)
     : QObject(parent), ccStdPluginInterface(":/CC/plugin/qScanCam/info.json") {}
 
+qScanCam::~qScanCam() {
+  // Never leave a dangling listener in CloudCompare's picking hub.
+  if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
+}
+
+template <typename F>
+void qScanCam::guarded(const QString& what, F&& f) {
+  // Nothing may escape into CloudCompare: a slot that throws would abort the host.
+  try {
+    f();
+  } catch (const scancam::Cancelled&) {
+    log(what + ": cancelled", scancam::ui::CalibrationWindow::kWarning);
+  } catch (const std::bad_alloc&) {
+    log(what + ": not enough memory", scancam::ui::CalibrationWindow::kError);
+  } catch (const std::exception& e) {
+    log(what + ": " + QString::fromStdString(e.what()), scancam::ui::CalibrationWindow::kError);
+  } catch (...) {
+    log(what + ": unknown error", scancam::ui::CalibrationWindow::kError);
+  }
+}
+
+void qScanCam::log(const QString& text, int level) {
+  if (window_) {
+    // The window shows it in its status line and forwards it to the console.
+    if (level == scancam::ui::CalibrationWindow::kError)
+      window_->reportError(text);
+    else
+      window_->reportInfo(text, level);
+  } else if (m_app) {
+    m_app->dispToConsole("[ScanCam] " + text, ToCcLevel(level));
+  }
+}
+
 void qScanCam::onNewSelection(const ccHObject::Container& selectedEntities) {
-  if (!calibrate_action_) return;
-  // Enabled when exactly one point cloud is selected.
-  calibrate_action_->setEnabled(selectedEntities.size() == 1 &&
-                                selectedEntities.front()->isA(CC_TYPES::POINT_CLOUD));
+  ccPointCloud* cloud = SingleSelectedCloud(selectedEntities);
+  if (calibrate_action_) calibrate_action_->setEnabled(cloud != nullptr);
+  if (restore_action_)
+    restore_action_->setEnabled(cloud != nullptr && scancam_cc::HasOriginalColours(*cloud));
 }
 
 QList<QAction*> qScanCam::getActions() {
   if (!calibrate_action_) {
     calibrate_action_ = new QAction(tr("Camera / scanner calibration..."), this);
-    calibrate_action_->setToolTip(getDescription());
+    calibrate_action_->setToolTip(
+        tr("Calibrate a camera against the selected scan from picked point pairs, and colour "
+           "the scan from the camera image"));
     calibrate_action_->setIcon(getIcon());
     calibrate_action_->setEnabled(false);
-    connect(calibrate_action_, &QAction::triggered, this, &qScanCam::openCalibration);
+    connect(calibrate_action_, &QAction::triggered, this,
+            [this] { guarded("Calibration window", [this] { openCalibration(); }); });
+    restore_action_ = new QAction(tr("Restore colours (ScanCam)"), this);
+    restore_action_->setToolTip(
+        tr("Put back the colours the selected cloud had before ScanCam coloured it"));
+    restore_action_->setIcon(QIcon(":/CC/plugin/qScanCam/icons/scancam_restore.svg"));
+    restore_action_->setEnabled(false);
+    connect(restore_action_, &QAction::triggered, this,
+            [this] { guarded("Restore colours", [this] { restoreSelected(); }); });
   }
-  return {calibrate_action_};
+  return {calibrate_action_, restore_action_};
 }
 
-void qScanCam::registerCommands(ccCommandLineInterface* /*cmd*/) {}
+void qScanCam::registerCommands(ccCommandLineInterface* cmd) { scancam_cc::RegisterCommands(cmd); }
+
+ccPointCloud* qScanCam::windowCloud() const {
+  if (!m_app || cloud_id_ == 0 || !m_app->dbRootObject()) return nullptr;
+  ccHObject* obj = m_app->dbRootObject()->find(cloud_id_);
+  return obj && obj->isA(CC_TYPES::POINT_CLOUD) ? static_cast<ccPointCloud*>(obj) : nullptr;
+}
+
+bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
+  QWidget* parent = m_app->getMainWindow();
+  if (scancam_cc::HasScanGrid(*cloud)) {
+    scancam_cc::RunWithCcProgress(
+        parent, tr("ScanCam: scan grid"),
+        [&](const scancam::Progress& p) { *out = scancam_cc::ScanFromGrid(*cloud, 0, p); });
+    if (cloud->gridCount() > 1)
+      log(QString("%1 has %2 scan grids: only the first is used")
+              .arg(cloud->getName())
+              .arg(cloud->gridCount()),
+          scancam::ui::CalibrationWindow::kWarning);
+    return true;
+  }
+  if (const ccGBLSensor* sensor = scancam_cc::FindGblSensor(*cloud)) {
+    const double step_deg = std::min(sensor->getYawStep(), sensor->getPitchStep()) * 180.0 / M_PI;
+    scancam_cc::RunWithCcProgress(
+        parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
+          *out = scancam_cc::ScanByRegridding(*cloud, scancam_cc::SensorPose(*sensor),
+                                              Eigen::Vector3d::Zero(),
+                                              step_deg > 0 ? step_deg : 0.0, p);
+        });
+    return true;
+  }
+  // No grid, no sensor: ask where the scanner was and how fine the grid should be.
+  std::vector<Eigen::Vector3f> pts(cloud->size());
+  for (unsigned i = 0; i < cloud->size(); ++i) {
+    const CCVector3* P = cloud->getPoint(i);
+    pts[i] = Eigen::Vector3f(P->x, P->y, P->z);
+  }
+  const double estimated = scancam::EstimateAngularStepDeg(pts, Eigen::Vector3d::Zero());
+  scancam::ui::RegridDialog dlg(cloud->getName(), estimated, parent);
+  if (dlg.exec() != QDialog::Accepted) return false;
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  if (dlg.useBoxCentre()) {
+    const CCVector3 c = cloud->getOwnBB().getCenter();
+    origin = Eigen::Vector3d(c.x, c.y, c.z);
+  }
+  const double step = dlg.stepDeg();
+  scancam_cc::RunWithCcProgress(
+      parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
+        *out = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(), origin, step, p);
+      });
+  return true;
+}
 
 void qScanCam::openCalibration() {
   if (!m_app) return;
-  m_app->dispToConsole("[ScanCam] the calibration window is not built yet",
-                       ccMainAppInterface::WRN_CONSOLE_MESSAGE);
+  ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
+  if (!cloud) {
+    log("select one point cloud first", scancam::ui::CalibrationWindow::kError);
+    return;
+  }
+  if (window_ && cloud->getUniqueID() == cloud_id_ && windowCloud() == cloud) {
+    window_->show();
+    window_->raise();
+    window_->activateWindow();
+    return;
+  }
+  if (window_) {
+    window_->close();  // its pairs are already saved; deleted later (WA_DeleteOnClose)
+    window_.clear();
+  }
+
+  scancam_cc::CloudScan cs;
+  if (!buildScan(cloud, &cs)) return;
+  cloud_scan_ = std::move(cs);
+  cloud_id_ = cloud->getUniqueID();
+  log(QString("%1: %2, %3 points%4")
+          .arg(cloud->getName(), cloud_scan_.description)
+          .arg(cloud->size())
+          .arg(cloud_scan_.points_not_in_grid > 0
+                   ? QString(" (%1 share a cell with a nearer point and will not be coloured; "
+                             "a smaller angular step avoids that)")
+                         .arg(cloud_scan_.points_not_in_grid)
+                   : QString()),
+      cloud_scan_.points_not_in_grid > 0 ? scancam::ui::CalibrationWindow::kWarning
+                                         : scancam::ui::CalibrationWindow::kInfo);
+
+  auto* w = new scancam::ui::CalibrationWindow(m_app->getMainWindow());
+  w->setWindowFlag(Qt::Window, true);
+  w->setErrorDialogsEnabled(false);  // CloudCompare's console pops up errors itself
+  w->setAttribute(Qt::WA_DeleteOnClose);
+  w->setWindowTitle(tr("ScanCam calibration: %1").arg(cloud->getName()));
+  w->setWindowIcon(getIcon());
+  QWidget* main_window = m_app->getMainWindow();
+  w->setProgressRunner([main_window](const QString& title,
+                                     const std::function<void(const scancam::Progress&)>& work) {
+    scancam_cc::RunWithCcProgress(main_window, title, work);
+  });
+  connect(w, &scancam::ui::CalibrationWindow::logMessage, this,
+          [this](const QString& text, int level) {
+            if (m_app) m_app->dispToConsole(text, ToCcLevel(level));
+          });
+  connect(w, &scancam::ui::CalibrationWindow::applyColoursRequested, this,
+          [this] { guarded("Apply colours", [this] { applyColours(); }); });
+  connect(w, &scancam::ui::CalibrationWindow::restoreColoursRequested, this,
+          [this] { guarded("Restore colours", [this] { restoreColours(); }); });
+  connect(w, &scancam::ui::CalibrationWindow::pick3dToggled, this,
+          [this](bool on) { guarded("Picking in the 3D view", [this, on] { setPicking(on); }); });
+  connect(w, &QObject::destroyed, this, [this] {
+    if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
+    picking_ = false;
+  });
+  window_ = w;
+  w->setPick3dAvailable(m_app->pickingHub() != nullptr);
+  w->setRestoreAvailable(scancam_cc::HasOriginalColours(*cloud));
+  w->show();
+  if (!w->setScan(cloud_scan_.scan, cloud->getName())) return;
+
+  // Start where the user left off (the image's pairs file is reloaded with it).
+  QSettings settings;
+  settings.beginGroup(kSettingsGroup);
+  const QString camera = settings.value("camera").toString();
+  const QString image = settings.value("image").toString();
+  const QString mask = settings.value("mask").toString();
+  if (!camera.isEmpty() && QFileInfo::exists(camera)) w->loadCamera(camera);
+  if (!image.isEmpty() && QFileInfo::exists(image)) w->loadImage(image);
+  if (!mask.isEmpty() && QFileInfo::exists(mask)) w->loadMask(mask);
+  // Remember the files for the next time.
+  connect(w, &scancam::ui::CalibrationWindow::inputsChanged, this, [w] {
+    QSettings s;
+    s.beginGroup(kSettingsGroup);
+    s.setValue("camera", w->cameraPath());
+    s.setValue("image", w->imagePath());
+    s.setValue("mask", w->maskPath());
+  });
+}
+
+void qScanCam::applyColours() {
+  if (!window_) return;
+  ccPointCloud* cloud = windowCloud();
+  if (!cloud) throw scancam::Error("the cloud of the calibration window is no longer loaded");
+  const QString problem = window_->colouringProblem();
+  if (!problem.isEmpty()) throw scancam::Error(problem.toStdString());
+  const scancam::colour::ColourView view = window_->colourView();
+  scancam::colour::ColouredScan coloured;
+  scancam_cc::RunWithCcProgress(
+      m_app->getMainWindow(), tr("ScanCam: colouring"), [&](const scancam::Progress& p) {
+        coloured = scancam::colour::Colourise(*cloud_scan_.scan, {view}, {}, p);
+      });
+  const scancam_cc::ApplyStats st = scancam_cc::ApplyColours(*cloud, cloud_scan_, coloured);
+  cloud->prepareDisplayForRefresh_recursive();
+  m_app->refreshAll();
+  m_app->updateUI();
+  window_->setRestoreAvailable(true);
+  if (restore_action_) restore_action_->setEnabled(true);
+  const QString msg =
+      QString("Coloured %1: %2 points from the image, %3 occluded, %4 out of view%5")
+          .arg(cloud->getName())
+          .arg(st.coloured_points)
+          .arg(st.occluded_points)
+          .arg(st.out_of_view_points)
+          .arg(st.points_without_cell
+                   ? QString(", %1 without a grid cell").arg(st.points_without_cell)
+                   : QString());
+  window_->reportInfo(msg + (st.stored_original
+                                 ? QString(" (original colours kept: Restore colours)")
+                                 : QString()));
+  for (const std::string& w : coloured.warnings)
+    window_->reportInfo(QString::fromStdString(w), scancam::ui::CalibrationWindow::kWarning);
+}
+
+void qScanCam::restoreColours() {
+  ccPointCloud* cloud = windowCloud();
+  if (!cloud) throw scancam::Error("the cloud of the calibration window is no longer loaded");
+  scancam_cc::RestoreColours(*cloud);
+  cloud->prepareDisplayForRefresh_recursive();
+  m_app->refreshAll();
+  m_app->updateUI();
+  if (window_) {
+    window_->setRestoreAvailable(false);
+    window_->reportInfo(QString("Restored the original colours of %1").arg(cloud->getName()));
+  }
+  if (restore_action_) restore_action_->setEnabled(false);
+}
+
+void qScanCam::restoreSelected() {
+  if (!m_app) return;
+  ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
+  if (!cloud) throw scancam::Error("select one point cloud first");
+  scancam_cc::RestoreColours(*cloud);
+  cloud->prepareDisplayForRefresh_recursive();
+  m_app->refreshAll();
+  m_app->updateUI();
+  if (restore_action_) restore_action_->setEnabled(false);
+  if (window_ && cloud->getUniqueID() == cloud_id_) window_->setRestoreAvailable(false);
+  log(QString("Restored the original colours of %1").arg(cloud->getName()),
+      scancam::ui::CalibrationWindow::kInfo);
+}
+
+void qScanCam::setPicking(bool on) {
+  ccPickingHub* hub = m_app ? m_app->pickingHub() : nullptr;
+  if (!hub) return;
+  if (on && !picking_) {
+    if (!hub->addListener(this, /*exclusive=*/false, /*autoStartPicking=*/true,
+                          ccGLWindow::POINT_PICKING)) {
+      if (window_) window_->setPick3dAvailable(true);  // unchecks the toggle
+      throw scancam::Error(
+          "CloudCompare's point picking is busy (another tool uses it): close that tool first");
+    }
+    picking_ = true;
+    log("pick a point of the cloud in the 3D view (it becomes the scan half of the pair)",
+        scancam::ui::CalibrationWindow::kInfo);
+  } else if (!on && picking_) {
+    hub->removeListener(this);
+    picking_ = false;
+  }
+}
+
+void qScanCam::onItemPicked(const PickedItem& pi) {
+  guarded("3D pick", [&] {
+    if (!window_) return;
+    ccPointCloud* cloud = windowCloud();
+    if (!cloud || pi.entity != cloud) {
+      window_->reportInfo("the picked point is not on the cloud of the calibration window",
+                          scancam::ui::CalibrationWindow::kWarning);
+      return;
+    }
+    if (pi.itemIndex >= cloud_scan_.point_to_cell.size()) return;
+    const int cell = cloud_scan_.point_to_cell[pi.itemIndex];
+    if (cell < 0) {
+      window_->reportInfo("the picked point has no cell in the scan grid: pick a neighbour",
+                          scancam::ui::CalibrationWindow::kWarning);
+      return;
+    }
+    const int cols = cloud_scan_.scan->cols;
+    window_->addScanPick(cell / cols, cell % cols);
+  });
 }

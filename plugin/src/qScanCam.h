@@ -1,30 +1,65 @@
 // qScanCam: the CloudCompare plugin class. A thin adapter: it turns the selected
 // cloud into a scancam::OrderedScan, opens the calibration window and writes the
 // results (colours, scalar fields) back into the cloud. All the work is in core/.
+//
+// Actions (Plugins > 3rd Party > ScanCam, and the plugin toolbar):
+//   "Camera / scanner calibration..."  one point cloud selected: opens the calibration window
+//                                      on its scan grid (or a re-gridding of it);
+//   "Restore colours (ScanCam)"        one cloud that ScanCam coloured: puts its original
+//                                      colours back.
+// Command-line keywords: commands.h.
 #pragma once
 
 #include <QObject>
 #include <QPointer>
+#include <memory>
 
+#include "ccPickingListener.h"
 #include "ccStdPluginInterface.h"
+#include "cloud_adapter.h"
 
 class QAction;
+class ccPointCloud;
 
-class qScanCam : public QObject, public ccStdPluginInterface {
+namespace scancam::ui {
+class CalibrationWindow;
+}
+
+class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingListener {
   Q_OBJECT
   Q_INTERFACES(ccStdPluginInterface)
   Q_PLUGIN_METADATA(IID "cccorp.cloudcompare.plugin.qScanCam" FILE "../info.json")
 
  public:
   explicit qScanCam(QObject* parent = nullptr);
-  ~qScanCam() override = default;
+  ~qScanCam() override;
 
   void onNewSelection(const ccHObject::Container& selectedEntities) override;
   QList<QAction*> getActions() override;
   void registerCommands(ccCommandLineInterface* cmd) override;
 
+  // ccPickingListener: a point picked in the 3D view while "Pick in 3D view" is on.
+  void onItemPicked(const PickedItem& pi) override;
+
  private:
   void openCalibration();
+  void applyColours();
+  void restoreColours();
+  void restoreSelected();
+  void setPicking(bool on);
+  void log(const QString& text, int level);
+  /// The cloud the window works on, looked up by its unique ID (null when it was deleted).
+  ccPointCloud* windowCloud() const;
+  /// Builds the scan of `cloud` (its grid, its sensor's re-gridding, or asks the user).
+  /// Returns false when the user cancels.
+  bool buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out);
+  template <typename F>
+  void guarded(const QString& what, F&& f);
 
   QAction* calibrate_action_ = nullptr;
+  QAction* restore_action_ = nullptr;
+  QPointer<scancam::ui::CalibrationWindow> window_;
+  unsigned cloud_id_ = 0;
+  scancam_cc::CloudScan cloud_scan_;
+  bool picking_ = false;
 };

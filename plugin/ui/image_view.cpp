@@ -6,8 +6,10 @@
 #include <QGraphicsScene>
 #include <QGraphicsSimpleTextItem>
 #include <QMouseEvent>
+#include <QPainter>
 #include <QScrollBar>
 #include <QWheelEvent>
+#include <algorithm>
 #include <cmath>
 
 namespace scancam::ui {
@@ -15,6 +17,41 @@ namespace scancam::ui {
 namespace {
 // A press that moves less than this (widget px) is a click, not a pan.
 constexpr int kClickSlopPx = 4;
+
+// Many small dots in one item: one QGraphicsItem per dot is far too slow for the tens of
+// thousands of reprojected edge points of a real scan. Dots are 2 screen pixels whatever
+// the zoom (cosmetic pen), centred on the OpenCV pixel centres.
+class OverlayPointsItem : public QGraphicsItem {
+ public:
+  OverlayPointsItem(const QVector<QPointF>& px, const QColor& colour) : colour_(colour) {
+    points_.reserve(px.size());
+    for (const QPointF& p : px) points_.push_back(p + QPointF(0.5, 0.5));
+    if (!points_.isEmpty()) {
+      double x0 = points_[0].x(), x1 = x0, y0 = points_[0].y(), y1 = y0;
+      for (const QPointF& p : points_) {
+        x0 = std::min(x0, p.x());
+        x1 = std::max(x1, p.x());
+        y0 = std::min(y0, p.y());
+        y1 = std::max(y1, p.y());
+      }
+      bounds_ = QRectF(x0 - 2, y0 - 2, x1 - x0 + 4, y1 - y0 + 4);
+    }
+  }
+  QRectF boundingRect() const override { return bounds_; }
+  void paint(QPainter* painter, const QStyleOptionGraphicsItem*, QWidget*) override {
+    QPen pen(colour_);
+    pen.setCosmetic(true);
+    pen.setWidthF(2.5);
+    pen.setCapStyle(Qt::RoundCap);
+    painter->setPen(pen);
+    painter->drawPoints(points_.constData(), points_.size());
+  }
+
+ private:
+  QVector<QPointF> points_;
+  QColor colour_;
+  QRectF bounds_;
+};
 }  // namespace
 
 ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
@@ -50,6 +87,25 @@ void ImageView::fitImage() {
   rebuildMarkers();
 }
 
+void ImageView::setPlaceholderText(const QString& text) {
+  placeholder_ = text;
+  viewport()->update();
+}
+
+void ImageView::drawForeground(QPainter* painter, const QRectF& rect) {
+  QGraphicsView::drawForeground(painter, rect);
+  if (!image_.isNull() || placeholder_.isEmpty()) return;
+  painter->save();
+  painter->resetTransform();  // draw in viewport pixels
+  painter->setPen(QColor(200, 200, 200));
+  QFont f = painter->font();
+  f.setPointSizeF(f.pointSizeF() * 1.2);
+  painter->setFont(f);
+  painter->drawText(viewport()->rect().adjusted(20, 20, -20, -20),
+                    Qt::AlignCenter | Qt::TextWordWrap, placeholder_);
+  painter->restore();
+}
+
 double ImageView::zoom() const { return transform().m11(); }
 
 // Scene coordinates put the top-left pixel's square at [0,1)^2, so its centre is
@@ -72,15 +128,10 @@ void ImageView::setOverlayPoints(const QVector<QPointF>& px, const QColor& colou
     overlay_group_->removeFromGroup(item);
     delete item;
   }
-  const double r = 0.6;
-  QPen pen(Qt::NoPen);
-  QBrush brush(colour);
-  for (const QPointF& p : px) {
-    auto* dot = new QGraphicsEllipseItem(p.x() + 0.5 - r, p.y() + 0.5 - r, 2 * r, 2 * r);
-    dot->setPen(pen);
-    dot->setBrush(brush);
-    overlay_group_->addToGroup(dot);
-  }
+  overlay_count_ = px.size();
+  if (px.isEmpty()) return;
+  auto* dots = new OverlayPointsItem(px, colour);
+  overlay_group_->addToGroup(dots);
 }
 
 void ImageView::rebuildMarkers() {

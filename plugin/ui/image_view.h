@@ -10,6 +10,7 @@
 #include <QGraphicsView>
 #include <QImage>
 #include <QPointF>
+#include <QString>
 #include <QVector>
 
 class QGraphicsPixmapItem;
@@ -37,8 +38,12 @@ class ImageView : public QGraphicsView {
   void setMarkers(const QVector<Marker>& markers);
   /// Small dots drawn over the image (e.g. reprojected laser edge points).
   void setOverlayPoints(const QVector<QPointF>& px, const QColor& colour);
+  int overlayPointCount() const { return overlay_count_; }
+  const QVector<Marker>& markers() const { return markers_; }
   /// Zoom so the whole image is visible.
   void fitImage();
+  /// Text shown in the middle of the view while it has no image (e.g. what to open).
+  void setPlaceholderText(const QString& text);
   /// Current zoom (view pixels per image pixel).
   double zoom() const;
   /// Maps between widget positions and image pixels (OpenCV convention).
@@ -53,6 +58,7 @@ class ImageView : public QGraphicsView {
   void mousePressEvent(QMouseEvent* event) override;
   void mouseMoveEvent(QMouseEvent* event) override;
   void mouseReleaseEvent(QMouseEvent* event) override;
+  void drawForeground(QPainter* painter, const QRectF& rect) override;
 
  private:
   void rebuildMarkers();
@@ -62,6 +68,8 @@ class ImageView : public QGraphicsView {
   QGraphicsItemGroup* marker_group_ = nullptr;
   QGraphicsItemGroup* overlay_group_ = nullptr;
   QVector<Marker> markers_;
+  int overlay_count_ = 0;
+  QString placeholder_;
   bool fitted_ = false;
   bool dragging_ = false;
   QPoint press_pos_;

@@ -1,0 +1,264 @@
+// Colouring 10 M scan points from a 4000 x 3000 image, occlusion included, against the plain
+// OpenCV way (cv::projectPoints + bilinear sampling with cv::remap, no occlusion).
+//
+// Scene: a single-origin scanner on a regular angular grid of 2500 rows (elevation +32 ..
+// -32 deg) x 4000 columns (azimuth +40 .. -40 deg) = 10,000,000 cells, looking into a room
+// (back wall 8 m, side walls, floor, ceiling) with a pole, a sphere and a box in front of
+// the walls (real occlusion: about 5 % of the in-view points are hidden from the camera), 1 %
+// random dropouts. Camera: pinhole 4000 x 3000, f = 2800 px, k1 = -0.1, k2 = 0.05, 10 cm
+// beside and 5 cm below the scanner, looking along the scanner's x axis; about 78 % of the
+// points project into the image (the grid is a little wider than the field of view), at
+// about 1.1 px spacing. The image is random texture (content does not change the cost).
+//
+// Benchmarks (real time; items = 10 M cells per iteration, so items_per_second = points/s):
+//   colourise/omp           Colourise() with the defaults (z-buffer, quality), all cores
+//   colourise/1thread       the same on one thread
+//   colourise_no_quality    without the per-point quality (ColourOptions::compute_quality)
+//   colourise_no_occlusion  Colourise() without the z-buffer (ColourOptions::occlusion)
+//   opencv_baseline         cv::projectPoints of the same points (pinhole, same K and
+//                           distortion) + cv::remap (bilinear) of the image at the projections,
+//                           no occlusion, no validity states
+// Counters: peak_MiB = peak resident memory during the benchmark, input_MiB = bytes of the
+// scan (OrderedScan: range, point, beam direction) + the image, peak_ratio = peak / input
+// (the goal is < 1.3; the process's code and libraries count in the peak), extra_MiB = peak
+// minus the resident size at the start of the benchmark.
+// After the runs a table gives points/s, the ratio to the OpenCV baseline and peak memory.
+#include <benchmark/benchmark.h>
+#include <omp.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "peak_memory.h"
+#include "scancam/colour/colourise.h"
+
+namespace {
+
+using scancam::OrderedScan;
+namespace sc = scancam::colour;
+
+constexpr int kRows = 2500, kCols = 4000;
+constexpr int kW = 4000, kH = 3000;
+constexpr double kFocal = 2800.0;
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+double Sphere(const Eigen::Vector3d& b, const Eigen::Vector3d& c, double radius) {
+  const double bc = b.dot(c), disc = bc * bc - c.squaredNorm() + radius * radius;
+  if (disc < 0) return INFINITY;
+  const double t = bc - std::sqrt(disc);
+  return t > 0 ? t : INFINITY;
+}
+
+// Scanner frame: x forward, y left, z up. Distance to the first surface along unit beam b.
+double CastRay(const Eigen::Vector3d& b) {
+  double t = INFINITY;
+  const double lo[3] = {-10, -4, -1.5}, hi[3] = {8, 4, 2.0};
+  for (int k = 0; k < 3; ++k) {
+    if (b[k] > 1e-12) t = std::min(t, hi[k] / b[k]);
+    if (b[k] < -1e-12) t = std::min(t, lo[k] / b[k]);
+  }
+  t = std::min(t, Sphere(b, {4.0, -1.2, -0.3}, 0.6));
+  // vertical pole, radius 0.15 m, axis through (3, 0.6)
+  {
+    const double ox = -3.0, oy = -0.6;
+    const double a = b.x() * b.x() + b.y() * b.y(), bb = 2 * (ox * b.x() + oy * b.y()),
+                 c = ox * ox + oy * oy - 0.15 * 0.15;
+    const double disc = bb * bb - 4 * a * c;
+    if (a > 1e-12 && disc > 0) {
+      const double tc = (-bb - std::sqrt(disc)) / (2 * a);
+      if (tc > 0) t = std::min(t, tc);
+    }
+  }
+  // box (front face x = 5, 1.2 < y < 2.2, -1.5 < z < -0.3)
+  if (b.x() > 1e-12) {
+    const double tb = 5.0 / b.x();
+    const Eigen::Vector3d p = tb * b;
+    if (p.y() > 1.2 && p.y() < 2.2 && p.z() > -1.5 && p.z() < -0.3) t = std::min(t, tb);
+  }
+  return t;
+}
+
+struct Data {
+  OrderedScan scan;
+  sc::ColourView view;
+  cv::Mat K, dist, rvec, tvec;
+  double input_mib = 0.0;
+};
+
+const Data& GetData() {
+  static const Data data = [] {
+    Data d;
+    d.scan = OrderedScan::Empty(kRows, kCols);
+    d.scan.source = "synthetic room (colour bench)";
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<float> drop(static_cast<std::size_t>(kRows) * kCols);
+    for (auto& v : drop) v = static_cast<float>(u(rng));
+#pragma omp parallel for schedule(dynamic, 16)
+    for (int r = 0; r < kRows; ++r) {
+      for (int c = 0; c < kCols; ++c) {
+        const double e = (32.0 - 64.0 * r / (kRows - 1)) * kDeg;
+        const double a = (40.0 - 80.0 * c / (kCols - 1)) * kDeg;
+        const Eigen::Vector3d b(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+        const std::size_t i = d.scan.index(r, c);
+        d.scan.beam_dir[i] = b.cast<float>();
+        if (drop[i] < 0.01f) continue;
+        const double t = CastRay(b);
+        d.scan.range_m[i] = static_cast<float>(t);
+        d.scan.point_m[i] = (t * b).cast<float>();
+      }
+    }
+    // Camera: x_cam = -y_scan, y_cam = -z_scan, z_cam = x_scan; centre at (0, -0.1, -0.05).
+    Eigen::Matrix3d R;
+    R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
+    const Eigen::Vector3d centre(0.0, -0.1, -0.05);
+    d.view.T_cam_scan.setIdentity();
+    d.view.T_cam_scan.linear() = R;
+    d.view.T_cam_scan.translation() = -R * centre;
+    d.view.camera = scancam::CameraModel::Pinhole(kFocal, kFocal, (kW - 1) / 2.0, (kH - 1) / 2.0,
+                                                  {-0.1, 0.05, 0.0, 0.0, 0.0}, kW, kH, "bench");
+    d.view.image.create(kH, kW, CV_8UC3);
+    cv::randu(d.view.image, cv::Scalar::all(0), cv::Scalar::all(255));
+    d.view.name = "bench image";
+    d.K = (cv::Mat_<double>(3, 3) << kFocal, 0, (kW - 1) / 2.0, 0, kFocal, (kH - 1) / 2.0, 0, 0, 1);
+    d.dist = (cv::Mat_<double>(1, 5) << -0.1, 0.05, 0.0, 0.0, 0.0);
+    cv::Mat Rm(3, 3, CV_64F);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) Rm.at<double>(i, j) = R(i, j);
+    cv::Rodrigues(Rm, d.rvec);
+    const Eigen::Vector3d t = d.view.T_cam_scan.translation();
+    d.tvec = (cv::Mat_<double>(3, 1) << t.x(), t.y(), t.z());
+    const double n = double(kRows) * kCols;
+    d.input_mib = (n * (4 + 12 + 12) + double(kW) * kH * 3) / (1024.0 * 1024.0);
+    return d;
+  }();
+  return data;
+}
+
+struct ThreadScope {
+  int saved;
+  explicit ThreadScope(int n) : saved(omp_get_max_threads()) {
+    if (n > 0) omp_set_num_threads(n);
+  }
+  ~ThreadScope() { omp_set_num_threads(saved); }
+};
+
+std::map<std::string, double> g_points_per_s, g_peak_mib;
+
+void Finish(benchmark::State& state, double rss_start, const std::string& key) {
+  const Data& d = GetData();
+  const double peak = scancam::bench::PeakRssMiB();
+  state.counters["peak_MiB"] = peak;
+  state.counters["input_MiB"] = d.input_mib;
+  state.counters["peak_ratio"] = peak / d.input_mib;
+  state.counters["extra_MiB"] = peak - rss_start;
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * kRows * kCols);
+  g_peak_mib[key] = std::max(g_peak_mib[key], peak);
+}
+
+void BM_Colourise(benchmark::State& state, int threads, bool occlusion, bool quality,
+                  const std::string& key) {
+  const Data& d = GetData();
+  ThreadScope ts(threads);
+  sc::ColourOptions o;
+  o.occlusion = occlusion;
+  o.compute_quality = quality;
+  const std::vector<sc::ColourView> views = {d.view};
+  scancam::bench::ResetPeakRss();
+  const double rss = scancam::bench::CurrentRssMiB();
+  std::size_t coloured = 0;
+  for (auto _ : state) {
+    const sc::ColouredScan out = sc::Colourise(d.scan, views, o);
+    coloured = out.coloured;
+    benchmark::DoNotOptimize(out.rgb.data());
+  }
+  state.counters["coloured"] = static_cast<double>(coloured);
+  Finish(state, rss, key);
+}
+
+void BM_OpenCv(benchmark::State& state, const std::string& key) {
+  const Data& d = GetData();
+  scancam::bench::ResetPeakRss();
+  const double rss = scancam::bench::CurrentRssMiB();
+  // The scan's points are contiguous float triples: a view, no copy.
+  const cv::Mat pts(kRows * kCols, 1, CV_32FC3,
+                    const_cast<Eigen::Vector3f*>(d.scan.point_m.data()));
+  for (auto _ : state) {
+    cv::Mat uv;
+    cv::projectPoints(pts, d.rvec, d.tvec, d.K, d.dist, uv);
+    cv::Mat map = uv.reshape(2, kRows);  // rows x cols, CV_32FC2
+    cv::Mat colours;
+    cv::remap(d.view.image, colours, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+    benchmark::DoNotOptimize(colours.data);
+  }
+  Finish(state, rss, key);
+}
+
+class Reporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& r : runs) {
+      if (r.run_type != Run::RT_Iteration || r.error_occurred) continue;
+      auto it = r.counters.find("items_per_second");
+      std::string key = r.benchmark_name();
+      if (key.rfind("/real_time") != std::string::npos)
+        key = key.substr(0, key.rfind("/real_time"));
+      if (it != r.counters.end())
+        g_points_per_s[key] = std::max(g_points_per_s[key], double(it->second));
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  GetData();  // build the scene before timing
+  benchmark::RegisterBenchmark("colourise/omp", BM_Colourise, 0, true, true, "colourise/omp")
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("colourise/1thread", BM_Colourise, 1, true, true,
+                               "colourise/1thread")
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("colourise_no_quality/omp", BM_Colourise, 0, true, false,
+                               "colourise_no_quality/omp")
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("colourise_no_occlusion/omp", BM_Colourise, 0, false, true,
+                               "colourise_no_occlusion/omp")
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("opencv_baseline", BM_OpenCv, "opencv_baseline")
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  Reporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+
+  const auto bit = g_points_per_s.find("opencv_baseline");
+  const double base = bit == g_points_per_s.end() ? 0.0 : bit->second;
+  const double input = GetData().input_mib;
+  std::printf("\n%-28s %14s %12s %10s %8s\n", "benchmark", "Mpoints/s", "x OpenCV", "peak MiB",
+              "/input");
+  for (const auto& [key, pps] : g_points_per_s) {
+    const double peak = g_peak_mib[key];
+    std::printf("%-28s %14.1f %12.2f %10.0f %8.2f\n", key.c_str(), pps / 1e6,
+                base > 0 ? pps / base : 0.0, peak, peak / input);
+  }
+  std::printf(
+      "input (scan + image): %.0f MiB; goals: >= 50 Mpoints/s (colourise/omp), peak "
+      "< 1.3 x input; %d OpenMP threads\n",
+      input, omp_get_max_threads());
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,266 @@
+// scancam ba: Bearing-Angle images (paper Sec. III, eq. 4) of a scan, written as exact float
+// TIFFs and PNG views.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "command.h"
+#include "scancam/ba_image.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/scan_io.h"
+
+namespace scancam::cli {
+namespace {
+
+GridStep ParseStep(const std::string& text) {
+  const auto comma = text.find(',');
+  const auto bad = [&] {
+    return Error("option --step: '" + text + "' is not DROW,DCOL (two whole numbers, e.g. 2,-1)");
+  };
+  if (comma == std::string::npos) throw bad();
+  GridStep s;
+  try {
+    std::size_t u1 = 0, u2 = 0;
+    const std::string a = text.substr(0, comma), b = text.substr(comma + 1);
+    s.drow = std::stoi(a, &u1);
+    s.dcol = std::stoi(b, &u2);
+    if (u1 != a.size() || u2 != b.size()) throw bad();
+  } catch (const std::logic_error&) {
+    throw bad();
+  }
+  if (s.drow == 0 && s.dcol == 0) throw Error("option --step: 0,0 is not a trace");
+  return s;
+}
+
+double ValidFraction(const cv::Mat& image) {
+  if (image.empty()) return 0.0;
+  std::size_t n = 0;
+  for (int r = 0; r < image.rows; ++r) {
+    const float* p = image.ptr<float>(r);
+    for (int c = 0; c < image.cols; ++c) n += std::isfinite(p[c]) ? 1 : 0;
+  }
+  return double(n) / double(image.total());
+}
+
+std::string Percent(double f) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", 100.0 * f);
+  return buf;
+}
+
+struct Writer {
+  std::filesystem::path dir;
+  std::string colormap;  // grey | jet | both
+  ViewOptions view;      // percentiles or fixed range; colormap set per file
+  std::vector<std::string> written;
+
+  void Png(const std::string& name, const cv::Mat& image) {
+    const bool grey = colormap != "jet";
+    ViewOptions o = view;
+    o.colormap = grey ? Colormap::kGrey : Colormap::kJet;
+    Write(name + ".png", [&](const std::string& p) { WritePng(p, MakeView(image, o)); });
+    if (colormap == "both") {
+      o.colormap = Colormap::kJet;
+      Write(name + "_jet.png", [&](const std::string& p) { WritePng(p, MakeView(image, o)); });
+    }
+  }
+  void Image(const std::string& name, const cv::Mat& image) {
+    Write(name + ".tiff", [&](const std::string& p) { WriteFloatTiff(p, image); });
+    Png(name, image);
+  }
+  template <typename F>
+  void Write(const std::string& file, F f) {
+    const std::string p = (dir / file).string();
+    f(p);
+    written.push_back(file);
+  }
+};
+
+int RunBa(const Args& args) {
+  if (args.positional().size() != 1)
+    throw Error("expected exactly one SCAN file, got " + std::to_string(args.positional().size()) +
+                " (see --help)");
+  const std::string path = args.positional()[0];
+  const bool quiet = args.has("--quiet");
+
+  ScanLoadOptions load;
+  load.format = args.get("--format", load.format);
+  if (args.has("--dx-m") || args.has("--dz-m")) {
+    load.has_offsets = true;
+    load.dx_m = args.get_double("--dx-m", 0.0);
+    load.dz_m = args.get_double("--dz-m", 0.0);
+  }
+  load.ptx_scan_index = args.get_int("--ptx-scan", load.ptx_scan_index);
+  load.ptx_apply_pose = args.has("--ptx-apply-pose");
+  load.pcd_mode = args.get("--pcd-mode", load.pcd_mode);
+  load.grid_step_deg = args.get_double("--grid-step-deg", load.grid_step_deg);
+  load.rawlog_index = args.get_int("--rawlog-index", load.rawlog_index);
+
+  std::vector<GridStep> extra;
+  for (const auto& s : args.all("--step")) extra.push_back(ParseStep(s));
+  Writer out;
+  out.colormap = args.get("--colormap", "grey");
+  if (out.colormap != "grey" && out.colormap != "jet" && out.colormap != "both")
+    throw Error("option --colormap: '" + out.colormap + "' is not grey, jet or both");
+  if (args.has("--fixed-range")) {
+    out.view.fixed_range = true;
+    out.view.low = 0.0;
+    out.view.high = 3.14159265358979323846;
+  }
+  const bool edges = args.has("--edges");
+  const double edge_percentile = args.get_double("--edge-percentile", 90.0);
+  if (!(edge_percentile >= 0.0 && edge_percentile <= 100.0))
+    throw Error("option --edge-percentile: " + args.get("--edge-percentile") +
+                " is not in [0, 100]");
+
+  out.dir = args.required("--out");
+  std::error_code ec;
+  std::filesystem::create_directories(out.dir, ec);
+  if (!std::filesystem::is_directory(out.dir))
+    throw FileError(
+        out.dir.string(), "",
+        "cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
+
+  const Progress progress(StderrProgress(quiet));
+  const OrderedScan scan = LoadScan(path, load, progress);
+
+  // BA images: the four traces in one pass, then the extra steps.
+  std::vector<std::pair<std::string, cv::Mat>> images;
+  const auto four = ComputeBearingAngleAll(scan, progress);
+  for (std::size_t t = 0; t < 4; ++t)
+    images.emplace_back("ba_" + TraceName(kAllBaTraces[t]), four[t]);
+  for (const GridStep& s : extra) {
+    images.emplace_back("ba_step_" + std::to_string(s.drow) + "_" + std::to_string(s.dcol),
+                        ComputeBearingAngle(scan, s, progress));
+  }
+
+  const std::size_t total = images.size() + 1;
+  std::size_t done = 0;
+  for (const auto& [name, ba] : images) {
+    out.Image(name, ba);
+    if (edges) {
+      const cv::Mat e = SobelEdges(ba);
+      ViewOptions keep = out.view;
+      out.view.fixed_range = false;  // radians per cell: always stretched
+      out.Image(name + "_edges", e);
+      out.view = keep;
+      out.Write(name + "_edgemask.png",
+                [&](const std::string& p) { WritePng(p, EdgeMask(e, edge_percentile)); });
+    }
+    progress(double(++done) / double(total), "writing");
+  }
+  {
+    ViewOptions keep = out.view;
+    out.view.fixed_range = false;  // metres: always stretched
+    out.Image("range", RangeImage(scan));
+    out.view = keep;
+    progress(1.0, "writing");
+  }
+
+  if (!quiet) {
+    std::cout << "scan:   " << path << "\n"
+              << "grid:   " << scan.rows << " rows x " << scan.cols << " cols"
+              << " (rows: " << (scan.row_axis.empty() ? "?" : scan.row_axis)
+              << "; cols: " << (scan.col_axis.empty() ? "?" : scan.col_axis) << ")\n"
+              << "valid:  " << Percent(scan.valid_fraction()) << " of " << scan.size()
+              << " cells\n";
+    for (const auto& [name, ba] : images)
+      std::cout << "        " << name << ": " << Percent(ValidFraction(ba)) << " with a BA\n";
+    std::cout << "wrote " << out.written.size() << " files to " << out.dir.string() << ":\n";
+    for (const auto& f : out.written) std::cout << "  " << f << "\n";
+  }
+  return 0;
+}
+
+Command MakeBaCommand() {
+  Command c;
+  c.name = "ba";
+  c.summary = "Bearing-Angle images of a scan (TIFF + PNG), for picking correspondences";
+  c.usage = "scancam ba SCAN --out DIR [options]";
+  c.description =
+      "Loads SCAN (rotating 2D scanner log .txt/.rot, Leica .ptx, .pcd or MRPT .rawlog) as an\n"
+      "ordered grid and writes its Bearing-Angle (BA) images (paper eq. 4, corrected):\n"
+      "  BA_i = arccos((rho_i - rho_{i-1} cos dphi) /\n"
+      "                sqrt(rho_i^2 + rho_{i-1}^2 - 2 rho_i rho_{i-1} cos dphi)),\n"
+      "the angle at the point P_i between the beam back to the sensor and the segment to the\n"
+      "previous cell's point P_{i-1} along a trace; rho = ranges (m), dphi = angle between the\n"
+      "two beams. BA shows surface orientation: corners, kerbs, poles and depth edges stand out\n"
+      "where the range image is flat.\n"
+      "\n"
+      "Grid: image row r, column c = cell (r, c) of the scan grid. What rows and columns are\n"
+      "depends on the format and is printed (e.g. pcd ring mode: rows = lidar rings, highest\n"
+      "elevation on top, columns = azimuth; ptx: rows = PTX columns (scan lines), as in\n"
+      "CloudCompare; rotating scanner: rows = scan planes, columns = beams).\n"
+      "\n"
+      "Traces (previous cell of (r, c)):\n"
+      "  ba_horizontal  (r, c-1)    ba_vertical  (r-1, c)\n"
+      "  ba_diag_pos    (r+1, c-1)  (+45 deg, up-right)   ba_diag_neg  (r-1, c-1)  (-45 deg)\n"
+      "  --step DROW,DCOL adds ba_step_DROW_DCOL with previous cell (r-DROW, c-DCOL).\n"
+      "\n"
+      "Files in DIR, for each image NAME (ba_horizontal, ba_vertical, ba_diag_pos, ba_diag_neg,\n"
+      "the extra steps, and range):\n"
+      "  NAME.tiff      exact 32-bit float TIFF: BA in radians in [0, pi], range in metres;\n"
+      "                 NaN where there is no value (cell or previous cell without a return, or\n"
+      "                 previous cell outside the grid: first column/row of a trace; never 0).\n"
+      "  NAME.png       8-bit view (--colormap), contrast-stretched between the 1st and 99th\n"
+      "                 percentiles of the valid values (or [0, pi] with --fixed-range); cells\n"
+      "                 without a value are magenta.\n"
+      "  NAME_jet.png   the jet view too, with --colormap both.\n"
+      "  with --edges:  NAME_edges.tiff/.png, the Sobel gradient magnitude of each BA image\n"
+      "                 (radians per cell; holes do not make edges, NaN next to them), and\n"
+      "                 NAME_edgemask.png (white = edge cell: strongest (100 - P) % of the\n"
+      "                 valid gradient values, P = --edge-percentile).\n"
+      "\n"
+      "Prints the grid size, the fraction of valid cells and the files written (stdout);\n"
+      "progress goes to stderr. Exit code 0 on success, 1 on an error (the message names the\n"
+      "file and what is wrong).";
+  c.options = {
+      {"--out", "DIR", "Output directory (created if missing). Required."},
+      {"--format", "FMT",
+       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog), rotating, "
+       "ptx, pcd or rawlog. Default auto."},
+      {"--dx-m", "M",
+       "Rotating 2D scanner: offset d_x of the rotation axis from the mirror centre, metres "
+       "(eq. 3). Overrides the log's header; giving only one of --dx-m/--dz-m sets the other "
+       "to 0. BA images use ranges and beam angles only (eq. 4), so the offsets move the 3D "
+       "points but do not change the images."},
+      {"--dz-m", "M", "Rotating 2D scanner: offset d_z, metres (see --dx-m)."},
+      {"--ptx-scan", "N", "PTX: which scan of a multi-scan file, 0-based. Default 0."},
+      {"--ptx-apply-pose", "",
+       "PTX: apply the header's scanner pose (points in the registered frame). BA images do "
+       "not change (ranges and beam angles are pose-independent)."},
+      {"--pcd-mode", "MODE",
+       "PCD: auto | organised (the file's own HEIGHT x WIDTH grid) | ring (spinning lidar: one "
+       "row per ring, columns by azimuth) | spherical (re-grid an unordered cloud on an "
+       "azimuth/elevation grid). Default auto: organised if HEIGHT > 1, else ring if there is "
+       "a ring field, else spherical."},
+      {"--grid-step-deg", "DEG",
+       "PCD ring/spherical: angular cell size in degrees; 0 = estimate from the data. "
+       "Default 0."},
+      {"--rawlog-index", "N",
+       "MRPT rawlog: which scan-like observation, 0-based; -1 = the first. Default -1."},
+      {"--step", "DROW,DCOL",
+       "Extra trace: previous cell of (r, c) is (r - DROW, c - DCOL), e.g. --step 2,-1. Writes "
+       "ba_step_DROW_DCOL.",
+       true},
+      {"--colormap", "MAP",
+       "PNG views: grey, jet or both (grey in NAME.png, jet in NAME_jet.png). Default grey."},
+      {"--fixed-range", "",
+       "BA views map [0, pi] to the full scale instead of the 1-99 % percentile stretch "
+       "(comparable between images; range and edge views stay stretched)."},
+      {"--edges", "", "Also write Sobel edge maps of every BA image (paper Fig. 8b)."},
+      {"--edge-percentile", "P",
+       "Edge mask threshold as a percentile of the valid gradient values, 0-100. Default 90."},
+      {"--quiet", "", "No progress on stderr and no summary on stdout (errors still printed)."},
+  };
+  c.run = RunBa;
+  return c;
+}
+
+}  // namespace
+}  // namespace scancam::cli
+
+SCANCAM_COMMAND(scancam::cli::MakeBaCommand());

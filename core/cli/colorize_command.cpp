@@ -1,0 +1,380 @@
+// scancam colorize: colour a scan from one or more calibrated images (paper Fig. 9, with
+// occlusion), export coloured clouds and textured meshes, and draw the overlays that show
+// whether the calibration is right (paper Fig. 8).
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "command.h"
+#include "scan_options.h"
+#include "scancam/camera/camera_io.h"
+#include "scancam/colour/colourise.h"
+#include "scancam/colour/export.h"
+#include "scancam/colour/overlay.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/scan_io.h"
+
+namespace scancam::cli {
+namespace {
+
+using namespace scancam::colour;
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string Ext(const std::string& path) {
+  return Lower(std::filesystem::path(path).extension().string());
+}
+
+// "a.png" -> "a_2.png" for image k (1-based) when there are several images.
+std::string PerImage(const std::string& path, std::size_t k, std::size_t n) {
+  if (n <= 1) return path;
+  const std::filesystem::path p(path);
+  return (p.parent_path() /
+          (p.stem().string() + "_" + std::to_string(k + 1) + p.extension().string()))
+      .string();
+}
+
+// One value per image: the option given once (applies to all) or once per image.
+std::vector<std::string> PerImageValues(const Args& args, const std::string& name, std::size_t n,
+                                        bool required) {
+  std::vector<std::string> v = args.all(name);
+  if (v.empty()) {
+    if (required) throw Error("missing required option " + name + " (see --help)");
+    return std::vector<std::string>(n);
+  }
+  if (v.size() == 1) return std::vector<std::string>(n, v[0]);
+  if (v.size() != n)
+    throw Error("option " + name + " given " + std::to_string(v.size()) + " times for " +
+                std::to_string(n) + " --image: give it once (for every image) or once per image");
+  return v;
+}
+
+Rgb8 ParseRgb(const std::string& text) {
+  int r, g, b;
+  char tail;
+  if (std::sscanf(text.c_str(), "%d,%d,%d%c", &r, &g, &b, &tail) != 3 || r < 0 || r > 255 ||
+      g < 0 || g > 255 || b < 0 || b > 255)
+    throw Error("option --uncoloured-rgb: '" + text + "' is not R,G,B with values 0..255");
+  return Rgb8{static_cast<std::uint8_t>(r), static_cast<std::uint8_t>(g),
+              static_cast<std::uint8_t>(b)};
+}
+
+std::string Pct(std::size_t a, std::size_t b) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f %%", b ? 100.0 * double(a) / double(b) : 0.0);
+  return buf;
+}
+
+void PrintAlignment(std::ostream& o, const OrderedScan& scan, const ColourView& view,
+                    const ColouredScan& coloured, std::size_t k, const cv::Mat& cells) {
+  const cv::Mat dist = ImageEdgeDistance(view.image);
+  const EdgeAlignment a =
+      MeasureEdgeAlignment(scan, view, view.T_cam_scan, cells, dist, &coloured, k);
+  char buf[256];
+  if (a.edge_points == 0) {
+    o << "  edge alignment: no BA edge point is seen by this image\n";
+    return;
+  }
+  std::snprintf(buf, sizeof buf,
+                "  edge alignment: %zu BA edge points seen; distance to the nearest image edge: "
+                "median %.2f px, mean %.2f px (clipped at %.0f); %.1f %% within 2 px\n",
+                a.edge_points, a.median_px, a.mean_px, a.clip_px, 100.0 * a.within_2px);
+  o << buf;
+  // The same with the pose perturbed: a right calibration sits at the minimum.
+  const double deg = 3.14159265358979323846 / 180.0;
+  struct Pert {
+    const char* name;
+    Eigen::Isometry3d d;
+  };
+  std::vector<Pert> perts;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int s = -1; s <= 1; s += 2) {
+      Eigen::Isometry3d r = Eigen::Isometry3d::Identity();
+      r.linear() = Eigen::AngleAxisd(s * 0.5 * deg, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+      perts.push_back({"rotation 0.5 deg", r});
+      Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+      t.translation()[axis] = s * 0.05;
+      perts.push_back({"translation 5 cm", t});
+    }
+  }
+  double best = 1e30, worst = 0.0;
+  int better = 0;
+  for (const Pert& p : perts) {
+    const EdgeAlignment b =
+        MeasureEdgeAlignment(scan, view, p.d * view.T_cam_scan, cells, dist, &coloured, k);
+    if (b.edge_points == 0) continue;
+    best = std::min(best, b.mean_px);
+    worst = std::max(worst, b.mean_px);
+    better += b.mean_px < a.mean_px ? 1 : 0;
+  }
+  std::snprintf(buf, sizeof buf,
+                "  perturbed poses (+-0.5 deg about each camera axis, +-5 cm along each): mean "
+                "%.2f .. %.2f px; %d of %zu are better aligned than the calibration%s\n",
+                best, worst, better, perts.size(),
+                better == 0 ? " (it is a local minimum)" : " (check the calibration)");
+  o << buf;
+}
+
+int RunColorize(const Args& args) {
+  if (!args.positional().empty())
+    throw Error("unexpected argument '" + args.positional()[0] + "' (the scan is --scan SCAN)");
+  const bool quiet = args.has("--quiet");
+  const std::string scan_path = args.required("--scan");
+  const std::vector<std::string> images = args.all("--image");
+  if (images.empty()) throw Error("missing required option --image (see --help)");
+  const std::size_t n = images.size();
+  const auto cameras = PerImageValues(args, "--camera", n, true);
+  const auto calibs = PerImageValues(args, "--calib", n, true);
+  const auto masks = PerImageValues(args, "--mask", n, false);
+
+  const std::string out_ply = args.get("--out");
+  const std::string out_pcd = args.get("--pcd");
+  const std::vector<std::string> meshes = args.all("--mesh");
+  const std::string overlay = args.get("--overlay");
+  const std::string edge_overlay = args.get("--edge-overlay");
+  const std::string grid_image = args.get("--grid-image");
+  if (out_ply.empty() && out_pcd.empty() && meshes.empty() && overlay.empty() &&
+      edge_overlay.empty() && grid_image.empty())
+    throw Error(
+        "nothing to write: give --out, --pcd, --mesh, --overlay, --edge-overlay or "
+        "--grid-image (see --help)");
+  if (!out_ply.empty() && Ext(out_ply) != ".ply")
+    throw Error("option --out: '" + out_ply + "' must end in .ply (use --pcd for PCD)");
+  if (!out_pcd.empty() && Ext(out_pcd) != ".pcd")
+    throw Error("option --pcd: '" + out_pcd + "' must end in .pcd");
+  for (const auto& m : meshes)
+    if (Ext(m) != ".glb" && Ext(m) != ".obj")
+      throw Error("option --mesh: '" + m + "' must end in .glb or .obj");
+
+  ColourOptions co;
+  co.occlusion = !args.has("--no-occlusion");
+  co.edge_fill = args.get_double("--edge-fill", co.edge_fill);
+  co.depth_tolerance_m = args.get_double("--depth-tolerance-m", co.depth_tolerance_m);
+  co.continuity.min_bearing_angle_deg =
+      args.get_double("--min-ba-deg", co.continuity.min_bearing_angle_deg);
+  co.continuity.range_noise_m = args.get_double("--range-noise-m", co.continuity.range_noise_m);
+  const std::string blend = args.get("--blend", "best");
+  if (blend == "best")
+    co.blend = BlendMode::kBestView;
+  else if (blend == "weighted")
+    co.blend = BlendMode::kWeighted;
+  else
+    throw Error("option --blend: '" + blend + "' is not best or weighted");
+  if (!(co.edge_fill >= 0.0)) throw Error("option --edge-fill: must be >= 0");
+  if (!(co.depth_tolerance_m >= 0.0)) throw Error("option --depth-tolerance-m: must be >= 0");
+  if (!(co.continuity.min_bearing_angle_deg >= 0.0 && co.continuity.min_bearing_angle_deg < 90.0))
+    throw Error("option --min-ba-deg: must be in [0, 90)");
+  ExportOptions eo;
+  if (args.has("--uncoloured-rgb")) eo.uncoloured_rgb = ParseRgb(args.get("--uncoloured-rgb"));
+  eo.drop_uncoloured = args.has("--drop-uncoloured");
+  MeshOptions mo;
+  mo.continuity = co.continuity;
+  mo.keep_untextured = !args.has("--drop-untextured");
+  mo.jpeg_quality = args.get_int("--jpeg-quality", 0);
+  if (mo.jpeg_quality < 0 || mo.jpeg_quality > 100)
+    throw Error("option --jpeg-quality: must be 0 (PNG) or 1..100");
+  const int row_scale = args.get_int("--grid-row-scale", 0);
+
+  const Progress progress(StderrProgress(quiet));
+  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
+
+  std::vector<ColourView> views(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    ColourView& v = views[k];
+    v.name = images[k];
+    v.camera = LoadCamera(cameras[k]);
+    v.image = cv::imread(images[k], cv::IMREAD_COLOR);
+    if (v.image.empty())
+      throw FileError(images[k], "", "cannot read the image (missing or not an image file)");
+    CheckImageSize(v.camera, v.image.cols, v.image.rows, images[k]);
+    v.T_cam_scan = LoadExtrinsic(calibs[k]);
+    if (!masks[k].empty()) {
+      v.mask = cv::imread(masks[k], cv::IMREAD_GRAYSCALE);
+      if (v.mask.empty()) throw FileError(masks[k], "", "cannot read the mask image");
+    }
+    CheckView(v);
+  }
+
+  const ColouredScan coloured = Colourise(scan, views, co, progress);
+  std::vector<std::string> written;
+  if (!out_ply.empty()) {
+    WriteColouredPly(out_ply, scan, coloured, eo);
+    written.push_back(out_ply);
+  }
+  if (!out_pcd.empty()) {
+    WriteColouredPcd(out_pcd, scan, coloured, eo);
+    written.push_back(out_pcd);
+  }
+  std::size_t mesh_faces = 0, mesh_textured = 0;
+  if (!meshes.empty()) {
+    const TexturedMesh mesh = BuildTexturedMesh(scan, views, coloured, mo, progress);
+    mesh_faces = mesh.face_count();
+    for (const auto& p : mesh.parts)
+      if (p.image >= 0) mesh_textured += p.faces.size();
+    for (const auto& m : meshes) {
+      if (Ext(m) == ".glb") {
+        WriteGlb(m, mesh, mo);
+        written.push_back(m);
+      } else {
+        for (const auto& f : WriteObj(m, mesh, mo)) written.push_back(f);
+      }
+    }
+  }
+  OverlayOptions oo;
+  cv::Mat edge_cells;
+  if (!edge_overlay.empty() || args.has("--check")) edge_cells = BaEdgeCells(scan, oo);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!overlay.empty()) {
+      const std::string p = PerImage(overlay, k, n);
+      WritePng(p, DepthOverlay(scan, views, k, &coloured, oo));
+      written.push_back(p);
+    }
+    if (!edge_overlay.empty()) {
+      const std::string p = PerImage(edge_overlay, k, n);
+      WritePng(p, EdgeOverlay(scan, views, k, &coloured, oo));
+      written.push_back(p);
+    }
+  }
+  if (!grid_image.empty()) {
+    int rs = 1, cs = 1;
+    GridImageScales(scan, coloured, 1200, &rs, &cs);
+    if (row_scale > 0) rs = row_scale;
+    WritePng(grid_image, ColourGridImage(coloured, oo, rs, cs, !args.has("--grid-full")));
+    written.push_back(grid_image);
+  }
+
+  for (const auto& w : coloured.warnings) std::cerr << "scancam colorize: warning: " << w << "\n";
+  if (!quiet) {
+    std::ostringstream o;
+    o << "scan:   " << scan_path << " (" << scan.rows << " x " << scan.cols << " cells, "
+      << coloured.valid << " valid)\n";
+    for (std::size_t k = 0; k < n; ++k) {
+      const ViewStats& s = coloured.views[k];
+      o << "image " << (k + 1) << ": " << images[k] << "  (" << views[k].camera.Describe() << ")\n"
+        << "  coloured " << s.coloured << " (" << Pct(s.coloured, coloured.valid) << "), occluded "
+        << s.occluded << " (" << Pct(s.occluded, coloured.valid) << "), out of view "
+        << s.out_of_view << " (" << Pct(s.out_of_view, coloured.valid) << "; behind the camera "
+        << s.behind_camera;
+      if (!views[k].mask.empty()) o << ", outside the mask " << s.outside_mask;
+      o << ")\n";
+      if (!edge_cells.empty()) PrintAlignment(o, scan, views[k], coloured, k, edge_cells);
+    }
+    o << "total: coloured " << coloured.coloured << " (" << Pct(coloured.coloured, coloured.valid)
+      << "), occluded " << coloured.occluded << ", out of view " << coloured.out_of_view
+      << (co.occlusion ? "" : "  [--no-occlusion: hidden points took the occluder's colour]")
+      << "\n";
+    if (!meshes.empty())
+      o << "mesh: " << mesh_faces << " triangles, " << mesh_textured << " textured\n";
+    o << "wrote:";
+    for (const auto& w : written) o << " " << w;
+    o << "\n";
+    std::cout << o.str();
+  }
+  return 0;
+}
+
+Command MakeColorizeCommand() {
+  Command c;
+  c.name = "colorize";
+  c.summary =
+      "Colour a scan from calibrated images (occlusion-aware); coloured PLY/PCD, "
+      "textured OBJ/GLB, overlays";
+  c.usage =
+      "scancam colorize --scan SCAN --image IMG --camera CAM --calib CALIB [--image IMG2 ...] "
+      "--out coloured.ply [options]";
+  c.description =
+      "Projects every valid scan point into the image(s) with CALIB's T_cam_scan (X_cam =\n"
+      "R X_scan + t) and the camera model, and gives it the image's colour there (bilinear,\n"
+      "OpenCV pixel convention). Points behind the camera, outside the model's field of view,\n"
+      "the image or the mask get no colour. Occlusion: an image-space depth buffer with splats\n"
+      "sized by the scan's local point spacing; a point farther than the nearest surface at its\n"
+      "pixel (beyond a tolerance growing with range and grazing angle) is 'occluded' and keeps\n"
+      "no colour instead of taking the occluder's. Several images: repeat --image (with one\n"
+      "--camera/--calib/--mask for all or one per image); each point takes the colour of the\n"
+      "image that sees it best (most image pixels per metre of surface), or a weighted mean\n"
+      "(--blend weighted).\n"
+      "\n"
+      "--calib accepts this tool's calib.json, any JSON with a 4x4 \"T_cam_scan\" (e.g. the\n"
+      "simulator's ground_truth.json) and OpenCalib extrinsic files (<name>.param.sensor_calib\n"
+      ".data). The image must have the camera file's size.\n"
+      "\n"
+      "Outputs (at least one):\n"
+      "  --out X.ply         binary PLY: x y z, red green blue, scancam_state (1 out of view,\n"
+      "                      2 occluded, 3 coloured), quality (image px per metre of surface)\n"
+      "  --pcd X.pcd         organised PCD (PointXYZRGB, scan rows x cols, NaN = no return)\n"
+      "  --mesh X.glb|X.obj  textured mesh of the scan grid (no triangle across a depth jump);\n"
+      "                      OBJ writes X.mtl and X_tex<k>.png beside it\n"
+      "  --overlay X.png     every seen point on the image, coloured by distance (jet)\n"
+      "  --edge-overlay X.png  paper Fig. 8: Sobel edges of the BA images projected on the image\n"
+      "                      (yellow dots); also prints the edge alignment (below)\n"
+      "  --grid-image X.png  the coloured scan on its grid (magenta = occluded, dark grey =\n"
+      "                      out of view, black = no return): smearing shows as ghost objects\n"
+      "With several images, overlay files get _1, _2, ... before the extension.\n"
+      "\n"
+      "Edge alignment (with --edge-overlay or --check): the distance from each projected BA\n"
+      "edge point to the nearest image edge (Canny), and the same with the pose perturbed by\n"
+      "+-0.5 deg / +-5 cm: a right calibration is better aligned than every perturbation.\n"
+      "\n"
+      "Prints per image how many points were coloured, occluded and out of view (and behind\n"
+      "the camera); warns when (nearly) no point projects into an image (a transform that is\n"
+      "probably inverted or wrong). Exit 0 on success, 1 on an error.";
+  c.options = Concat(
+      {
+          {"--scan", "SCAN", "The scan (.txt/.rot rotating, .ptx, .pcd, .rawlog). Required."},
+          {"--image", "IMG", "A camera image (8-bit; read as BGR). Required; repeatable.", true},
+          {"--camera", "CAM",
+           "Camera file (OpenCV YAML/JSON, OCamCalib calib_results.txt, Kalibr, ROS, OpenCalib). "
+           "Once for all images or once per --image.",
+           true},
+          {"--calib", "CALIB",
+           "Pose file: calib.json, JSON with \"T_cam_scan\", or OpenCalib extrinsic. Once for all "
+           "images or once per --image.",
+           true},
+          {"--mask", "MASK",
+           "Optional mask image (0 = unusable pixel, e.g. outside a mirror). Once or per image.",
+           true},
+          {"--out", "X.ply", "Coloured cloud, binary PLY."},
+          {"--pcd", "X.pcd", "Coloured organised cloud, PCD (pcl::PointXYZRGB)."},
+          {"--mesh", "X.glb|X.obj", "Textured mesh; repeatable (e.g. both formats).", true},
+          {"--overlay", "X.png", "Depth-coloured overlay of the points on the image."},
+          {"--edge-overlay", "X.png", "BA Sobel edges projected on the image (paper Fig. 8)."},
+          {"--grid-image", "X.png", "The coloured scan shown on its grid."},
+          {"--grid-row-scale", "N",
+           "Grid image: pixels per row (default: about the same angle per pixel both ways)."},
+          {"--grid-full", "",
+           "Grid image: the whole grid (default: only the part that projects into an image)."},
+          {"--check", "", "Print the edge alignment of each image (also with --edge-overlay)."},
+          {"--no-occlusion", "",
+           "No depth buffer: every projected point takes a colour (for comparison only)."},
+          {"--blend", "MODE", "Several images: best (default) or weighted."},
+          {"--edge-fill", "F",
+           "How far splats reach past silhouettes, in half grid spacings. Default 2."},
+          {"--depth-tolerance-m", "M", "Absolute part of the depth tolerance. Default 0.03."},
+          {"--min-ba-deg", "DEG",
+           "Neighbours with a bearing angle within DEG of 0 or 180 deg are not one surface "
+           "(splats, mesh). Default 15."},
+          {"--range-noise-m", "M",
+           "Range jumps up to M between neighbours are always one surface. Default 0.03."},
+          {"--uncoloured-rgb", "R,G,B",
+           "Colour of valid points without colour. Default 128,128,128."},
+          {"--drop-uncoloured", "", "Leave points without colour out of the PLY (NaN in the PCD)."},
+          {"--drop-untextured", "", "Mesh: drop faces no image sees completely (else grey)."},
+          {"--jpeg-quality", "Q", "Mesh textures as JPEG of quality Q (1-100); default 0 = PNG."},
+          {"--quiet", "", "No progress and no summary (warnings and errors still printed)."},
+      },
+      ScanLoadOptionSpecs());
+  c.run = RunColorize;
+  return c;
+}
+
+}  // namespace
+}  // namespace scancam::cli
+
+SCANCAM_COMMAND(scancam::cli::MakeColorizeCommand());

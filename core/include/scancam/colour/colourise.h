@@ -1,0 +1,240 @@
+// ScanCam: colouring an ordered scan from one or more camera images, with occlusion (the
+// paper's Fig. 9, plus what it leaves open: points behind a nearer surface, points behind the
+// camera, a quality per point, several images).
+//
+// Frames and pixels. T_cam_scan maps scan-frame points into the camera frame (X_cam = R X_scan
+// + t, metres; camera frame = OpenCV's). Pixels are OpenCV's: (0, 0) is the centre of the
+// top-left pixel; the image covers u in [-0.5, W - 0.5), v in [-0.5, H - 0.5).
+//
+// Per valid scan cell i (OrderedScan::valid) and per image:
+//   1. Projection: CameraModel::Project(T_cam_scan * point_m[i]) (ProjectBatch per grid row).
+//      Behind the camera, outside the model's valid field of view, outside the image or
+//      outside the optional image mask -> kOutOfView for that image.
+//   2. Depth d_i = |X_cam| (distance from the camera centre, metres; not the z coordinate,
+//      so wide-angle, fisheye and 360-degree cameras are treated alike).
+//   3. Occlusion (z-buffer in image space). Every projected cell is splatted into a depth
+//      buffer of the image's size as an axis-aligned box of pixels holding min(depth) (atomic
+//      min). The box is the bounding box of the half-way points towards the cell's four grid
+//      neighbours (left, right, up, down) and the four implied diagonal corners (sums of two
+//      such vectors), so neighbouring boxes meet and a sparse scan still occludes. A
+//      neighbour counts with its real projection when it is CONTINUOUS with the cell
+//      (ContinuousNeighbours below); otherwise (no return, across a depth discontinuity) a
+//      virtual neighbour is used: the cell's own range along the neighbour's beam direction
+//      (the grid's angular spacing projected into the image), scaled by `edge_fill` (2 = the
+//      box reaches the virtual neighbour: the true silhouette of an object lies somewhere
+//      between its last beam and the next one, so this is the smallest extent that hides
+//      everything behind it); at the border of the grid the opposite side is mirrored. The
+//      box is clamped to max_splat_px and always covers the cell's own pixel.
+//      The depth written at pixel p is not d_i but the cell's local plane at p's centre,
+//        z_i(p) = d_i + g_i . (p - uv_i),
+//      g_i = the least-squares depth gradient in the image (m per px) from the continuous
+//      neighbours' depth differences and pixel offsets (0 with none). A surface's splats so
+//      agree with its own points even where it is seen at a grazing angle, and the tolerance
+//      can stay small. A cell is VISIBLE when, at its pixel p = (round(u), round(v)),
+//        z_i(p) <= zbuf(p) + tol_i,
+//        tol_i = min(depth_tolerance_m + depth_tolerance_fraction * d_i
+//                    + slope_tolerance_px * |g_i|,  max_tolerance_fraction * d_i):
+//      range noise, a part growing with range, and a part growing with the grazing angle of
+//      the camera's view (|g_i| is the surface's depth change per pixel). Otherwise the cell
+//      is behind a nearer surface: kOccluded, and it keeps no colour instead of taking the
+//      occluder's.
+//   4. Colour: bilinear interpolation of the image (BGR 8-bit) at (u, v) between the four
+//      pixel centres around it (coordinates clamped at the border), rounded to 8 bits,
+//      stored as RGB.
+//   5. Quality (how well the image resolves the surface there): q_i = sqrt(|du x dv| /
+//      |dP_a x dP_b|), image pixels per metre of surface, from two continuous neighbours a
+//      (left or right) and b (up or down): du, dv their pixel offsets, dP their 3D offsets
+//      (scan frame). It combines the distance, the cosine of the viewing angle (foreshortening)
+//      and the camera's local resolution: q ~ f_px sqrt(cos theta) / d for a pinhole at the
+//      image centre (the area ratio has cos theta; its square root is taken so q stays in
+//      px/m). With only one continuous direction: |du| / |dP_a|; with none: 0 (unknown).
+//
+// Several images (several shots, or a camera on a rotating mount; each with its own camera
+// and T_cam_scan): each image gets its own z-buffer; a point's colour comes from the image
+// with the highest quality among those that see it (BlendMode::kBestView, default), or is
+// the mean of the colours of all images that see it weighted by q^weight_power
+// (BlendMode::kWeighted: smoother seams, slightly blurrier). The state is the best over the
+// images: kColoured if any image sees it, else kOccluded if any image has it occluded, else
+// kOutOfView.
+//
+// Speed and memory: per image, two passes over the grid (splat, then test + sample), rows in
+// parallel (OpenMP), each thread with three rolling rows of projections (no allocation per
+// point). Memory: the result (8 bytes per cell: rgb 3, state 1, quality 4; plus 9 bytes per
+// cell with several images) and one 4-byte depth buffer per image pixel, reused per image.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "scancam/camera/camera_model.h"
+#include "scancam/ordered_scan.h"
+#include "scancam/progress.h"
+
+namespace scancam::colour {
+
+/// What happened to a scan cell. Ordered: a larger value is "better" when images are merged.
+enum class PointState : std::uint8_t {
+  kNoReturn = 0,   ///< the cell has no valid range (OrderedScan::valid is false)
+  kOutOfView = 1,  ///< behind the camera, outside the field of view, the image or the mask
+  kOccluded = 2,   ///< projects into the image but a nearer surface hides it
+  kColoured = 3,   ///< seen: it has a colour
+};
+
+/// "no_return", "out_of_view", "occluded", "coloured".
+const char* PointStateName(PointState state);
+
+/// An 8-bit RGB colour (R first; images are BGR in OpenCV, colours here are RGB).
+struct Rgb8 {
+  std::uint8_t r = 0, g = 0, b = 0;
+  bool operator==(const Rgb8& o) const { return r == o.r && g == o.g && b == o.b; }
+};
+
+/// When two grid-neighbour cells belong to one surface (used for splats, depth tolerances,
+/// the quality and meshes). Both cells must be valid. Two tests, either suffices:
+///
+/// 1. Bearing Angle. With rho_i, rho_j their ranges and h = |b_i - b_j|^2 the squared chord of
+///    their unit beams (cos dphi = 1 - h/2), the Bearing Angle at P_i towards P_j (ba_image.h,
+///    METHOD.md eq. 4) has
+///      cos BA_i = (rho_i - rho_j cos dphi) / |P_i - P_j|
+///               = ((rho_i - rho_j) + rho_j h/2) / sqrt((rho_i - rho_j)^2 + rho_i rho_j h).
+///    The pair passes when |rho_i - rho_j| <= range_noise_m (a jump within the range noise), or
+///    when BA_i and BA_j both lie in [min_bearing_angle, pi - min_bearing_angle]. A BA near 0 or
+///    pi means the segment P_i P_j runs almost along the beam: a depth discontinuity, OR a
+///    surface seen at a grazing incidence above 90 deg - min_bearing_angle (a road a few metres
+///    from a car lidar), which test 2 recovers. The default 15 deg takes a step of more than
+///    ~3.7 times the beam spacing at that range (18 cm at 3 m with 1 deg beams: a door recess)
+///    for a discontinuity unless test 2 finds a plane.
+/// 2. Planar extrapolation (planar_extrapolation = true). For a plane n.x = d seen from the
+///    sensor, 1/rho = n.b / d is linear in the beam direction b. With k the cell before i on
+///    the same grid line (k = i - step, j = i + step), the plane through k and i predicts
+///      1/rho_j ~ 1/rho_i + lambda (1/rho_i - 1/rho_k),  lambda = |b_j - b_i| / |b_i - b_k|
+///    (lambda handles unequal angular steps). The pair passes when
+///      |1/rho_j - prediction| <= planar_tolerance |1/rho_j - 1/rho_i| + range_noise_m /
+///      (rho_i rho_j),
+///    from i's side or, symmetrically, from j's side (the cell after j predicting i). A grazing
+///    surface continues the plane of its neighbours and passes; at a real discontinuity (a pole
+///    in front of a wall) the near surface predicts a range near its own and fails.
+/// The test is symmetric in i and j and uses only ranges and beam directions, as BA images do.
+struct ContinuityOptions {
+  double min_bearing_angle_deg = 15.0;
+  double range_noise_m = 0.03;
+  bool planar_extrapolation = true;
+  double planar_tolerance = 0.5;
+};
+
+/// True when cell (r, c) and its grid neighbour (r + dr, c + dc) are continuous (see
+/// ContinuityOptions; dr, dc in {-1, 0, 1}, not both 0). False when either is outside the grid,
+/// invalid or has an unknown beam direction.
+bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
+                          const ContinuityOptions& options = {});
+
+/// One image to colour from.
+struct ColourView {
+  CameraModel camera;
+  Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
+  cv::Mat image;     ///< CV_8UC3 BGR (OpenCV order), camera.width() x camera.height()
+  cv::Mat mask;      ///< optional CV_8UC1 of the same size: 0 = not usable (e.g. outside a
+                     ///< catadioptric mirror); empty = every pixel usable
+  std::string name;  ///< for messages: usually the image file
+};
+
+enum class BlendMode { kBestView, kWeighted };
+
+struct ColourOptions {
+  ContinuityOptions continuity;
+  bool occlusion = true;  ///< false: no z-buffer (every projected point takes a colour;
+                          ///< only for comparisons: occluded points take the occluder's colour)
+  // Depth test (see the file comment, step 3).
+  double depth_tolerance_m = 0.03;
+  double depth_tolerance_fraction = 0.005;
+  double slope_tolerance_px = 1.0;
+  double max_tolerance_fraction = 0.2;
+  /// Back faces: a cell whose local surface (normal from its continuous grid neighbours,
+  /// oriented towards the scanner) has the camera centre behind it by more than this angle
+  /// is kOccluded. Negative: no back-face test.
+  double backface_margin_deg = 3.0;
+  /// How far a splat reaches towards a neighbour that is not continuous with it (silhouettes,
+  /// holes), in units of half the grid's angular spacing projected into the image: 2 = up to
+  /// the virtual neighbour (default: no hidden point next to a silhouette takes the
+  /// occluder's colour), 1 = the midpoint (where the true silhouette is on average: fewer
+  /// uncoloured visible points next to silhouettes, some smearing).
+  double edge_fill = 2.0;
+  /// The same for cells with no continuous neighbour at all (specks, foliage, noise): 1 =
+  /// midpoints.
+  double isolated_fill = 1.0;
+  double max_splat_px = 64.0;  ///< half-size limit of a splat box, pixels
+  /// Compute the per-point quality (step 5). With one image it can be skipped to save time
+  /// and 4 bytes per cell (ColouredScan::quality is then empty); with several images it is
+  /// always computed (the blend needs it).
+  bool compute_quality = true;
+  // Several images.
+  BlendMode blend = BlendMode::kBestView;
+  double weight_power = 2.0;  ///< kWeighted: weight = quality^weight_power
+};
+
+/// Counts for one image (cells of the grid).
+struct ViewStats {
+  std::string name;
+  std::size_t coloured = 0;       ///< visible in this image
+  std::size_t occluded = 0;       ///< projects into the image, hidden by a nearer surface
+  std::size_t out_of_view = 0;    ///< valid cells that do not project into the usable image
+  std::size_t behind_camera = 0;  ///< of those: z <= 0 in the camera frame
+  std::size_t outside_mask = 0;   ///< of those: project into the image but outside the mask
+};
+
+/// The result: one entry per grid cell (index r * cols + c, as OrderedScan).
+struct ColouredScan {
+  int rows = 0, cols = 0;
+  std::vector<Rgb8> rgb;          ///< colour where kColoured, (0, 0, 0) elsewhere
+  std::vector<PointState> state;  ///< see PointState
+  std::vector<float> quality;     ///< pixels per metre of surface (step 5) where kColoured,
+                                  ///< 0 elsewhere (and 0 where unknown)
+  /// With several images only (else empty: image 0 for every coloured cell): the image the
+  /// colour came from (kBestView; with kWeighted the best one), 255 where not coloured...
+  std::vector<std::uint8_t> source;
+  /// ... and the images that see the cell, bit k = image k (at most 64 images).
+  std::vector<std::uint64_t> seen_by;
+  // Totals over the grid.
+  std::size_t cells = 0, valid = 0, coloured = 0, occluded = 0, out_of_view = 0;
+  std::vector<ViewStats> views;
+  /// Problems worth telling the user, e.g. an image that (nearly) no point projects into,
+  /// with the likely cause (an inverted or wrong T_cam_scan).
+  std::vector<std::string> warnings;
+
+  std::size_t size() const { return state.size(); }
+  /// True when cell i is seen by image k.
+  bool SeenBy(std::size_t i, std::size_t k) const {
+    if (seen_by.empty()) return k == 0 && state[i] == PointState::kColoured;
+    return (seen_by[i] >> k) & 1u;
+  }
+};
+
+/// Checks a view: image type CV_8UC3 and size = the camera's (CheckImageSize), mask
+/// CV_8UC1 of the same size when given, camera valid, T_cam_scan finite. Throws
+/// scancam::Error naming the view (its name) otherwise.
+void CheckView(const ColourView& view);
+
+/// Colours `scan` from one or more images (see the file comment). Throws scancam::Error on
+/// bad views (CheckView), more than 64 images, or an inconsistent scan; Cancelled when the
+/// progress callback asks to stop.
+ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& views,
+                       const ColourOptions& options = {}, const Progress& progress = {});
+
+/// Bilinear sample of a CV_8UC3 BGR image at (u, v) (OpenCV pixel convention, coordinates
+/// clamped to the pixel centres at the border), as RGB. For callers and tests that need the
+/// exact same sampling as Colourise.
+Rgb8 SampleBilinear(const cv::Mat& bgr, float u, float v);
+
+/// The 4x4 pose of one image in a file: this tool's calib.json or any JSON with a 4x4
+/// "T_cam_scan" (ReadCalibrationPose), or an OpenCalib extrinsic file, whose only top-level
+/// object holds param.sensor_calib.data (4x4, mapping the lidar frame into the camera frame,
+/// e.g. shared/datasets/road-pinhole/reference-extrinsic.json). Throws scancam::Error
+/// naming the file and the field.
+Eigen::Isometry3d LoadExtrinsic(const std::string& path);
+
+}  // namespace scancam::colour

@@ -1,0 +1,67 @@
+// ScanCam: writing and reading float images (BA, range, edge maps) and 8-bit views of them.
+//
+// Exact data: 32-bit float TIFF, one channel, written losslessly through OpenCV
+// (cv::imwrite / cv::imread with libtiff): every value comes back bit for bit, NaN included
+// (tests/core/image_io_test.cpp checks it). Units are those of the image (radians for BA
+// images, metres for range images); the file carries no unit.
+//
+// Views: 8-bit, 3-channel BGR (OpenCV order; swap to RGB for Qt), for looking at, not for
+// measuring. Generic: any CV_32FC1 image -> view, so the CLI and the plugin show the same.
+//   - contrast stretch: a value v maps to 255 (v - low) / (high - low), clamped to [0, 255]
+//     and rounded, where low / high are robust percentiles of the finite values
+//     (ViewOptions::low_percentile / high_percentile, default 1 % and 99 %, so a few outliers
+//     do not wash the image out), or a fixed range (ViewOptions::fixed_range, e.g. [0, pi]
+//     for BA images to compare images with one another). When high <= low every valid cell
+//     maps to 128.
+//   - colormaps: grey (0 black .. 255 white) or OpenCV's COLORMAP_JET (0 dark blue ..
+//     255 dark red).
+//   - invalid cells (NaN, +-inf) are magenta, BGR (255, 0, 255), in both maps: magenta is
+//     neither a grey (R = G = B) nor a jet colour (jet never has red and blue both high with
+//     green low), so a hole can never be mistaken for data.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace scancam {
+
+/// Writes a CV_32FC1 image as a lossless 32-bit float TIFF (any extension OpenCV maps to
+/// TIFF: .tif, .tiff). Throws scancam::Error naming the file on a wrong type or a failed
+/// write.
+void WriteFloatTiff(const std::string& path, const cv::Mat& image);
+
+/// Reads a one-channel 32-bit float TIFF written by WriteFloatTiff (or any such TIFF).
+/// Throws scancam::Error naming the file when it is missing, unreadable or not 1 x float.
+cv::Mat ReadFloatTiff(const std::string& path);
+
+/// The p-th percentile (p in [0, 100]) of the finite values of a CV_32FC1 image, by nearest
+/// rank (index round(p/100 (n-1)) of the sorted values); NaN when there is none.
+/// Throws scancam::Error for p outside [0, 100] or a wrong type.
+float PercentileOfFinite(const cv::Mat& image, double percentile);
+
+enum class Colormap { kGrey, kJet };
+
+/// The colour of invalid cells in every view (BGR): magenta.
+inline const cv::Vec3b kInvalidViewBgr(255, 0, 255);
+
+struct ViewOptions {
+  Colormap colormap = Colormap::kGrey;
+  double low_percentile = 1.0;    ///< of the finite values, in [0, 100]
+  double high_percentile = 99.0;  ///< of the finite values, in [0, 100]
+  bool fixed_range = false;       ///< use [low, high] below instead of percentiles
+  double low = 0.0;               ///< value mapped to 0 when fixed_range
+  double high = 1.0;              ///< value mapped to 255 when fixed_range
+};
+
+/// The value range [low, high] a view maps to [0, 255] (percentiles of the finite values,
+/// or the fixed range). NaN, NaN when the image has no finite value.
+cv::Vec2f ViewRange(const cv::Mat& image, const ViewOptions& options = {});
+
+/// An 8-bit BGR view (CV_8UC3) of a CV_32FC1 image, as described at the top of this file.
+/// Throws scancam::Error on a wrong type or bad percentiles.
+cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options = {});
+
+/// Writes an 8-bit image (1 or 3 channels) as PNG. Throws scancam::Error naming the file.
+void WritePng(const std::string& path, const cv::Mat& image);
+
+}  // namespace scancam

@@ -1,0 +1,471 @@
+// Writers for coloured clouds and textured meshes (formats documented in colour/export.h).
+// PLY, OBJ and GLB are written here directly (small, exactly specified formats; no third-party
+// writer needed); the organised PCD goes through PCL so PCL-based tools read it natively.
+#include "scancam/colour/export.h"
+
+#include <pcl/io/pcd_io.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "scancam/error.h"
+
+namespace scancam::colour {
+namespace {
+
+void CheckSizes(const OrderedScan& scan, const ColouredScan& c, const std::string& what) {
+  if (c.size() != scan.size() || c.rgb.size() != scan.size() ||
+      (!c.quality.empty() && c.quality.size() != scan.size()) || c.rows != scan.rows ||
+      c.cols != scan.cols)
+    throw Error(what + ": the coloured scan (" + std::to_string(c.rows) + " x " +
+                std::to_string(c.cols) + ") does not belong to this scan (" +
+                std::to_string(scan.rows) + " x " + std::to_string(scan.cols) + ")");
+}
+
+bool HostIsLittleEndian() {
+  const std::uint16_t one = 1;
+  std::uint8_t b;
+  std::memcpy(&b, &one, 1);
+  return b == 1;
+}
+
+template <typename T>
+void Put(std::vector<char>* buf, const T& v) {
+  const char* p = reinterpret_cast<const char*>(&v);
+  buf->insert(buf->end(), p, p + sizeof(T));
+}
+
+std::ofstream OpenOut(const std::string& path) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  if (!f) throw FileError(path, "", "cannot open for writing");
+  return f;
+}
+
+void Finish(std::ofstream& f, const std::string& path) {
+  f.flush();
+  if (!f) throw FileError(path, "", "write failed (disk full?)");
+}
+
+std::vector<unsigned char> EncodeTexture(const cv::Mat& bgr, int jpeg_quality,
+                                         const std::string& what) {
+  std::vector<unsigned char> bytes;
+  bool ok;
+  if (jpeg_quality > 0)
+    ok = cv::imencode(".jpg", bgr, bytes, {cv::IMWRITE_JPEG_QUALITY, std::min(jpeg_quality, 100)});
+  else
+    ok = cv::imencode(".png", bgr, bytes);
+  if (!ok) throw Error(what + ": cannot encode the texture image");
+  return bytes;
+}
+
+}  // namespace
+
+void WriteColouredPly(const std::string& path, const OrderedScan& scan,
+                      const ColouredScan& coloured, const ExportOptions& options) {
+  CheckSizes(scan, coloured, path);
+  if (!HostIsLittleEndian()) throw FileError(path, "", "PLY writer needs a little-endian host");
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (!scan.valid(i)) continue;
+    if (options.drop_uncoloured && coloured.state[i] != PointState::kColoured) continue;
+    ++count;
+  }
+  std::ofstream f = OpenOut(path);
+  f << "ply\nformat binary_little_endian 1.0\n"
+    << "comment ScanCam coloured scan, scan frame, metres\n"
+    << "comment scancam_state: 1 out_of_view, 2 occluded, 3 coloured\n"
+    << "comment quality: image pixels per metre of surface (0: not coloured or unknown)\n"
+    << "element vertex " << count << "\n"
+    << "property float x\nproperty float y\nproperty float z\n"
+    << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    << "property uchar scancam_state\nproperty float quality\nend_header\n";
+  std::vector<char> buf;
+  buf.reserve(20 * 65536);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (!scan.valid(i)) continue;
+    const bool col = coloured.state[i] == PointState::kColoured;
+    if (options.drop_uncoloured && !col) continue;
+    const Eigen::Vector3f& p = scan.point_m[i];
+    Put(&buf, p.x());
+    Put(&buf, p.y());
+    Put(&buf, p.z());
+    const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
+    Put(&buf, c.r);
+    Put(&buf, c.g);
+    Put(&buf, c.b);
+    Put(&buf, static_cast<std::uint8_t>(coloured.state[i]));
+    Put(&buf, coloured.quality.empty() ? 0.f : coloured.quality[i]);
+    if (buf.size() >= 20 * 65536) {
+      f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      buf.clear();
+    }
+  }
+  f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  Finish(f, path);
+}
+
+void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
+                      const ColouredScan& coloured, const ExportOptions& options) {
+  CheckSizes(scan, coloured, path);
+  pcl::PointCloud<pcl::PointXYZRGB> cloud;
+  cloud.width = static_cast<std::uint32_t>(scan.cols);
+  cloud.height = static_cast<std::uint32_t>(scan.rows);
+  cloud.is_dense = false;
+  cloud.points.resize(scan.size());
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    pcl::PointXYZRGB& q = cloud.points[i];
+    const bool col = coloured.state[i] == PointState::kColoured;
+    if (!scan.valid(i) || (options.drop_uncoloured && !col)) {
+      q.x = q.y = q.z = nan;
+      q.r = q.g = q.b = 0;
+      continue;
+    }
+    q.x = scan.point_m[i].x();
+    q.y = scan.point_m[i].y();
+    q.z = scan.point_m[i].z();
+    const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
+    q.r = c.r;
+    q.g = c.g;
+    q.b = c.b;
+    q.a = 255;
+  }
+  if (pcl::io::savePCDFileBinary(path, cloud) != 0)
+    throw FileError(path, "", "PCL could not write the PCD file");
+}
+
+std::size_t TexturedMesh::face_count() const {
+  std::size_t n = 0;
+  for (const auto& p : parts) n += p.faces.size();
+  return n;
+}
+
+std::size_t TexturedMesh::vertex_count() const {
+  std::size_t n = 0;
+  for (const auto& p : parts) n += p.positions.size();
+  return n;
+}
+
+TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<ColourView>& views,
+                               const ColouredScan& coloured, const MeshOptions& options,
+                               const Progress& progress) {
+  CheckSizes(scan, coloured, "textured mesh");
+  if (views.empty()) throw Error("textured mesh: no image given");
+  if (views.size() > 1 && coloured.seen_by.size() != scan.size())
+    throw Error("textured mesh: the coloured scan was made from one image but " +
+                std::to_string(views.size()) + " are given");
+  const int nv = static_cast<int>(views.size());
+  TexturedMesh mesh;
+  for (const auto& v : views) {
+    mesh.images.push_back(v.image);
+    mesh.names.push_back(v.name);
+  }
+  // Parts: 0..nv-1 textured by image k, nv untextured.
+  std::vector<MeshPart> parts(static_cast<std::size_t>(nv) + 1);
+  for (int k = 0; k <= nv; ++k) parts[k].image = k < nv ? k : -1;
+  // Vertex of (cell, part), created on first use.
+  std::vector<std::vector<std::int32_t>> vid(static_cast<std::size_t>(nv) + 1);
+
+  const Eigen::Vector3f origin = scan.origin_m.cast<float>();
+  auto cont = [&](int r, int c, int dr, int dc) {
+    return ContinuousNeighbours(scan, r, c, dr, dc, options.continuity);
+  };
+  auto vertex = [&](int part, std::size_t cell) -> std::uint32_t {
+    auto& ids = vid[part];
+    if (ids.empty()) ids.assign(scan.size(), -1);
+    if (ids[cell] >= 0) return static_cast<std::uint32_t>(ids[cell]);
+    MeshPart& mp = parts[part];
+    const std::uint32_t id = static_cast<std::uint32_t>(mp.positions.size());
+    ids[cell] = static_cast<std::int32_t>(id);
+    mp.positions.push_back(scan.point_m[cell]);
+    mp.cells.push_back(static_cast<std::uint32_t>(cell));
+    if (part < nv) {
+      const ColourView& v = views[part];
+      const auto uv = v.camera.ProjectUnbounded(v.T_cam_scan * scan.point_m[cell].cast<double>());
+      Eigen::Vector2f t(0.f, 0.f);
+      if (uv)
+        t = Eigen::Vector2f(static_cast<float>((uv->x() + 0.5) / v.camera.width()),
+                            static_cast<float>((uv->y() + 0.5) / v.camera.height()));
+      mp.uv.push_back(t);
+    }
+    return id;
+  };
+  auto triangle = [&](std::size_t a, std::size_t b, std::size_t c) {
+    // Which image textures it: sees all three corners; most corners as colour source.
+    int best = -1, best_votes = -1;
+    for (int k = 0; k < nv; ++k) {
+      if (!coloured.SeenBy(a, k) || !coloured.SeenBy(b, k) || !coloured.SeenBy(c, k)) continue;
+      int votes = 0;
+      if (!coloured.source.empty()) {
+        votes = (coloured.source[a] == k) + (coloured.source[b] == k) + (coloured.source[c] == k);
+      }
+      if (votes > best_votes) {
+        best = k;
+        best_votes = votes;
+      }
+    }
+    if (best < 0 && !options.keep_untextured) return;
+    const int part = best >= 0 ? best : nv;
+    // Counter-clockwise seen from the scanner: the normal points towards the origin.
+    const Eigen::Vector3f& pa = scan.point_m[a];
+    const Eigen::Vector3f nrm = (scan.point_m[b] - pa).cross(scan.point_m[c] - pa);
+    if (nrm.dot(origin - pa) < 0.f) std::swap(b, c);
+    const std::uint32_t ia = vertex(part, a), ib = vertex(part, b), ic = vertex(part, c);
+    parts[part].faces.push_back({ia, ib, ic});
+  };
+
+  for (int r = 0; r + 1 < scan.rows; ++r) {
+    if ((r & 63) == 0) progress(double(r) / double(scan.rows), "meshing");
+    for (int c = 0; c + 1 < scan.cols; ++c) {
+      const std::size_t p00 = scan.index(r, c), p01 = scan.index(r, c + 1),
+                        p10 = scan.index(r + 1, c), p11 = scan.index(r + 1, c + 1);
+      const bool e_top = cont(r, c, 0, 1), e_bottom = cont(r + 1, c, 0, 1),
+                 e_left = cont(r, c, 1, 0), e_right = cont(r, c + 1, 1, 0);
+      const bool d_main = cont(r, c, 1, 1), d_anti = cont(r, c + 1, 1, -1);
+      // Prefer the continuous diagonal that is shorter in 3D.
+      bool use_main = d_main;
+      if (d_main && d_anti) {
+        use_main = (scan.point_m[p00] - scan.point_m[p11]).squaredNorm() <=
+                   (scan.point_m[p01] - scan.point_m[p10]).squaredNorm();
+      }
+      if (use_main) {
+        if (e_left && e_bottom) triangle(p00, p10, p11);
+        if (e_top && e_right) triangle(p00, p11, p01);
+      } else if (d_anti) {
+        if (e_top && e_left) triangle(p00, p10, p01);
+        if (e_right && e_bottom) triangle(p01, p10, p11);
+      }
+    }
+  }
+  for (auto& p : parts)
+    if (!p.faces.empty()) mesh.parts.push_back(std::move(p));
+  progress(1.0, "meshing");
+  return mesh;
+}
+
+std::vector<std::string> WriteObj(const std::string& path, const TexturedMesh& mesh,
+                                  const MeshOptions& options) {
+  namespace fs = std::filesystem;
+  const fs::path obj(path);
+  const fs::path dir = obj.parent_path();
+  const std::string stem = obj.stem().string();
+  const fs::path mtl = dir / (stem + ".mtl");
+  std::vector<std::string> written;
+  const std::string ext = options.jpeg_quality > 0 ? ".jpg" : ".png";
+
+  // Textures.
+  std::vector<std::string> tex_name(mesh.images.size());
+  for (const auto& part : mesh.parts) {
+    if (part.image < 0 || !tex_name[part.image].empty()) continue;
+    const std::string name = stem + "_tex" + std::to_string(part.image) + ext;
+    const fs::path tp = dir / name;
+    const auto bytes = EncodeTexture(mesh.images[part.image], options.jpeg_quality, tp.string());
+    std::ofstream f = OpenOut(tp.string());
+    f.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
+    Finish(f, tp.string());
+    tex_name[part.image] = name;
+    written.push_back(tp.string());
+  }
+  // Materials.
+  {
+    std::ofstream f = OpenOut(mtl.string());
+    f << "# ScanCam textured scan mesh\n";
+    for (std::size_t k = 0; k < tex_name.size(); ++k) {
+      if (tex_name[k].empty()) continue;
+      f << "\nnewmtl image" << k << "\n"
+        << "Ka 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n"
+        << "map_Kd " << tex_name[k] << "\n";
+    }
+    f << "\nnewmtl untextured\nKa 0.6 0.6 0.6\nKd 0.6 0.6 0.6\nKs 0 0 0\nd 1\nillum 1\n";
+    Finish(f, mtl.string());
+    written.push_back(mtl.string());
+  }
+  // Geometry.
+  std::ofstream f = OpenOut(path);
+  f << "# ScanCam textured scan mesh: scan frame, metres; " << mesh.vertex_count() << " vertices, "
+    << mesh.face_count() << " faces\n"
+    << "mtllib " << stem << ".mtl\n";
+  std::string buf;
+  buf.reserve(1 << 20);
+  char line[160];
+  auto flush = [&](bool force) {
+    if (force || buf.size() > (1u << 20) - 200) {
+      f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      buf.clear();
+    }
+  };
+  std::size_t v_base = 1, vt_base = 1;
+  for (const auto& part : mesh.parts) {
+    const bool tex = part.image >= 0;
+    buf += tex ? "o image" + std::to_string(part.image) + "\nusemtl image" +
+                     std::to_string(part.image) + "\n"
+               : std::string("o untextured\nusemtl untextured\n");
+    for (const auto& p : part.positions) {
+      std::snprintf(line, sizeof line, "v %.6f %.6f %.6f\n", p.x(), p.y(), p.z());
+      buf += line;
+      flush(false);
+    }
+    for (const auto& t : part.uv) {
+      std::snprintf(line, sizeof line, "vt %.7f %.7f\n", t.x(), 1.0 - t.y());
+      buf += line;
+      flush(false);
+    }
+    for (const auto& fc : part.faces) {
+      if (tex) {
+        std::snprintf(line, sizeof line, "f %zu/%zu %zu/%zu %zu/%zu\n", v_base + fc[0],
+                      vt_base + fc[0], v_base + fc[1], vt_base + fc[1], v_base + fc[2],
+                      vt_base + fc[2]);
+      } else {
+        std::snprintf(line, sizeof line, "f %zu %zu %zu\n", v_base + fc[0], v_base + fc[1],
+                      v_base + fc[2]);
+      }
+      buf += line;
+      flush(false);
+    }
+    v_base += part.positions.size();
+    vt_base += part.uv.size();
+  }
+  flush(true);
+  Finish(f, path);
+  written.insert(written.begin(), path);
+  return written;
+}
+
+void WriteGlb(const std::string& path, const TexturedMesh& mesh, const MeshOptions& options) {
+  using nlohmann::json;
+  if (!HostIsLittleEndian()) throw FileError(path, "", "GLB writer needs a little-endian host");
+  std::vector<unsigned char> bin;
+  json buffer_views = json::array(), accessors = json::array(), images = json::array(),
+       textures = json::array(), materials = json::array(), primitives = json::array();
+  auto align4 = [&bin] {
+    while (bin.size() % 4) bin.push_back(0);
+  };
+  auto add_view = [&](const void* data, std::size_t bytes, int target) {
+    align4();
+    json v = {{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}};
+    if (target) v["target"] = target;
+    const auto* p = static_cast<const unsigned char*>(data);
+    bin.insert(bin.end(), p, p + bytes);
+    buffer_views.push_back(v);
+    return static_cast<int>(buffer_views.size()) - 1;
+  };
+  constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
+  constexpr int kFloat = 5126, kUnsignedInt = 5125;
+
+  // Materials: one per image used, plus the untextured one.
+  std::vector<int> material_of(mesh.images.size(), -1);
+  int untextured_material = -1;
+  for (const auto& part : mesh.parts) {
+    if (part.image >= 0) {
+      if (material_of[part.image] >= 0) continue;
+      const auto bytes = EncodeTexture(mesh.images[part.image], options.jpeg_quality, path);
+      const int view = add_view(bytes.data(), bytes.size(), 0);
+      images.push_back({{"bufferView", view},
+                        {"mimeType", options.jpeg_quality > 0 ? "image/jpeg" : "image/png"},
+                        {"name", mesh.names[part.image]}});
+      textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+      materials.push_back({{"name", "image" + std::to_string(part.image)},
+                           {"pbrMetallicRoughness",
+                            {{"baseColorTexture", {{"index", textures.size() - 1}}},
+                             {"metallicFactor", 0.0},
+                             {"roughnessFactor", 1.0}}},
+                           {"doubleSided", true},
+                           {"extensions", {{"KHR_materials_unlit", json::object()}}}});
+      material_of[part.image] = static_cast<int>(materials.size()) - 1;
+    } else if (untextured_material < 0) {
+      materials.push_back({{"name", "untextured"},
+                           {"pbrMetallicRoughness",
+                            {{"baseColorFactor", {0.6, 0.6, 0.6, 1.0}},
+                             {"metallicFactor", 0.0},
+                             {"roughnessFactor", 1.0}}},
+                           {"doubleSided", true}});
+      untextured_material = static_cast<int>(materials.size()) - 1;
+    }
+  }
+  // Geometry, one primitive per part.
+  for (const auto& part : mesh.parts) {
+    Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+    Eigen::Vector3f hi = -lo;
+    for (const auto& p : part.positions) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+    const int pv =
+        add_view(part.positions.data(), part.positions.size() * sizeof(float) * 3, kArrayBuffer);
+    accessors.push_back({{"bufferView", pv},
+                         {"componentType", kFloat},
+                         {"count", part.positions.size()},
+                         {"type", "VEC3"},
+                         {"min", {lo.x(), lo.y(), lo.z()}},
+                         {"max", {hi.x(), hi.y(), hi.z()}}});
+    json attributes = {{"POSITION", accessors.size() - 1}};
+    if (part.image >= 0) {
+      const int tv = add_view(part.uv.data(), part.uv.size() * sizeof(float) * 2, kArrayBuffer);
+      accessors.push_back({{"bufferView", tv},
+                           {"componentType", kFloat},
+                           {"count", part.uv.size()},
+                           {"type", "VEC2"}});
+      attributes["TEXCOORD_0"] = accessors.size() - 1;
+    }
+    const int iv = add_view(part.faces.data(), part.faces.size() * sizeof(std::uint32_t) * 3,
+                            kElementArrayBuffer);
+    accessors.push_back({{"bufferView", iv},
+                         {"componentType", kUnsignedInt},
+                         {"count", part.faces.size() * 3},
+                         {"type", "SCALAR"}});
+    primitives.push_back(
+        {{"attributes", attributes},
+         {"indices", accessors.size() - 1},
+         {"material", part.image >= 0 ? material_of[part.image] : untextured_material},
+         {"mode", 4}});
+  }
+  align4();
+  json node = {{"mesh", 0}, {"name", "scan"}};
+  if (options.glb_z_up) node["rotation"] = {-0.70710678118654752, 0.0, 0.0, 0.70710678118654752};
+  json gltf = {{"asset", {{"version", "2.0"}, {"generator", "ScanCam"}}},
+               {"scene", 0},
+               {"scenes", {{{"nodes", {0}}}}},
+               {"nodes", {node}},
+               {"meshes", {{{"name", "scan"}, {"primitives", primitives}}}},
+               {"materials", materials},
+               {"accessors", accessors},
+               {"bufferViews", buffer_views},
+               {"buffers", {{{"byteLength", bin.size()}}}}};
+  if (!images.empty()) {
+    gltf["images"] = images;
+    gltf["textures"] = textures;
+    gltf["samplers"] = {
+        {{"magFilter", 9729}, {"minFilter", 9729}, {"wrapS", 33071}, {"wrapT", 33071}}};
+    gltf["extensionsUsed"] = {"KHR_materials_unlit"};
+  }
+  std::string js = gltf.dump();
+  while (js.size() % 4) js.push_back(' ');
+  const std::uint32_t total =
+      12 + 8 + static_cast<std::uint32_t>(js.size()) + 8 + static_cast<std::uint32_t>(bin.size());
+  if (12.0 + 8.0 + double(js.size()) + 8.0 + double(bin.size()) > 4294967295.0)
+    throw FileError(path, "", "the model is larger than a GLB file can hold (4 GiB)");
+  std::ofstream f = OpenOut(path);
+  auto u32 = [&f](std::uint32_t v) { f.write(reinterpret_cast<const char*>(&v), 4); };
+  u32(0x46546C67u);  // "glTF"
+  u32(2u);
+  u32(total);
+  u32(static_cast<std::uint32_t>(js.size()));
+  u32(0x4E4F534Au);  // "JSON"
+  f.write(js.data(), static_cast<std::streamsize>(js.size()));
+  u32(static_cast<std::uint32_t>(bin.size()));
+  u32(0x004E4942u);  // "BIN\0"
+  f.write(reinterpret_cast<const char*>(bin.data()), static_cast<std::streamsize>(bin.size()));
+  Finish(f, path);
+}
+
+}  // namespace scancam::colour

@@ -1,0 +1,587 @@
+#include "scancam/sim/simulate.h"
+
+#include <Eigen/QR>
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "scancam/camera/camera_io.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/json_util.h"
+#include "scancam/io/pcd.h"
+#include "scancam/io/ptx.h"
+#include "scancam/rotation_rpy.h"
+#include "scancam/sim/office_scene.h"
+#include "scancam/version.h"
+#include "sim_random.h"
+
+namespace scancam::sim {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+// The omni preset: a catadioptric camera (mirror above the lens). Sensor radius rho maps to the
+// angle from the camera's +z (pointing down, at the lens' own reflection) by
+// alpha = atan2(rho, -pol(rho)): 33 deg at the camera's reflection (58 px), the horizon at ~150 px,
+// 33 deg above the horizon at the mirror rim (232 px).
+constexpr double kOmniCu = 322.7, kOmniCv = 238.4;
+constexpr double kOmniInner = 58.0, kOmniOuter = 232.0;
+const std::vector<double> kOmniPol = {-112.7, 0.0, 4.38e-3, 2.15e-6, -1.1e-9};
+
+double Polyval(const std::vector<double>& a, double x) {
+  double y = 0.0;
+  for (std::size_t i = a.size(); i-- > 0;) y = y * x + a[i];
+  return y;
+}
+
+// OCamCalib's inverse polynomial (theta -> rho), theta = atan(pol(rho) / rho) as the toolbox's
+// world2cam uses it: a least-squares fit over the sensor radii up to rho_max, degree raised until
+// the fit is within 0.01 px (the toolbox's findinvpoly does the same).
+std::vector<double> FitInvPol(const std::vector<double>& pol, double rho_max) {
+  std::vector<double> th, rh;
+  for (double r = 0.25; r <= rho_max; r += 0.25) {
+    th.push_back(std::atan2(Polyval(pol, r), r));
+    rh.push_back(r);
+  }
+  std::vector<double> best;
+  for (int deg = 4; deg <= 20; ++deg) {
+    Eigen::MatrixXd A(th.size(), deg + 1);
+    Eigen::VectorXd b(th.size());
+    for (std::size_t i = 0; i < th.size(); ++i) {
+      double p = 1.0;
+      for (int k = 0; k <= deg; ++k, p *= th[i]) A(i, k) = p;
+      b(i) = rh[i];
+    }
+    const Eigen::VectorXd x = A.colPivHouseholderQr().solve(b);
+    best.assign(x.data(), x.data() + x.size());
+    if ((A * x - b).cwiseAbs().maxCoeff() < 0.01) break;
+  }
+  return best;
+}
+
+// X_ocam = P X_cv (camera/models.h, OCamModel): rows and columns swap, z flips.
+Eigen::Matrix3d OCamFromOpenCv() {
+  Eigen::Matrix3d P;
+  P << 0, 1, 0, 1, 0, 0, 0, 0, -1;
+  return P;
+}
+
+// A forward-looking camera in the scanner frame (z up): yaw of the optical axis about z from the
+// scanner's x, pitched down by `pitch_deg`, rolled by `roll_deg` about the optical axis; centre c.
+Eigen::Isometry3d ForwardRig(double yaw_deg, double pitch_deg, double roll_deg,
+                             const Eigen::Vector3d& c) {
+  const double y = yaw_deg * kDeg, p = pitch_deg * kDeg;
+  const Eigen::Vector3d f(std::cos(y) * std::cos(p), std::sin(y) * std::cos(p), -std::sin(p));
+  const Eigen::Vector3d r = f.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d d = f.cross(r);
+  Eigen::Matrix3d R_scan_cam;
+  R_scan_cam << r, d, f;
+  R_scan_cam = R_scan_cam * Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitZ());
+  Eigen::Isometry3d T_scan_cam = Eigen::Isometry3d::Identity();
+  T_scan_cam.linear() = R_scan_cam;
+  T_scan_cam.translation() = c;
+  return T_scan_cam.inverse();
+}
+
+struct Candidate {
+  const Feature* feature = nullptr;
+  Eigen::Vector3d X_world, X_scan;
+  Eigen::Vector2d cell;  // refined on the noise-free scan
+  Eigen::Vector2d uv;
+  double inset_m = 0.0;
+  double interp_error_m = 0.0;  // noise-free interpolation at `cell` vs X_scan
+  Eigen::Vector3d bearing;      // unit, scanner frame
+};
+
+bool InsideWithMargin(const CameraModel& cam, const ImageMask& mask, const Eigen::Vector2d& uv,
+                      double margin) {
+  if (uv.x() < margin - 0.5 || uv.y() < margin - 0.5 || uv.x() > cam.width() - 0.5 - margin ||
+      uv.y() > cam.height() - 0.5 - margin) {
+    return false;
+  }
+  if (!mask.enabled) return true;
+  const double r = std::hypot(uv.x() - mask.centre_u, uv.y() - mask.centre_v);
+  return r >= mask.inner_radius_px + margin && r <= mask.outer_radius_px - margin;
+}
+
+// Gauss-Newton on (row, col) so that the noise-free interpolation lands on X (with step halving:
+// bilinear interpolation is only piecewise smooth). Returns the cell with the smallest error.
+Eigen::Vector2d RefineCell(const OrderedScan& truth, const Eigen::Vector3d& X,
+                           Eigen::Vector2d cell) {
+  auto err = [&](const Eigen::Vector2d& c) {
+    const auto p = InterpolatePoint(truth, c.x(), c.y());
+    return p ? (*p - X).norm() : std::numeric_limits<double>::infinity();
+  };
+  double e0 = err(cell);
+  for (int it = 0; it < 20 && std::isfinite(e0); ++it) {
+    const auto p = InterpolatePoint(truth, cell.x(), cell.y());
+    const double h = 1e-4;
+    const auto pr = InterpolatePoint(truth, cell.x() + h, cell.y());
+    const auto pc = InterpolatePoint(truth, cell.x(), cell.y() + h);
+    if (!pr || !pc) break;
+    Eigen::Matrix<double, 3, 2> J;
+    J.col(0) = (*pr - *p) / h;
+    J.col(1) = (*pc - *p) / h;
+    Eigen::Vector2d step = (J.transpose() * J).ldlt().solve(J.transpose() * (X - *p));
+    if (!step.allFinite()) break;
+    if (step.norm() > 0.5) step *= 0.5 / step.norm();
+    bool improved = false;
+    for (int k = 0; k < 8 && !improved; ++k, step *= 0.5) {
+      const double e1 = err(cell + step);
+      if (e1 < e0) {
+        cell += step;
+        e0 = e1;
+        improved = true;
+      }
+    }
+    if (!improved || step.norm() < 1e-7) break;
+  }
+  return cell;
+}
+
+std::vector<Candidate> FindCandidates(const Scene& scene, const Simulation& sim,
+                                      const OrderedScan& truth_scan) {
+  std::vector<Candidate> out;
+  const SimScanner& sc = *sim.scanner;
+  const Eigen::Isometry3d T_scan_world = sim.T_world_scan.inverse();
+  for (const Feature& f : scene.features()) {
+    // The corner itself must be seen by the camera and by the scanner.
+    if (!VisibleFromCamera(scene, sim.camera, sim.T_world_cam, sim.mask, f.p_m)) continue;
+    const Eigen::Vector3d corner_scan = T_scan_world * f.p_m;
+    const double range = corner_scan.norm();
+    const double cell_m = sc.MaxStepRad() * range;
+    std::vector<double> insets = {0.0};
+    if (f.convex) insets = {0.75, 1.0, 1.5, 2.0, 3.0};
+    for (double k : insets) {
+      Candidate c;
+      c.feature = &f;
+      c.inset_m = k * cell_m;
+      c.X_world = f.p_m + c.inset_m * f.inward;
+      c.X_scan = T_scan_world * c.X_world;
+      const auto cell0 = sc.CellOf(c.X_scan);
+      if (!cell0) continue;
+      if (cell0->x() < 1 || cell0->y() < 1 || cell0->x() > sc.rows() - 2 ||
+          cell0->y() > sc.cols() - 2) {
+        continue;
+      }
+      c.cell = RefineCell(truth_scan, c.X_scan, *cell0);
+      const auto p = InterpolatePoint(truth_scan, c.cell.x(), c.cell.y());
+      // Points on one face interpolate exactly; at a concave corner the cells lie on two or three
+      // surfaces and bilinear interpolation cuts the corner: allow 0.2 cell there.
+      if (!p) continue;
+      c.interp_error_m = (*p - c.X_scan).norm();
+      if (c.interp_error_m > std::max(0.002, (f.convex ? 0.1 : 0.2) * cell_m)) continue;
+      if ((c.cell - *cell0).norm() > 1.0) continue;
+      Eigen::Vector2d uv;
+      if (!VisibleFromCamera(scene, sim.camera, sim.T_world_cam, sim.mask, c.X_world, &uv)) {
+        continue;
+      }
+      if (!InsideWithMargin(sim.camera, sim.mask, uv, 4.0)) continue;
+      c.uv = uv;
+      c.bearing = c.X_scan.normalized();
+      out.push_back(c);
+      break;
+    }
+  }
+  return out;
+}
+
+double Round2(double v) { return std::round(v * 100.0) / 100.0; }
+
+std::string Fixed(double v, int digits) {
+  std::array<char, 64> buf{};
+  auto [ptr, ec] =
+      std::to_chars(buf.data(), buf.data() + buf.size(), v, std::chars_format::fixed, digits);
+  (void)ec;
+  std::string s(buf.data(), ptr);
+  // "-0.000" -> "0.000": the sign of a rounded zero carries no information.
+  if (!s.empty() && s[0] == '-' && s.find_first_not_of("-0.") == std::string::npos) s.erase(0, 1);
+  return s;
+}
+
+}  // namespace
+
+// ---- presets --------------------------------------------------------------------------------
+
+CameraModel PresetCamera(const std::string& preset) {
+  if (preset == "omni") {
+    OCamParams p;
+    p.center_u = kOmniCu;
+    p.center_v = kOmniCv;
+    p.c = 1.0003;
+    p.d = 0.0002;
+    p.e = -0.0001;
+    p.pol = kOmniPol;
+    // Fit the inverse polynomial up to the image corners (what the toolbox covers).
+    const double rho_corner =
+        std::hypot(std::max(kOmniCu, 640 - kOmniCu), std::max(kOmniCv, 480 - kOmniCv)) + 4.0;
+    p.invpol = FitInvPol(p.pol, rho_corner);
+    return CameraModel::OCam(p, 640, 480, "simulated catadioptric (OCamCalib)");
+  }
+  if (preset == "pinhole") {
+    return CameraModel::Pinhole(610.5, 611.2, 515.3, 381.9, {-0.25, 0.07, 4e-4, -2.5e-4, -0.008},
+                                1024, 768, "simulated wide-angle pinhole");
+  }
+  if (preset == "fisheye") {
+    return CameraModel::Fisheye(286.0, 286.4, 511.6, 384.2, {0.031, -0.012, 0.0025, -0.0004}, 1024,
+                                768, "simulated fisheye (Kannala-Brandt)");
+  }
+  if (preset == "equirect") return CameraModel::Equirect(1440, 720, "simulated 360 panorama");
+  throw Error("unknown camera preset '" + preset + "' (omni, pinhole, fisheye, equirect)");
+}
+
+int PresetSupersample(const std::string& preset) {
+  // Rays per pixel n x n: the 640 x 480 omni image affords 16 rays per pixel in about a second;
+  // the larger images get fewer so that every preset renders in a few seconds.
+  if (preset == "omni") return 4;
+  if (preset == "equirect") return 2;
+  return 3;
+}
+
+ImageMask PresetMask(const std::string& preset) {
+  ImageMask m;
+  if (preset == "omni") {
+    m.enabled = true;
+    m.centre_u = kOmniCu;
+    m.centre_v = kOmniCv;
+    m.inner_radius_px = kOmniInner;
+    m.outer_radius_px = kOmniOuter;
+  }
+  return m;
+}
+
+Eigen::Isometry3d PresetTCamScan(const std::string& preset) {
+  if (preset == "omni") {
+    // The paper's Table I, in OCamCalib's frame; X_ocam = P X_cv.
+    const Eigen::Matrix3d P = OCamFromOpenCv();
+    const Eigen::Matrix3d R_ocam = RpyDegToRotation({0.64, -1.24, 166.95});
+    const Eigen::Vector3d t_ocam(0.207, 0.042, 0.139);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = P.transpose() * R_ocam;
+    T.translation() = P.transpose() * t_ocam;
+    return T;
+  }
+  if (preset == "pinhole") return ForwardRig(130.0, 12.0, 1.0, {0.05, 0.12, 0.16});
+  if (preset == "fisheye") return ForwardRig(95.0, 12.0, -0.8, {0.05, 0.12, 0.16});
+  if (preset == "equirect") return ForwardRig(167.0, 1.2, 0.6, {-0.2, -0.04, 0.14});
+  throw Error("unknown camera preset '" + preset + "' (omni, pinhole, fisheye, equirect)");
+}
+
+// ---- simulation -----------------------------------------------------------------------------
+
+Simulation Simulate(const SimulateOptions& options, const Progress& progress) {
+  progress(0.0, "building the scene");
+  const Scene scene = BuildOfficeScene();
+  return Simulate(scene, options, progress);
+}
+
+Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress& progress) {
+  if (o.pairs < 0 || o.wrong_pairs < 0)
+    throw Error("simulate: --pairs and --wrong-pairs must be >= 0");
+  if (o.wrong_pairs > 0 && o.pairs < 1) throw Error("simulate: wrong pairs need good pairs");
+  if (!(o.pick_sigma_px >= 0) || !(o.pick_sigma_cells >= 0) || !(o.image_noise_sigma >= 0) ||
+      !(o.noise.range_sigma_m >= 0) || !(o.noise.dropout_fraction >= 0) ||
+      !(o.noise.dropout_fraction <= 1) || !(o.noise.max_range_m > 0)) {
+    throw Error("simulate: noise levels must be >= 0 (dropout in [0, 1], max range > 0)");
+  }
+  Simulation sim;
+  sim.options = o;
+  if (o.scanner == "rotating") {
+    sim.scanner = std::make_shared<RotatingScanner>(o.rotating);
+  } else if (o.scanner == "lidar") {
+    sim.scanner = std::make_shared<SpinningLidar>(o.lidar);
+  } else {
+    throw Error("simulate: unknown scanner '" + o.scanner + "' (rotating, lidar)");
+  }
+  sim.camera = PresetCamera(o.camera);
+  sim.mask = PresetMask(o.camera);
+  sim.T_cam_scan = o.T_cam_scan ? *o.T_cam_scan : PresetTCamScan(o.camera);
+  const Eigen::Vector3d pos = o.scanner_position_m
+                                  ? *o.scanner_position_m
+                                  : Eigen::Vector3d(3.0, 2.4, o.scanner == "lidar" ? 1.7 : 1.1);
+  sim.T_world_scan = Eigen::Isometry3d::Identity();
+  sim.T_world_scan.linear() =
+      Eigen::AngleAxisd(o.scanner_yaw_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  sim.T_world_scan.translation() = pos;
+  sim.T_world_cam = sim.T_world_scan * sim.T_cam_scan.inverse();
+  // Scan.
+  sim.sample = SampleScan(scene, *sim.scanner, sim.T_world_scan, o.noise, o.seed, progress);
+  if (o.scanner == "rotating") {
+    sim.rotating = ToRotatingData(static_cast<const RotatingScanner&>(*sim.scanner), sim.sample);
+    sim.scan = scancam::ToOrderedScan(*sim.rotating, "scan.txt");
+  } else {
+    sim.scan = SampleToOrderedScan(*sim.scanner, sim.sample, "scan.pcd");
+  }
+
+  // Camera visibility of every hit.
+  ScanTruth& tr = sim.sample.truth;
+  progress(0.0, "camera visibility");
+#pragma omp parallel for schedule(dynamic, 256)
+  for (long i = 0; i < static_cast<long>(tr.point_m.size()); ++i) {
+    if (tr.quad[i] < 0) continue;
+    tr.visible[i] = VisibleFromCamera(scene, sim.camera, sim.T_world_cam, sim.mask,
+                                      sim.T_world_scan * tr.point_m[i])
+                        ? 1
+                        : 0;
+  }
+
+  // Image.
+  RenderOptions ro;
+  ro.supersample = o.supersample > 0 ? o.supersample : PresetSupersample(o.camera);
+  ro.noise_sigma = o.image_noise_sigma;
+  ro.seed = o.seed;
+  ro.mask = sim.mask;
+  sim.image = RenderImage(scene, sim.camera, sim.T_world_cam, ro, progress);
+
+  // Pairs.
+  progress(0.0, "placing pairs");
+  const OrderedScan truth_scan = TruthOrderedScan(*sim.scanner, tr);
+  const std::vector<Candidate> cand = FindCandidates(scene, sim, truth_scan);
+  detail::Random rng(detail::SubSeed(o.seed, 3));
+  std::vector<int> chosen;
+  if (!cand.empty() && o.pairs > 0) {
+    chosen.push_back(rng.Index(static_cast<int>(cand.size())));
+    std::vector<double> min_angle(cand.size(), 1e9);
+    while (static_cast<int>(chosen.size()) < std::min<int>(o.pairs, cand.size())) {
+      const Candidate& last = cand[chosen.back()];
+      int best = -1;
+      for (std::size_t k = 0; k < cand.size(); ++k) {
+        const double a = std::acos(std::clamp(cand[k].bearing.dot(last.bearing), -1.0, 1.0));
+        min_angle[k] = std::min(min_angle[k], a);
+        if (std::find(chosen.begin(), chosen.end(), int(k)) != chosen.end()) continue;
+        if (best < 0 || min_angle[k] > min_angle[best]) best = static_cast<int>(k);
+      }
+      if (best < 0) break;
+      chosen.push_back(best);
+    }
+  }
+  if (static_cast<int>(chosen.size()) < o.pairs) {
+    sim.warnings.push_back("only " + std::to_string(chosen.size()) + " usable corners for " +
+                           std::to_string(o.pairs) + " pairs");
+  }
+  auto make_pair = [&](const Candidate& img, const Candidate& scn, bool wrong) {
+    PointPair p;
+    p.image_u = Round2(img.uv.x() + o.pick_sigma_px * rng.Normal());
+    p.image_v = Round2(img.uv.y() + o.pick_sigma_px * rng.Normal());
+    p.scan_row = Round2(scn.cell.x() + o.pick_sigma_cells * rng.Normal());
+    p.scan_col = Round2(scn.cell.y() + o.pick_sigma_cells * rng.Normal());
+    p.label = wrong ? std::string(kWrongPairLabelPrefix) + " image at " + img.feature->label +
+                          ", scan at " + scn.feature->label
+                    : img.feature->label;
+    PairTruth t;
+    t.label = p.label;
+    t.wrong = wrong;
+    t.image_feature = img.feature->label;
+    t.scan_feature = scn.feature->label;
+    t.point_scan_m = img.X_scan;
+    t.scan_point_m = scn.X_scan;
+    t.inset_m = img.inset_m;
+    t.scan_interp_error_m = scn.interp_error_m;
+    t.uv_true = img.uv;
+    t.cell_true = scn.cell;
+    sim.pairs.push_back(p);
+    sim.pair_truth.push_back(t);
+  };
+  for (int k : chosen) make_pair(cand[k], cand[k], false);
+  // Wrong pairs: the image at one corner (preferably one no good pair uses), the scan at another
+  // corner at least 30 degrees away, inserted at random places.
+  for (int w = 0; w < o.wrong_pairs && !cand.empty(); ++w) {
+    std::vector<int> unused;
+    for (std::size_t k = 0; k < cand.size(); ++k)
+      if (std::find(chosen.begin(), chosen.end(), int(k)) == chosen.end()) unused.push_back(int(k));
+    const int a = unused.empty() ? chosen[rng.Index(static_cast<int>(chosen.size()))]
+                                 : unused[rng.Index(static_cast<int>(unused.size()))];
+    std::vector<int> far;
+    for (std::size_t k = 0; k < cand.size(); ++k)
+      if (std::acos(std::clamp(cand[k].bearing.dot(cand[a].bearing), -1.0, 1.0)) > 30 * kDeg)
+        far.push_back(int(k));
+    if (far.empty()) {
+      sim.warnings.push_back("no corner far enough for a wrong pair");
+      break;
+    }
+    const int b = far[rng.Index(static_cast<int>(far.size()))];
+    make_pair(cand[a], cand[b], true);
+    // Move it to a random position.
+    const int pos_in = rng.Index(static_cast<int>(sim.pairs.size()));
+    std::rotate(sim.pairs.begin() + pos_in, sim.pairs.end() - 1, sim.pairs.end());
+    std::rotate(sim.pair_truth.begin() + pos_in, sim.pair_truth.end() - 1, sim.pair_truth.end());
+    if (a >= 0) chosen.push_back(a);  // do not reuse this image corner for another wrong pair
+  }
+  progress(1.0, "placing pairs");
+  return sim;
+}
+
+// ---- files ----------------------------------------------------------------------------------
+
+std::string ScanFileName(const Simulation& sim) { return sim.rotating ? "scan.txt" : "scan.pcd"; }
+std::string CameraFileName(const Simulation& sim) {
+  return sim.camera.type() == CameraType::kOCam ? "camera.txt" : "camera.yaml";
+}
+
+void WriteSimulation(const Simulation& sim, const std::string& dir, const Progress& progress) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (!fs::is_directory(dir)) throw FileError(dir, "", "cannot create the output directory");
+  const fs::path d(dir);
+  const SimulateOptions& o = sim.options;
+
+  progress(0.0, "writing files");
+  if (sim.rotating) {
+    WriteRotatingLog((d / "scan.txt").string(), *sim.rotating);
+  } else {
+    WriteOrganisedPcd((d / "scan.pcd").string(), sim.scan);
+  }
+  WritePtx((d / "scan.ptx").string(), {PtxFromOrderedScan(sim.scan)});
+  WritePng((d / "image.png").string(), sim.image);
+  if (sim.camera.type() == CameraType::kOCam) {
+    SaveCamera(sim.camera, (d / "camera.txt").string(), CameraFileFormat::kOCamCalib);
+    WritePng((d / "mask.png").string(),
+             MaskImage(sim.mask, sim.camera.width(), sim.camera.height()));
+  } else {
+    SaveCamera(sim.camera, (d / "camera.yaml").string(), CameraFileFormat::kOpenCv);
+  }
+  WritePairsCsv((d / "pairs.csv").string(), sim.pairs);
+  progress(0.3, "writing files");
+
+  // truth.csv
+  {
+    const ScanTruth& tr = sim.sample.truth;
+    std::string out = "row,col,valid,x,y,z,r,g,b,visible\n";
+    out.reserve(std::size_t(tr.rows) * tr.cols * 64);
+    for (int r = 0; r < tr.rows; ++r)
+      for (int c = 0; c < tr.cols; ++c) {
+        const std::size_t i = tr.index(r, c);
+        out += std::to_string(r);
+        out += ',';
+        out += std::to_string(c);
+        out += tr.valid[i] ? ",1," : ",0,";
+        if (tr.quad[i] >= 0) {
+          const Eigen::Vector3d& p = tr.point_m[i];
+          const Eigen::Vector3f& col = tr.colour[i];
+          out += Fixed(p.x(), 6) + "," + Fixed(p.y(), 6) + "," + Fixed(p.z(), 6) + ",";
+          out += Fixed(col.x(), 3) + "," + Fixed(col.y(), 3) + "," + Fixed(col.z(), 3) + ",";
+        } else {
+          out += ",,,,,,";
+        }
+        out += tr.visible[i] ? "1\n" : "0\n";
+      }
+    const std::string path = (d / "truth.csv").string();
+    std::ofstream f(path, std::ios::binary);
+    if (!f) throw FileError(path, "", "cannot open for writing");
+    f << out;
+    if (!f) throw FileError(path, "", "write failed");
+  }
+  progress(0.8, "writing files");
+
+  // ground_truth.json
+  {
+    using nlohmann::json;
+    json j;
+    j["generator"] = std::string("scancam simulate ") + SCANCAM_VERSION_STRING;
+    j["seed"] = o.seed;
+    j["scene"] = "office";
+    j["frames"] =
+        "T_cam_scan maps scanner-frame points into the camera frame (X_cam = R X_scan + t); "
+        "camera frame OpenCV (x right, y down, z forward); world = the room (x east, y north, z "
+        "up); rotation_rpy_deg: R = Rz(yaw) Ry(pitch) Rx(roll)";
+    j["T_cam_scan"] = PoseToJson(sim.T_cam_scan);
+    j["rotation_rpy_deg"] = Vector3ToJson(RotationToRpyDeg(sim.T_cam_scan.linear()));
+    j["translation_m"] = Vector3ToJson(sim.T_cam_scan.translation());
+    j["camera_centre_in_scan_m"] = Vector3ToJson(sim.T_cam_scan.inverse().translation());
+    if (sim.camera.type() == CameraType::kOCam) {
+      // The same rig in OCamCalib's own camera frame (the paper's Table I is in it).
+      const Eigen::Matrix3d P = OCamFromOpenCv();
+      j["ocamcalib_frame"] = {
+          {"note", "X_ocam = (Y_cv, X_cv, -Z_cv): OCamCalib's frame, z along the mirror axis"},
+          {"rotation_rpy_deg", Vector3ToJson(RotationToRpyDeg(P * sim.T_cam_scan.linear()))},
+          {"translation_m", Vector3ToJson(P * sim.T_cam_scan.translation())}};
+    }
+    j["T_world_scan"] = PoseToJson(sim.T_world_scan);
+    j["T_world_cam"] = PoseToJson(sim.T_world_cam);
+    json cam;
+    cam["file"] = CameraFileName(sim);
+    cam["preset"] = o.camera;
+    cam["model"] = CameraTypeName(sim.camera.type());
+    cam["width"] = sim.camera.width();
+    cam["height"] = sim.camera.height();
+    cam["description"] = sim.camera.Describe();
+    if (sim.mask.enabled) {
+      cam["mask"] = {{"file", "mask.png"},
+                     {"centre_uv", {sim.mask.centre_u, sim.mask.centre_v}},
+                     {"inner_radius_px", sim.mask.inner_radius_px},
+                     {"outer_radius_px", sim.mask.outer_radius_px}};
+    }
+    j["camera"] = cam;
+    json img;
+    img["file"] = "image.png";
+    img["supersample"] = o.supersample > 0 ? o.supersample : PresetSupersample(o.camera);
+    img["noise_sigma"] = o.image_noise_sigma;
+    img["true_colour"] =
+        "albedo (texture, bilinear) times shading ambient + (1 - ambient)(0.5 + 0.5 n.l), one "
+        "point light, no shadows, view-independent; pixels average it over their area";
+    img["light_m"] = Vector3ToJson(Eigen::Vector3d(2.2, 2.8, 2.5));
+    j["image"] = img;
+    json sc;
+    sc["kind"] = sim.scanner->Kind();
+    sc["file"] = ScanFileName(sim);
+    sc["ptx_file"] = "scan.ptx";
+    sc["rows"] = sim.scanner->rows();
+    sc["cols"] = sim.scanner->cols();
+    sc["row_axis"] = sim.scanner->RowAxis();
+    sc["col_axis"] = sim.scanner->ColAxis();
+    if (sim.rotating) {
+      const RotatingScannerParams& p = o.rotating;
+      sc["phi0_deg"] = p.phi0_deg;
+      sc["phi_step_deg"] = p.phi_step_deg;
+      sc["theta0_deg"] = p.theta0_deg;
+      sc["theta_step_deg"] = p.theta_step_deg;
+      sc["dx_m"] = p.dx_m;
+      sc["dz_m"] = p.dz_m;
+    } else {
+      const SpinningLidarParams& p = o.lidar;
+      sc["rings"] = p.rings;
+      sc["elevation_top_deg"] = p.elevation_top_deg;
+      sc["elevation_bottom_deg"] = p.elevation_bottom_deg;
+      sc["azimuth_step_deg"] = p.azimuth_step_deg;
+    }
+    sc["range_sigma_m"] = o.noise.range_sigma_m;
+    sc["dropout_fraction"] = o.noise.dropout_fraction;
+    sc["max_range_m"] = o.noise.max_range_m;
+    sc["min_range_m"] = o.noise.min_range_m;
+    sc["valid_cells"] = sim.scan.valid_count();
+    j["scanner"] = sc;
+    j["truth_file"] = "truth.csv";
+    json pairs = json::array();
+    for (const PairTruth& t : sim.pair_truth) {
+      const std::size_t k = &t - sim.pair_truth.data();
+      pairs.push_back({{"label", t.label},
+                       {"wrong", t.wrong},
+                       {"image_feature", t.image_feature},
+                       {"scan_feature", t.scan_feature},
+                       {"point_scan_m", Vector3ToJson(t.point_scan_m)},
+                       {"scan_point_m", Vector3ToJson(t.scan_point_m)},
+                       {"inset_m", t.inset_m},
+                       {"scan_interp_error_m", t.scan_interp_error_m},
+                       {"image_uv_true", {t.uv_true.x(), t.uv_true.y()}},
+                       {"scan_cell_true", {t.cell_true.x(), t.cell_true.y()}},
+                       {"image_uv", {sim.pairs[k].image_u, sim.pairs[k].image_v}},
+                       {"scan_cell", {sim.pairs[k].scan_row, sim.pairs[k].scan_col}}});
+    }
+    j["pairs_file"] = "pairs.csv";
+    j["pick_sigma_px"] = o.pick_sigma_px;
+    j["pick_sigma_cells"] = o.pick_sigma_cells;
+    j["pairs"] = pairs;
+    j["warnings"] = sim.warnings;
+    WriteJsonFile((d / "ground_truth.json").string(), j);
+  }
+  progress(1.0, "writing files");
+}
+
+}  // namespace scancam::sim

@@ -1,0 +1,50 @@
+#include "cc_progress.h"
+
+#include <ccProgressDialog.h>
+
+#include <QByteArray>
+#include <algorithm>
+#include <memory>
+
+namespace scancam_cc {
+
+scancam::Progress ToProgress(GenericProgressCallback* cb) {
+  if (!cb) return {};
+  // The stage text is only sent when it changes (setInfo repaints the dialog).
+  auto last_stage = std::make_shared<std::string>();
+  auto last_percent = std::make_shared<int>(-1);
+  return scancam::Progress(
+      [cb, last_stage, last_percent](double fraction, const std::string& stage) {
+        if (stage != *last_stage) {
+          *last_stage = stage;
+          cb->setInfo(stage.c_str());
+        }
+        const int percent = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * 100.0);
+        if (percent != *last_percent) {
+          *last_percent = percent;
+          cb->update(static_cast<float>(percent));
+        }
+        return !cb->isCancelRequested();
+      });
+}
+
+void RunWithCcProgress(QWidget* parent, const QString& title,
+                       const std::function<void(const scancam::Progress&)>& work) {
+  if (!parent) {
+    work(scancam::Progress());
+    return;
+  }
+  ccProgressDialog dlg(/*cancelButton=*/true, parent);
+  dlg.setMethodTitle(title);
+  dlg.setAutoClose(false);
+  dlg.start();
+  try {
+    work(ToProgress(&dlg));
+  } catch (...) {
+    dlg.stop();
+    throw;
+  }
+  dlg.stop();
+}
+
+}  // namespace scancam_cc

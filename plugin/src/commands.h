@@ -1,0 +1,39 @@
+// qScanCam: command-line keywords (CloudCompare -SILENT mode and the GUI's command line).
+//
+//   -SCANCAM_CALIB -CAMERA cam_file -PAIRS pairs.csv -OUT calib.json
+//                  [-METHOD ransac|paper|epnp|upnp] [-IMAGE image_file]
+//                  [-GRID_STEP deg] [-ORIGIN ZERO|BOX_CENTER]
+//       Calibrates the camera against the LAST loaded cloud (the scan the pairs' scan_row /
+//       scan_col refer to; pairs with x,y,z need none) and writes the calibration JSON
+//       (solve/calibrate.h CalibrationToJson). -IMAGE checks the image size against the
+//       camera file. Prints the summary (T_cam_scan, errors, flagged pairs).
+//
+//   -SCANCAM_COLORIZE -CAMERA cam_file -IMAGE image_file -CALIB calib.json
+//                     [-MASK mask_image] [-GRID_STEP deg] [-ORIGIN ZERO|BOX_CENTER]
+//       Colours EVERY loaded cloud in place from the image (colour/colourise.h, with
+//       occlusion): per-point RGB, and the scalar fields "ScanCam visibility" (1 out of view,
+//       2 occluded, 3 coloured) and "ScanCam quality" (image px per metre of surface). The
+//       original colours are kept in the cloud's metadata (restorable in the GUI). -CALIB
+//       takes scancam's calib.json, any JSON with a 4x4 "T_cam_scan", or an OpenCalib
+//       extrinsic file.
+//
+//   The scan grid: a cloud read from an ordered format (PTX) keeps CloudCompare's scan grid,
+//   which is used as is (the scanner's frame). Other clouds are re-gridded about their
+//   ccGBLSensor (if any), else about -ORIGIN (default ZERO: the cloud's (0,0,0); BOX_CENTER:
+//   its bounding-box centre), with -GRID_STEP degrees per cell (default: estimated).
+//
+//   Example (headless):
+//     CloudCompare -SILENT -AUTO_SAVE OFF -O scan.ptx
+//         -SCANCAM_COLORIZE -CAMERA camera.txt -IMAGE image.png -CALIB calib.json
+//         -C_EXPORT_FMT PLY -SAVE_CLOUDS
+//   Any error (missing file, size mismatch, bad calibration) is printed and makes
+//   CloudCompare exit with status 1.
+#pragma once
+
+class ccCommandLineInterface;
+
+namespace scancam_cc {
+
+void RegisterCommands(ccCommandLineInterface* cmd);
+
+}  // namespace scancam_cc

@@ -1,0 +1,1126 @@
+#include "ui/calibration_window.h"
+
+#include <QAction>
+#include <QApplication>
+#include <QCloseEvent>
+#include <QComboBox>
+#include <QDir>
+#include <QDockWidget>
+#include <QFileDialog>
+#include <QFileInfo>
+#include <QHeaderView>
+#include <QItemSelectionModel>
+#include <QKeySequence>
+#include <QLabel>
+#include <QMenuBar>
+#include <QMessageBox>
+#include <QProgressDialog>
+#include <QSaveFile>
+#include <QShortcut>
+#include <QStatusBar>
+#include <QTabWidget>
+#include <QTableView>
+#include <QTextEdit>
+#include <QToolBar>
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "scancam/ba_image.h"
+#include "scancam/camera/camera_io.h"
+#include "scancam/colour/export.h"
+#include "scancam/colour/overlay.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/json_util.h"
+#include "scancam/io/pairs_csv.h"
+#include "scancam/rotation_rpy.h"
+#include "ui/image_view.h"
+#include "ui/pairs_model.h"
+
+namespace scancam::ui {
+
+// ---- scan view orientation ----------------------------------------------------------------
+
+QPointF CellToViewPixel(const QPointF& cell, int rows, int cols, const ScanViewOrientation& o) {
+  double x = cell.x(), y = cell.y();
+  int w = cols, h = rows;
+  if (o.transpose) {
+    std::swap(x, y);
+    std::swap(w, h);
+  }
+  if (o.flip_horizontal) x = (w - 1) - x;
+  if (o.flip_vertical) y = (h - 1) - y;
+  return {x, y};
+}
+
+QPointF ViewPixelToCell(const QPointF& px, int rows, int cols, const ScanViewOrientation& o) {
+  double x = px.x(), y = px.y();
+  int w = cols, h = rows;
+  if (o.transpose) std::swap(w, h);
+  if (o.flip_horizontal) x = (w - 1) - x;
+  if (o.flip_vertical) y = (h - 1) - y;
+  if (o.transpose) std::swap(x, y);
+  return {x, y};
+}
+
+namespace {
+
+QImage BgrToQImage(const cv::Mat& bgr) {
+  cv::Mat rgb;
+  if (bgr.channels() == 1)
+    cv::cvtColor(bgr, rgb, cv::COLOR_GRAY2RGB);
+  else
+    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  QImage img(rgb.data, rgb.cols, rgb.rows, static_cast<int>(rgb.step), QImage::Format_RGB888);
+  return img.copy();  // owns its pixels
+}
+
+cv::Mat OrientView(const cv::Mat& view, const ScanViewOrientation& o) {
+  cv::Mat out = view;
+  if (o.transpose) cv::transpose(view, out);
+  if (o.flip_horizontal && o.flip_vertical)
+    cv::flip(out, out, -1);
+  else if (o.flip_horizontal)
+    cv::flip(out, out, 1);
+  else if (o.flip_vertical)
+    cv::flip(out, out, 0);
+  return out;
+}
+
+// Edge points drawn over the photo: enough to judge the fit, few enough to draw fast.
+constexpr std::size_t kMaxEdgePoints = 200000;
+// Only the strongest BA edges (the top 5 %): on a noisy scan a lower threshold also marks
+// range noise on flat surfaces, which hides the real edges under dots.
+constexpr double kEdgePercentile = 95.0;
+
+const char* const kTraceTitles[4] = {"BA horizontal", "BA vertical", "BA +45\u00b0",
+                                     "BA \u221245\u00b0"};
+
+}  // namespace
+
+// ---- window -------------------------------------------------------------------------------
+
+CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
+  setWindowTitle(tr("ScanCam: camera / scanner calibration"));
+  setObjectName("ScanCamCalibrationWindow");
+  pairs_ = new PairsModel(this);
+  buildUi();
+  connect(pairs_, &PairsModel::pairsEdited, this, [this] {
+    refreshMarkers();
+    autosave();
+    updateActions();
+  });
+  updateActions();
+  resize(1400, 850);
+}
+
+CalibrationWindow::~CalibrationWindow() = default;
+
+template <typename F>
+bool CalibrationWindow::guarded(const QString& what, F&& f) {
+  try {
+    f();
+    return true;
+  } catch (const Cancelled&) {
+    setStatus(what + tr(": cancelled"), kWarning);
+  } catch (const std::exception& e) {
+    reportError(what + ": " + QString::fromStdString(e.what()));
+  } catch (...) {
+    reportError(what + tr(": unknown error"));
+  }
+  return false;
+}
+
+void CalibrationWindow::buildUi() {
+  // Centre: scan views.
+  scan_tabs_ = new QTabWidget(this);
+  for (int i = 0; i < 5; ++i) {
+    auto* view = new ImageView(scan_tabs_);
+    view->setObjectName(QString("scanView%1").arg(i));
+    scan_views_[static_cast<std::size_t>(i)] = view;
+    view->setPlaceholderText(tr("No scan"));
+    scan_tabs_->addTab(view, i < 4 ? tr(kTraceTitles[i]) : tr("Range"));
+    connect(view, &ImageView::pixelClicked, this,
+            [this](double x, double y) { onScanClicked(x, y); });
+  }
+  setCentralWidget(scan_tabs_);
+
+  // Camera image dock.
+  camera_view_ = new ImageView(this);
+  camera_view_->setObjectName("cameraView");
+  camera_view_->setPlaceholderText(
+      tr("Open the camera image (Image..., Ctrl+O) and its camera file (Camera file..., "
+         "Ctrl+Shift+O).\nThen click matching points here and on the scan."));
+  connect(camera_view_, &ImageView::pixelClicked, this,
+          [this](double u, double v) { onCameraClicked(u, v); });
+  auto* camera_dock = new QDockWidget(tr("Camera image"), this);
+  camera_dock->setObjectName("cameraDock");
+  camera_dock->setWidget(camera_view_);
+  camera_dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
+  addDockWidget(Qt::RightDockWidgetArea, camera_dock);
+
+  // Pair table dock.
+  table_ = new QTableView(this);
+  table_->setObjectName("pairsTable");
+  table_->setModel(pairs_);
+  table_->setSelectionBehavior(QAbstractItemView::SelectRows);
+  table_->setSelectionMode(QAbstractItemView::SingleSelection);
+  table_->setEditTriggers(QAbstractItemView::DoubleClicked | QAbstractItemView::EditKeyPressed);
+  table_->verticalHeader()->hide();
+  table_->horizontalHeader()->setStretchLastSection(true);
+  table_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  connect(table_->selectionModel(), &QItemSelectionModel::selectionChanged, this, [this] {
+    refreshMarkers();
+    const int row = selectedPair();
+    if (row >= 0)
+      setStatus(tr("Pair %1 selected: a click on the camera image or a scan view moves that "
+                   "half; Esc deselects, Delete removes it")
+                    .arg(row + 1),
+                kInfo);
+  });
+  auto* table_dock = new QDockWidget(tr("Pairs"), this);
+  table_dock->setObjectName("pairsDock");
+  table_dock->setWidget(table_);
+  table_dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
+  addDockWidget(Qt::BottomDockWidgetArea, table_dock);
+
+  result_view_ = new QTextEdit(this);
+  result_view_->setObjectName("resultView");
+  result_view_->setReadOnly(true);
+  result_view_->setPlaceholderText(
+      tr("Pick at least 4 pairs (6 or more, spread over the image and the scan), then "
+         "Calibrate."));
+  auto* result_dock = new QDockWidget(tr("Calibration"), this);
+  result_dock->setObjectName("resultDock");
+  result_dock->setWidget(result_view_);
+  result_dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
+  addDockWidget(Qt::BottomDockWidgetArea, result_dock);
+  splitDockWidget(table_dock, result_dock, Qt::Horizontal);
+  resizeDocks({camera_dock}, {680}, Qt::Horizontal);
+  resizeDocks({table_dock}, {280}, Qt::Vertical);
+
+  // Actions.
+  auto make = [this](const QString& text, const QString& tip, auto slot) {
+    auto* a = new QAction(text, this);
+    a->setToolTip(tip);  // no status tip: it would hide the status line
+    connect(a, &QAction::triggered, this, slot);
+    return a;
+  };
+  act_camera_ =
+      make(tr("Camera file..."), tr("Choose the camera model file"), [this] { chooseCamera(); });
+  act_image_ =
+      make(tr("Image..."), tr("Choose the camera image (its pairs file is reloaded if present)"),
+           [this] { chooseImage(); });
+  act_load_pairs_ = make(tr("Load pairs..."), tr("Replace the pairs by those of a pairs CSV file"),
+                         [this] { choosePairsToLoad(); });
+  act_save_pairs_ = make(tr("Save pairs as..."),
+                         tr("Write the pairs to a CSV file (it then receives the autosaves)"),
+                         [this] { choosePairsToSave(); });
+  act_delete_ = make(tr("Delete pair"), tr("Delete the selected pair (Delete key)"),
+                     [this] { deleteSelectedPair(); });
+  act_calibrate_ = make(tr("Calibrate"), tr("Solve T_cam_scan from the complete pairs"),
+                        [this] { calibrate(); });
+  act_save_calib_ = make(tr("Save calibration..."), tr("Write the calibration JSON"),
+                         [this] { chooseCalibrationToSave(); });
+  act_load_calib_ =
+      make(tr("Load calibration..."), tr("Use T_cam_scan from a calibration JSON file"),
+           [this] { chooseCalibrationToLoad(); });
+  act_apply_ = make(tr("Apply colours"),
+                    tr("Colour the cloud from the camera image with this calibration"), [this] {
+                      const QString problem = colouringProblem();
+                      if (!problem.isEmpty()) {
+                        reportError(tr("Cannot apply colours: ") + problem);
+                        return;
+                      }
+                      emit applyColoursRequested();
+                    });
+  act_restore_ = make(tr("Restore colours"),
+                      tr("Put back the colours the cloud had before ScanCam coloured it"),
+                      [this] { emit restoreColoursRequested(); });
+  act_export_ = make(tr("Export..."),
+                     tr("Colour the scan and write a textured mesh (OBJ, glTF) or a coloured "
+                        "cloud (PLY)"),
+                     [this] { chooseExport(); });
+  act_mask_ = make(tr("Mask..."),
+                   tr("Optional image mask: black pixels are not used for colouring (e.g. "
+                      "outside a catadioptric mirror)"),
+                   [this] { chooseMask(); });
+  // Keyboard shortcuts (window-wide): the whole workflow works from the keyboard too.
+  act_camera_->setShortcut(QKeySequence(tr("Ctrl+Shift+O")));
+  act_image_->setShortcut(QKeySequence::Open);
+  act_load_pairs_->setShortcut(QKeySequence(tr("Ctrl+L")));
+  act_save_pairs_->setShortcut(QKeySequence::SaveAs);
+  act_calibrate_->setShortcut(QKeySequence(tr("Ctrl+Return")));
+  act_apply_->setShortcut(QKeySequence(tr("Ctrl+Shift+A")));
+  act_export_->setShortcut(QKeySequence(tr("Ctrl+E")));
+  act_mask_->setShortcut(QKeySequence(tr("Ctrl+M")));
+  act_pick3d_ = new QAction(tr("Pick in 3D view"), this);
+  act_pick3d_->setCheckable(true);
+  act_pick3d_->setToolTip(tr("Pick the laser side of pairs on the cloud in the 3D view"));
+  act_pick3d_->setEnabled(false);
+  connect(act_pick3d_, &QAction::toggled, this, [this](bool on) {
+    if (on) setStatus(tr("Picking in the 3D view: click a point of the cloud"), kInfo);
+    emit pick3dToggled(on);
+  });
+  act_overlay_ = new QAction(tr("Show laser edges on the image"), this);
+  act_overlay_->setCheckable(true);
+  act_overlay_->setChecked(true);
+  connect(act_overlay_, &QAction::toggled, this, [this] { refreshOverlay(); });
+  auto orient_action = [this](const QString& text) {
+    auto* a = new QAction(text, this);
+    a->setCheckable(true);
+    connect(a, &QAction::toggled, this, [this] {
+      ScanViewOrientation o;
+      o.transpose = act_transpose_->isChecked();
+      o.flip_horizontal = act_flip_h_->isChecked();
+      o.flip_vertical = act_flip_v_->isChecked();
+      orientation_ = o;
+      refreshScanPictures();
+      refreshMarkers();
+    });
+    return a;
+  };
+  act_transpose_ = orient_action(tr("Transpose scan views"));
+  act_flip_h_ = orient_action(tr("Flip scan views left-right"));
+  act_flip_v_ = orient_action(tr("Flip scan views upside down"));
+
+  method_combo_ = new QComboBox(this);
+  method_combo_->setObjectName("methodCombo");
+  method_combo_->addItem(tr("RANSAC (P3P) + refinement"), "ransac");
+  method_combo_->addItem(tr("Paper: linear PnP + refinement"), "paper");
+  method_combo_->addItem(tr("EPnP + refinement"), "epnp");
+  method_combo_->addItem(tr("UPnP + refinement"), "upnp");
+  method_combo_->setToolTip(tr("Solver for the initial pose (then Ceres refinement, eq. 7)"));
+
+  auto* tb = addToolBar(tr("ScanCam"));
+  tb->setObjectName("scancamToolbar");
+  tb->addAction(act_camera_);
+  tb->addAction(act_image_);
+  tb->addSeparator();
+  tb->addAction(act_load_pairs_);
+  tb->addAction(act_save_pairs_);
+  tb->addAction(act_delete_);
+  tb->addAction(act_pick3d_);
+  tb->addSeparator();
+  tb->addWidget(method_combo_);
+  tb->addAction(act_calibrate_);
+  tb->addAction(act_save_calib_);
+  tb->addSeparator();
+  tb->addAction(act_apply_);
+  tb->addAction(act_restore_);
+  tb->addAction(act_export_);
+
+  QMenu* file = menuBar()->addMenu(tr("&File"));
+  file->addAction(act_camera_);
+  file->addAction(act_image_);
+  file->addAction(act_mask_);
+  file->addAction(tr("No mask"), this, [this] { clearMask(); });
+  file->addSeparator();
+  file->addAction(act_load_pairs_);
+  file->addAction(act_save_pairs_);
+  file->addSeparator();
+  file->addAction(act_load_calib_);
+  file->addAction(act_save_calib_);
+  file->addAction(act_export_);
+  file->addSeparator();
+  file->addAction(tr("Close"), this, &QWidget::close);
+  QMenu* pairs = menuBar()->addMenu(tr("&Pairs"));
+  pairs->addAction(act_delete_);
+  pairs->addAction(act_pick3d_);
+  pairs->addAction(tr("Deselect"), this, [this] { table_->clearSelection(); });
+  QMenu* calib = menuBar()->addMenu(tr("&Calibration"));
+  calib->addAction(act_calibrate_);
+  calib->addAction(act_apply_);
+  calib->addAction(act_restore_);
+  QMenu* view = menuBar()->addMenu(tr("&View"));
+  view->addAction(act_overlay_);
+  view->addSeparator();
+  view->addAction(act_transpose_);
+  view->addAction(act_flip_h_);
+  view->addAction(act_flip_v_);
+  view->addSeparator();
+  view->addAction(tr("Fit images"), this, [this] {
+    camera_view_->fitImage();
+    for (ImageView* v : scan_views_) v->fitImage();
+  });
+
+  auto* esc = new QShortcut(QKeySequence(Qt::Key_Escape), this);
+  connect(esc, &QShortcut::activated, this, [this] {
+    table_->clearSelection();
+    setStatus(tr("No pair selected: clicks add pairs"), kInfo);
+  });
+  auto* del = new QShortcut(QKeySequence::Delete, table_);
+  del->setContext(Qt::WidgetShortcut);
+  connect(del, &QShortcut::activated, this, [this] { deleteSelectedPair(); });
+
+  status_label_ = new QLabel(this);
+  status_label_->setObjectName("statusLabel");
+  status_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  autosave_label_ = new QLabel(this);
+  autosave_label_->setObjectName("autosaveLabel");
+  statusBar()->addWidget(status_label_, 1);
+  statusBar()->addPermanentWidget(autosave_label_);
+  setStatus(tr("Choose the camera file and the image, then click matching points: on the "
+               "camera image and on a scan view"),
+            kInfo);
+}
+
+void CalibrationWindow::setProgressRunner(ProgressRunner runner) { runner_ = std::move(runner); }
+
+void CalibrationWindow::runWithProgress(const QString& title,
+                                        const std::function<void(const Progress&)>& work) {
+  if (runner_) {
+    runner_(title, work);
+    return;
+  }
+  QProgressDialog dlg(title, tr("Cancel"), 0, 1000, this);
+  dlg.setWindowModality(Qt::WindowModal);
+  dlg.setMinimumDuration(400);
+  dlg.setValue(0);
+  work(Progress([&dlg](double f, const std::string& stage) {
+    dlg.setLabelText(QString::fromStdString(stage));
+    dlg.setValue(static_cast<int>(std::clamp(f, 0.0, 1.0) * 1000.0));
+    QApplication::processEvents();
+    return !dlg.wasCanceled();
+  }));
+}
+
+void CalibrationWindow::setStatus(const QString& text, int level) {
+  status_text_ = text;
+  status_label_->setText(text);
+  status_label_->setStyleSheet(level == kError     ? "color: #b00000; font-weight: bold"
+                               : level == kWarning ? "color: #a05000"
+                                                   : "");
+}
+
+QString CalibrationWindow::statusText() const { return status_text_; }
+
+void CalibrationWindow::reportInfo(const QString& text, int level) {
+  setStatus(text, level);
+  emit logMessage("[ScanCam] " + text, level);
+}
+
+void CalibrationWindow::reportError(const QString& text) {
+  setStatus(text, kError);
+  emit logMessage("[ScanCam] " + text, kError);
+  if (error_dialogs_) {
+    auto* box = new QMessageBox(QMessageBox::Warning, tr("ScanCam"), text, QMessageBox::Ok, this);
+    box->setAttribute(Qt::WA_DeleteOnClose);
+    box->open();  // non-blocking: the window stays usable, tests are not stopped
+  }
+}
+
+// ---- inputs -------------------------------------------------------------------------------
+
+bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name) {
+  return guarded(tr("Scan %1").arg(name), [&] {
+    if (!scan || scan->rows <= 0 || scan->cols <= 0)
+      throw Error(name.toStdString() + ": the scan grid is empty");
+    CheckScan(*scan, name.toStdString());
+    std::array<cv::Mat, 4> ba;
+    cv::Mat range;
+    std::vector<Eigen::Vector3f> edges;
+    std::vector<std::size_t> edge_index;
+    cv::Mat edge_cells;
+    runWithProgress(tr("Bearing-Angle images"), [&](const Progress& progress) {
+      ba = ComputeBearingAngleAll(*scan, Progress([&](double f, const std::string& s) {
+        progress(0.8 * f, s.empty() ? "BA images" : s);
+        return true;
+      }));
+      progress(0.8, "range image");
+      range = RangeImage(*scan);
+      progress(0.85, "edges");
+      colour::OverlayOptions edge_options;
+      edge_options.edge_percentile = kEdgePercentile;
+      edge_cells = colour::BaEdgeCells(*scan, edge_options);
+      std::vector<std::size_t> cells;
+      for (int r = 0; r < edge_cells.rows; ++r) {
+        const std::uint8_t* m = edge_cells.ptr<std::uint8_t>(r);
+        for (int c = 0; c < edge_cells.cols; ++c)
+          if (m[c] && scan->valid(scan->index(r, c))) cells.push_back(scan->index(r, c));
+      }
+      const std::size_t stride = (cells.size() + kMaxEdgePoints - 1) / kMaxEdgePoints;
+      for (std::size_t k = 0; k < cells.size(); k += std::max<std::size_t>(stride, 1)) {
+        edges.push_back(scan->point_m[cells[k]]);
+        edge_index.push_back(cells[k]);
+      }
+      progress(1.0, "done");
+    });
+    scan_ = std::move(scan);
+    scan_name_ = name;
+    ba_ = ba;
+    range_ = range;
+    edge_points_ = std::move(edges);
+    edge_point_cells_ = std::move(edge_index);
+    edge_cells_ = edge_cells;
+    coloured_.reset();
+    // Panoramas are wider than tall: a tall grid is most likely a transposed one (PTX).
+    if (scan_->rows > scan_->cols * 6 / 5 && !act_transpose_->isChecked()) {
+      act_transpose_->setChecked(true);  // refreshes the pictures
+    } else {
+      refreshScanPictures();
+    }
+    for (ImageView* v : scan_views_) v->fitImage();
+    refreshMarkers();
+    refreshOverlay();
+    reportInfo(tr("Scan %1: %2 x %3 cells, %4 % with a return")
+                   .arg(name)
+                   .arg(scan_->rows)
+                   .arg(scan_->cols)
+                   .arg(100.0 * scan_->valid_fraction(), 0, 'f', 1));
+    updateActions();
+  });
+}
+
+void CalibrationWindow::refreshScanPictures() {
+  if (!scan_) return;
+  try {
+    for (int i = 0; i < 5; ++i) {
+      ViewOptions opt;
+      cv::Mat view;
+      if (i < 4) {
+        view = MakeView(ba_[static_cast<std::size_t>(i)], opt);
+      } else {
+        opt.colormap = Colormap::kJet;
+        view = MakeView(range_, opt);
+      }
+      scan_views_[static_cast<std::size_t>(i)]->setImage(
+          BgrToQImage(OrientView(view, orientation_)));
+    }
+  } catch (const std::exception& e) {
+    reportError(tr("Scan views: %1").arg(e.what()));
+  }
+}
+
+void CalibrationWindow::setScanOrientation(const ScanViewOrientation& o) {
+  // The actions' toggled() handlers rebuild the pictures.
+  act_transpose_->setChecked(o.transpose);
+  act_flip_h_->setChecked(o.flip_horizontal);
+  act_flip_v_->setChecked(o.flip_vertical);
+}
+
+bool CalibrationWindow::loadCamera(const QString& path) {
+  return guarded(tr("Camera file"), [&] {
+    CameraModel cam = LoadCamera(path.toStdString());
+    camera_ = std::move(cam);
+    camera_path_ = path;
+    calibration_.reset();
+    coloured_.reset();
+    pairs_->clearResults();
+    result_view_->clear();
+    refreshOverlay();
+    refreshMarkers();
+    updateActions();
+    emit inputsChanged();
+    reportInfo(tr("Camera %1: %2")
+                   .arg(QFileInfo(path).fileName(), QString::fromStdString(camera_.Describe())));
+    if (!image_bgr_.empty()) {
+      try {
+        CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
+      } catch (const std::exception& e) {
+        reportError(QString::fromStdString(e.what()));
+      }
+    }
+  });
+}
+
+bool CalibrationWindow::loadImage(const QString& path) {
+  return guarded(tr("Image"), [&] {
+    cv::Mat img = cv::imread(path.toStdString(), cv::IMREAD_COLOR);
+    if (img.empty())
+      throw Error(path.toStdString() + ": cannot read the image (missing or not an image)");
+    const bool had_image = !image_bgr_.empty();
+    const bool same_image = QFileInfo(path) == QFileInfo(image_path_);
+    image_bgr_ = img;
+    image_path_ = path;
+    image_edge_distance_.release();
+    camera_view_->setImage(BgrToQImage(img));
+    camera_view_->fitImage();
+    if (!same_image) autosave_path_ = SidecarPath(path);
+    autosave_label_->setText(tr("Autosave: %1").arg(QFileInfo(autosave_path_).fileName()));
+    autosave_label_->setToolTip(autosave_path_);
+    QString msg =
+        tr("Image %1: %2 x %3 px").arg(QFileInfo(path).fileName()).arg(img.cols).arg(img.rows);
+    if (!same_image) {
+      if (QFileInfo::exists(autosave_path_)) {
+        loading_pairs_ = true;
+        try {
+          pairs_->setPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+        } catch (...) {
+          loading_pairs_ = false;
+          throw;
+        }
+        loading_pairs_ = false;
+        msg += tr("; reloaded %1 pairs from %2")
+                   .arg(pairs_->size())
+                   .arg(QFileInfo(autosave_path_).fileName());
+      } else if (had_image && pairs_->size() > 0) {
+        // The pairs belong to the previous image (and are in its pairs file).
+        loading_pairs_ = true;
+        pairs_->clear();
+        loading_pairs_ = false;
+      }
+      calibration_.reset();
+      coloured_.reset();
+      result_view_->clear();
+    }
+    refreshMarkers();
+    refreshOverlay();
+    updateActions();
+    emit inputsChanged();
+    reportInfo(msg);
+    if (camera_.valid()) {
+      try {
+        CheckImageSize(camera_, img.cols, img.rows, path.toStdString());
+      } catch (const std::exception& e) {
+        reportError(QString::fromStdString(e.what()));
+      }
+    }
+  });
+}
+
+QString CalibrationWindow::SidecarPath(const QString& image_path) {
+  return image_path + ".scancam-pairs.csv";
+}
+
+bool CalibrationWindow::loadPairs(const QString& path) {
+  return guarded(tr("Pairs file"), [&] {
+    std::vector<PointPair> pairs = ReadPairsCsv(path.toStdString());
+    // Autosave goes on to the current target (the file read is not overwritten by edits).
+    pairs_->setPointPairs(pairs);
+    calibration_.reset();
+    coloured_.reset();
+    result_view_->clear();
+    refreshOverlay();
+    reportInfo(tr("Loaded %1 pairs from %2").arg(pairs.size()).arg(QFileInfo(path).fileName()));
+  });
+}
+
+bool CalibrationWindow::writePairsFile(const QString& path) {
+  const std::string text = FormatPairsCsv(pairs_->completePointPairs());
+  QSaveFile file(path);  // writes a temporary file and renames it over `path` on commit
+  if (!file.open(QIODevice::WriteOnly) ||
+      file.write(text.data(), static_cast<qint64>(text.size())) !=
+          static_cast<qint64>(text.size()) ||
+      !file.commit()) {
+    throw Error(path.toStdString() + ": cannot write the pairs file (" +
+                file.errorString().toStdString() + ")");
+  }
+  return true;
+}
+
+bool CalibrationWindow::savePairs(const QString& path) {
+  return guarded(tr("Save pairs"), [&] {
+    writePairsFile(path);
+    autosave_path_ = path;
+    autosave_label_->setText(tr("Autosave: %1").arg(QFileInfo(path).fileName()));
+    autosave_label_->setToolTip(path);
+    reportInfo(tr("Saved %1 pairs to %2 (later changes are saved there automatically)")
+                   .arg(pairs_->completeCount())
+                   .arg(path));
+  });
+}
+
+void CalibrationWindow::autosave() {
+  if (loading_pairs_ || autosave_path_.isEmpty()) return;
+  try {
+    writePairsFile(autosave_path_);
+  } catch (const std::exception& e) {
+    setStatus(tr("Autosave failed: %1").arg(e.what()), kWarning);
+    emit logMessage(tr("[ScanCam] autosave failed: %1").arg(e.what()), kWarning);
+  }
+}
+
+// ---- picking ------------------------------------------------------------------------------
+
+int CalibrationWindow::selectedPair() const {
+  const QModelIndexList rows = table_->selectionModel()->selectedRows();
+  return rows.isEmpty() ? -1 : rows.front().row();
+}
+
+void CalibrationWindow::onCameraClicked(double u, double v) { addImagePick(u, v); }
+
+void CalibrationWindow::onScanClicked(double x, double y) {
+  if (!scan_) return;
+  const QPointF cell = ViewPixelToCell({x, y}, scan_->rows, scan_->cols, orientation_);
+  addScanPick(cell.y(), cell.x());
+}
+
+void CalibrationWindow::addImagePick(double u, double v) {
+  guarded(tr("Image pick"), [&] {
+    if (image_bgr_.empty()) {
+      setStatus(tr("Open the camera image first"), kWarning);
+      return;
+    }
+    if (camera_.valid() && camera_.width() == image_bgr_.cols &&
+        camera_.height() == image_bgr_.rows && !camera_.Unproject(Eigen::Vector2d(u, v))) {
+      setStatus(tr("Pixel (%1, %2) is outside the camera's field of view: not used")
+                    .arg(u, 0, 'f', 1)
+                    .arg(v, 0, 'f', 1),
+                kWarning);
+      return;
+    }
+    const int row = pairs_->placeImageHalf(QPointF(u, v), selectedPair());
+    table_->scrollTo(pairs_->index(row, 0));
+    const EditablePair& p = pairs_->pairs()[static_cast<std::size_t>(row)];
+    setStatus(p.complete()
+                  ? tr("Pair %1 complete (%2 pairs)").arg(row + 1).arg(pairs_->completeCount())
+                  : tr("Pair %1: image point set, now click the same point on a scan "
+                       "view")
+                        .arg(row + 1),
+              kInfo);
+  });
+}
+
+void CalibrationWindow::addScanPick(double row, double col) {
+  guarded(tr("Scan pick"), [&] {
+    if (!scan_) return;
+    if (!InterpolatePoint(*scan_, row, col)) {
+      setStatus(tr("Scan cell (row %1, col %2) has no laser return: not used")
+                    .arg(row, 0, 'f', 1)
+                    .arg(col, 0, 'f', 1),
+                kWarning);
+      return;
+    }
+    const int r = pairs_->placeScanHalf(row, col, selectedPair());
+    table_->scrollTo(pairs_->index(r, 0));
+    const EditablePair& p = pairs_->pairs()[static_cast<std::size_t>(r)];
+    setStatus(p.complete()
+                  ? tr("Pair %1 complete (%2 pairs)").arg(r + 1).arg(pairs_->completeCount())
+                  : tr("Pair %1: scan point set, now click the same point on the camera "
+                       "image")
+                        .arg(r + 1),
+              kInfo);
+  });
+}
+
+void CalibrationWindow::deleteSelectedPair() {
+  const int row = selectedPair();
+  if (row < 0) {
+    setStatus(tr("Select a pair in the table first"), kWarning);
+    return;
+  }
+  pairs_->removePair(row);
+  table_->clearSelection();
+  setStatus(tr("Pair %1 deleted").arg(row + 1), kInfo);
+}
+
+void CalibrationWindow::refreshMarkers() {
+  const int selected = selectedPair();
+  QVector<Marker> image_markers;
+  QVector<Marker> scan_markers;
+  const auto& pairs = pairs_->pairs();
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const EditablePair& p = pairs[i];
+    Marker m;
+    m.id = static_cast<int>(i) + 1;
+    m.selected = static_cast<int>(i) == selected;
+    m.colour = !p.complete()             ? QColor(0, 220, 255)
+               : (p.solved && !p.inlier) ? QColor(255, 40, 40)
+                                         : QColor(255, 220, 0);
+    if (p.image_px) {
+      m.px = *p.image_px;
+      image_markers.push_back(m);
+    }
+    if (p.scan_cell && scan_) {
+      m.px = CellToViewPixel(*p.scan_cell, scan_->rows, scan_->cols, orientation_);
+      scan_markers.push_back(m);
+    }
+  }
+  camera_view_->setMarkers(image_markers);
+  for (ImageView* v : scan_views_) v->setMarkers(scan_markers);
+}
+
+// ---- calibration --------------------------------------------------------------------------
+
+bool CalibrationWindow::calibrate() {
+  return guarded(tr("Calibration"), [&] {
+    if (!camera_.valid()) throw Error("choose the camera file first");
+    if (!image_bgr_.empty())
+      CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
+    std::vector<int> rows;
+    const std::vector<PointPair> pairs = pairs_->completePointPairs(&rows);
+    CalibrateOptions opt;
+    opt.method = method_combo_->currentData().toString().toStdString();
+    opt.pairs_source = "pairs";
+    Calibration cal;
+    QApplication::setOverrideCursor(Qt::WaitCursor);
+    try {
+      cal = Calibrate(pairs, scan_.get(), camera_, opt);
+    } catch (...) {
+      QApplication::restoreOverrideCursor();
+      throw;
+    }
+    QApplication::restoreOverrideCursor();
+    pairs_->setResults(cal, rows);
+    // Show the first flagged pair: that is the one to look at.
+    for (const PairResult& r : cal.pairs) {
+      if (!r.inlier && r.index >= 0 && r.index < static_cast<int>(rows.size())) {
+        table_->scrollTo(pairs_->index(rows[static_cast<std::size_t>(r.index)], 0));
+        break;
+      }
+    }
+    calibration_ = std::move(cal);
+    calibration_source_.clear();
+    refreshMarkers();
+    poseChanged();
+    const Calibration& c = *calibration_;
+    QString msg = tr("Calibrated (%1): %2 of %3 pairs inliers, mean %4 px / %5 deg")
+                      .arg(QString::fromStdString(c.method))
+                      .arg(c.inlier_count)
+                      .arg(c.pair_count)
+                      .arg(c.mean_px, 0, 'f', 2)
+                      .arg(c.mean_deg, 0, 'f', 3);
+    if (c.inlier_count < c.pair_count) msg += tr(" — outliers are marked red in the table");
+    reportInfo(msg, c.warnings.empty() ? kInfo : kWarning);
+    for (const std::string& w : c.warnings)
+      emit logMessage("[ScanCam] warning: " + QString::fromStdString(w), kWarning);
+  });
+}
+
+std::optional<Eigen::Isometry3d> CalibrationWindow::pose() const {
+  if (!calibration_) return std::nullopt;
+  return calibration_->T_cam_scan;
+}
+
+QString CalibrationWindow::colouringProblem() const {
+  if (!scan_) return tr("no scan");
+  if (!camera_.valid()) return tr("choose the camera file");
+  if (image_bgr_.empty()) return tr("open the camera image");
+  if (camera_.width() != image_bgr_.cols || camera_.height() != image_bgr_.rows)
+    return tr("the image is %1 x %2 px but the camera file is for %3 x %4 px")
+        .arg(image_bgr_.cols)
+        .arg(image_bgr_.rows)
+        .arg(camera_.width())
+        .arg(camera_.height());
+  if (!mask_.empty() && (mask_.cols != image_bgr_.cols || mask_.rows != image_bgr_.rows))
+    return tr("the mask is %1 x %2 px but the image is %3 x %4 px")
+        .arg(mask_.cols)
+        .arg(mask_.rows)
+        .arg(image_bgr_.cols)
+        .arg(image_bgr_.rows);
+  if (!calibration_) return tr("calibrate (or load a calibration) first");
+  return {};
+}
+
+colour::ColourView CalibrationWindow::colourView() const {
+  colour::ColourView v;
+  v.camera = camera_;
+  if (calibration_) v.T_cam_scan = calibration_->T_cam_scan;
+  v.image = image_bgr_;
+  v.mask = mask_;
+  v.name = image_path_.toStdString();
+  return v;
+}
+
+void CalibrationWindow::measureEdgeAlignment() {
+  alignment_text_.clear();
+  if (!colouringProblem().isEmpty() || edge_cells_.empty()) return;
+  try {
+    if (image_edge_distance_.empty()) image_edge_distance_ = colour::ImageEdgeDistance(image_bgr_);
+    const colour::ColourView view = colourView();
+    const colour::EdgeAlignment a =
+        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edge_cells_,
+                                     image_edge_distance_, coloured_ ? &*coloured_ : nullptr, 0);
+    if (a.edge_points == 0) {
+      alignment_text_ = tr("no laser edge point is seen in the image: the pose is wrong");
+      return;
+    }
+    alignment_text_ = tr("%1 laser edge points seen; distance to the nearest image edge: "
+                         "median %2 px, %3 % within 2 px")
+                          .arg(a.edge_points)
+                          .arg(a.median_px, 0, 'f', 2)
+                          .arg(100.0 * a.within_2px, 0, 'f', 1);
+  } catch (const std::exception& e) {
+    alignment_text_ = tr("edge alignment not measured: %1").arg(e.what());
+  }
+}
+
+void CalibrationWindow::showResult() {
+  if (!calibration_) {
+    result_view_->clear();
+    return;
+  }
+  const Calibration& c = *calibration_;
+  const Eigen::Matrix4d M = c.T_cam_scan.matrix();
+  QString html;
+  auto num = [](double v, int d) { return QString::number(v, 'f', d); };
+  if (!calibration_source_.isEmpty()) {
+    html += tr("<b>Loaded</b> from %1<br>").arg(calibration_source_.toHtmlEscaped());
+  } else {
+    html += tr("<b>Method</b> %1%2 &nbsp; <b>%3</b> of %4 pairs inliers<br>")
+                .arg(QString::fromStdString(c.method))
+                .arg(c.refined ? tr(" + refinement (eq. 7)") : QString())
+                .arg(c.inlier_count)
+                .arg(c.pair_count);
+  }
+  html += tr("<b>T_cam_scan</b> (X_cam = R X_scan + t):<pre>");
+  for (int r = 0; r < 4; ++r) {
+    for (int k = 0; k < 4; ++k) html += QString("%1").arg(M(r, k), 11, 'f', 6);
+    html += "\n";
+  }
+  html += "</pre>";
+  html += tr("<b>roll / pitch / yaw</b> %1 %2 %3 deg")
+              .arg(num(c.rotation_rpy_deg.x(), 3), num(c.rotation_rpy_deg.y(), 3),
+                   num(c.rotation_rpy_deg.z(), 3));
+  if (c.has_covariance)
+    html +=
+        tr(" &nbsp;(std %1 %2 %3)")
+            .arg(num(c.std_rpy_deg.x(), 3), num(c.std_rpy_deg.y(), 3), num(c.std_rpy_deg.z(), 3));
+  html += tr("<br><b>t</b> %1 %2 %3 m")
+              .arg(num(c.T_cam_scan.translation().x(), 4), num(c.T_cam_scan.translation().y(), 4),
+                   num(c.T_cam_scan.translation().z(), 4));
+  if (c.has_covariance)
+    html += tr(" &nbsp;(std %1 %2 %3)")
+                .arg(num(c.std_t_m.x(), 4), num(c.std_t_m.y(), 4), num(c.std_t_m.z(), 4));
+  if (calibration_source_.isEmpty()) {
+    html += tr("<br><b>Reprojection error</b> (inliers): mean %1 px, std %2, max %3 px; "
+               "angular mean %4 deg, max %5 deg")
+                .arg(num(c.mean_px, 2), num(c.std_px, 2), num(c.max_px, 2), num(c.mean_deg, 3),
+                     num(c.max_deg, 3));
+    QStringList flagged;
+    for (const PairResult& p : c.pairs)
+      if (!p.inlier) flagged << tr("#%1 (%2 deg)").arg(p.index + 1).arg(num(p.error_deg, 2));
+    if (!flagged.isEmpty())
+      html += tr("<br><span style='color:#c00000'><b>Flagged pairs</b>: %1</span>")
+                  .arg(flagged.join(", "));
+  }
+  if (!alignment_text_.isEmpty())
+    html += tr("<br><b>Edge alignment</b> (green dots on the image): %1")
+                .arg(alignment_text_.toHtmlEscaped());
+  for (const std::string& w : c.warnings)
+    html += tr("<br><span style='color:#a05000'>warning: %1</span>")
+                .arg(QString::fromStdString(w).toHtmlEscaped());
+  result_view_->setHtml(html);
+}
+
+void CalibrationWindow::refreshOverlay() {
+  QVector<QPointF> px;
+  if (act_overlay_->isChecked() && calibration_ && camera_.valid() && !edge_points_.empty() &&
+      !image_bgr_.empty()) {
+    std::vector<Eigen::Vector2f> uv(edge_points_.size());
+    std::vector<std::uint8_t> ok(edge_points_.size());
+    camera_.ProjectBatch(calibration_->T_cam_scan, edge_points_.data(), edge_points_.size(),
+                         uv.data(), ok.data());
+    px.reserve(static_cast<int>(edge_points_.size()));
+    for (std::size_t i = 0; i < uv.size(); ++i) {
+      if (!ok[i]) continue;
+      // With a visibility result, only the edges the camera sees (not occluded, in the mask).
+      if (coloured_ && coloured_->state[edge_point_cells_[i]] != colour::PointState::kColoured)
+        continue;
+      px.push_back(QPointF(uv[i].x(), uv[i].y()));
+    }
+  }
+  camera_view_->setOverlayPoints(px, QColor(0, 255, 80));
+}
+
+void CalibrationWindow::poseChanged() {
+  coloured_.reset();
+  if (calibration_ && colouringProblem().isEmpty()) {
+    // Which points the camera sees with this pose (occlusion, mask): the overlay and the edge
+    // alignment then only use those.
+    try {
+      const std::vector<colour::ColourView> views = {colourView()};
+      colour::ColouredScan coloured;
+      runWithProgress(tr("Visibility"), [&](const Progress& progress) {
+        coloured = colour::Colourise(*scan_, views, {}, progress);
+      });
+      coloured_ = std::move(coloured);
+    } catch (const Cancelled&) {
+      setStatus(tr("Visibility not computed (cancelled): the overlay shows every edge point"),
+                kWarning);
+    } catch (const std::exception& e) {
+      reportInfo(tr("Visibility not computed: %1").arg(e.what()), kWarning);
+    }
+  }
+  measureEdgeAlignment();
+  showResult();
+  refreshOverlay();
+  updateActions();
+}
+
+bool CalibrationWindow::saveCalibration(const QString& path) {
+  return guarded(tr("Save calibration"), [&] {
+    if (!calibration_) throw Error("nothing to save: calibrate first");
+    nlohmann::json inputs = nlohmann::json::object();
+    if (!camera_path_.isEmpty()) inputs["camera"] = camera_path_.toStdString();
+    if (!image_path_.isEmpty()) inputs["image"] = image_path_.toStdString();
+    if (!autosave_path_.isEmpty()) inputs["pairs"] = autosave_path_.toStdString();
+    if (!scan_name_.isEmpty()) inputs["scan"] = scan_name_.toStdString();
+    WriteJsonFile(path.toStdString(), CalibrationToJson(*calibration_, inputs));
+    reportInfo(tr("Saved the calibration to %1").arg(path));
+  });
+}
+
+bool CalibrationWindow::loadCalibration(const QString& path) {
+  return guarded(tr("Load calibration"), [&] {
+    Calibration c;
+    c.T_cam_scan = colour::LoadExtrinsic(path.toStdString());
+    c.rotation_rpy_deg = RotationToRpyDeg(c.T_cam_scan.linear());
+    c.method = "loaded";
+    calibration_ = c;
+    calibration_source_ = path;
+    pairs_->clearResults();
+    refreshMarkers();
+    poseChanged();
+    reportInfo(tr("Using T_cam_scan from %1").arg(path));
+  });
+}
+
+// ---- file dialogs -------------------------------------------------------------------------
+
+void CalibrationWindow::chooseCamera() {
+  const QString dir = camera_path_.isEmpty() ? QFileInfo(image_path_).path() : camera_path_;
+  const QString path = QFileDialog::getOpenFileName(
+      this, tr("Camera file"), dir, tr("Camera files (*.yaml *.yml *.json *.txt);;All files (*)"));
+  if (!path.isEmpty()) loadCamera(path);
+}
+
+void CalibrationWindow::chooseImage() {
+  const QString dir = image_path_.isEmpty() ? QFileInfo(camera_path_).path() : image_path_;
+  const QString path = QFileDialog::getOpenFileName(
+      this, tr("Camera image"), dir,
+      tr("Images (*.png *.jpg *.jpeg *.tif *.tiff *.bmp *.pgm *.ppm);;All files (*)"));
+  if (!path.isEmpty()) loadImage(path);
+}
+
+void CalibrationWindow::choosePairsToLoad() {
+  const QString path =
+      QFileDialog::getOpenFileName(this, tr("Load pairs"), QFileInfo(autosave_path_).path(),
+                                   tr("Pairs CSV (*.csv);;All files (*)"));
+  if (!path.isEmpty()) loadPairs(path);
+}
+
+void CalibrationWindow::choosePairsToSave() {
+  const QString path = QFileDialog::getSaveFileName(this, tr("Save pairs"), autosave_path_,
+                                                    tr("Pairs CSV (*.csv);;All files (*)"));
+  if (!path.isEmpty()) savePairs(path);
+}
+
+void CalibrationWindow::chooseCalibrationToSave() {
+  QString suggestion;
+  if (!image_path_.isEmpty())
+    suggestion = QFileInfo(image_path_)
+                     .dir()
+                     .filePath(QFileInfo(image_path_).completeBaseName() + ".calib.json");
+  const QString path = QFileDialog::getSaveFileName(this, tr("Save calibration"), suggestion,
+                                                    tr("JSON (*.json);;All files (*)"));
+  if (!path.isEmpty()) saveCalibration(path);
+}
+
+void CalibrationWindow::chooseCalibrationToLoad() {
+  const QString path =
+      QFileDialog::getOpenFileName(this, tr("Load calibration"), QFileInfo(image_path_).path(),
+                                   tr("JSON (*.json);;All files (*)"));
+  if (!path.isEmpty()) loadCalibration(path);
+}
+
+void CalibrationWindow::chooseMask() {
+  const QString path =
+      QFileDialog::getOpenFileName(this, tr("Image mask"), QFileInfo(image_path_).path(),
+                                   tr("Images (*.png *.pgm *.bmp *.tif *.tiff);;All files (*)"));
+  if (!path.isEmpty()) loadMask(path);
+}
+
+bool CalibrationWindow::loadMask(const QString& path) {
+  return guarded(tr("Mask"), [&] {
+    cv::Mat m = cv::imread(path.toStdString(), cv::IMREAD_GRAYSCALE);
+    if (m.empty()) throw Error(path.toStdString() + ": cannot read the mask image");
+    mask_ = m;
+    mask_path_ = path;
+    emit inputsChanged();
+    poseChanged();
+    reportInfo(tr("Mask %1: %2 x %3 px").arg(QFileInfo(path).fileName()).arg(m.cols).arg(m.rows));
+    if (!image_bgr_.empty() && (m.cols != image_bgr_.cols || m.rows != image_bgr_.rows))
+      reportError(tr("%1: the mask is %2 x %3 px but the image is %4 x %5 px")
+                      .arg(path)
+                      .arg(m.cols)
+                      .arg(m.rows)
+                      .arg(image_bgr_.cols)
+                      .arg(image_bgr_.rows));
+  });
+}
+
+void CalibrationWindow::clearMask() {
+  mask_.release();
+  mask_path_.clear();
+  emit inputsChanged();
+  poseChanged();
+  reportInfo(tr("No mask: every pixel of the image may colour the scan"));
+}
+
+void CalibrationWindow::chooseExport() {
+  QString suggestion;
+  if (!image_path_.isEmpty())
+    suggestion = QFileInfo(image_path_)
+                     .dir()
+                     .filePath(QFileInfo(image_path_).completeBaseName() + "_textured.glb");
+  const QString path = QFileDialog::getSaveFileName(
+      this, tr("Export"), suggestion,
+      tr("Textured mesh, binary glTF (*.glb);;Textured mesh, OBJ + MTL + PNG (*.obj);;"
+         "Coloured cloud, PLY (*.ply)"));
+  if (!path.isEmpty()) exportModel(path);
+}
+
+bool CalibrationWindow::exportModel(const QString& path) {
+  return guarded(tr("Export"), [&] {
+    const QString problem = colouringProblem();
+    if (!problem.isEmpty()) throw Error("cannot export: " + problem.toStdString());
+    const QString ext = QFileInfo(path).suffix().toLower();
+    if (ext != "glb" && ext != "obj" && ext != "ply")
+      throw Error(path.toStdString() + ": choose a .glb, .obj or .ply file name");
+    const std::vector<colour::ColourView> views = {colourView()};
+    QString summary;
+    runWithProgress(tr("Export"), [&](const Progress& progress) {
+      const colour::ColouredScan coloured =
+          coloured_ ? *coloured_ : colour::Colourise(*scan_, views, {}, progress);
+      if (ext == "ply") {
+        colour::WriteColouredPly(path.toStdString(), *scan_, coloured);
+        summary = tr("%1 points, %2 coloured").arg(coloured.valid).arg(coloured.coloured);
+        return;
+      }
+      const colour::TexturedMesh mesh =
+          colour::BuildTexturedMesh(*scan_, views, coloured, {}, progress);
+      if (ext == "glb")
+        colour::WriteGlb(path.toStdString(), mesh);
+      else
+        colour::WriteObj(path.toStdString(), mesh);
+      summary = tr("%1 triangles").arg(mesh.face_count());
+    });
+    reportInfo(tr("Exported %1 (%2)").arg(path, summary));
+  });
+}
+
+// ---- state --------------------------------------------------------------------------------
+
+void CalibrationWindow::setPick3dAvailable(bool available) {
+  if (!available) act_pick3d_->setChecked(false);
+  act_pick3d_->setEnabled(available);
+}
+
+void CalibrationWindow::setRestoreAvailable(bool available) {
+  restore_available_ = available;
+  updateActions();
+}
+
+void CalibrationWindow::updateActions() {
+  act_calibrate_->setEnabled(pairs_->completeCount() >= 4 && camera_.valid());
+  act_save_calib_->setEnabled(calibration_.has_value());
+  act_apply_->setEnabled(colouringProblem().isEmpty());
+  act_apply_->setToolTip(colouringProblem().isEmpty()
+                             ? tr("Colour the cloud from the camera image with this calibration")
+                             : tr("Apply colours: %1").arg(colouringProblem()));
+  act_restore_->setEnabled(restore_available_);
+  act_export_->setEnabled(colouringProblem().isEmpty());
+  act_delete_->setEnabled(pairs_->size() > 0);
+}
+
+void CalibrationWindow::closeEvent(QCloseEvent* event) {
+  // Pairs are already saved (every edit is); the host must stop picking in its 3D view.
+  if (act_pick3d_->isChecked()) act_pick3d_->setChecked(false);
+  QMainWindow::closeEvent(event);
+}
+
+}  // namespace scancam::ui

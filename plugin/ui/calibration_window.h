@@ -1,0 +1,260 @@
+// qScanCam UI: the calibration window. Pure Qt + core (no CloudCompare): the plugin class
+// (plugin/src) gives it the scan and acts on its signals; widget tests drive it offscreen.
+//
+// Layout: the scan's Bearing-Angle images (four traces) and its range image as tabs of
+// ImageView in the centre; the camera image in a dock beside them; the pair table and the
+// calibration result in docks below. Both sides zoom (wheel) and pan (drag).
+//
+// Picking: a click on a scan view or on the camera image places that half of a pair by the
+// rule of PairsModel (pairs_model.h): with a pair selected in the table the click moves that
+// half; otherwise it completes the last pair, or starts a new one. Esc deselects, Delete
+// removes the selected pair. A click on a scan cell without a laser return, or on a pixel
+// outside the camera's field of view, is refused with a message.
+//
+// Autosave: every change is written at once (atomically: temporary file + rename) to the
+// pairs file of the current image, by default the sidecar `<image>.scancam-pairs.csv`
+// (SidecarPath), or the file last chosen with "Save pairs as". Opening an image whose sidecar
+// exists reloads its pairs. Only complete pairs are written (the CSV cannot hold half a pair).
+//
+// Scan views: pixel (x, y) of an unrotated view is cell (row = y, col = x) (ba_image.h). The
+// View menu can transpose / flip the pictures (e.g. PTX grids are transposed panoramas,
+// io/ptx.h); ScanViewOrientation maps between view pixels and cells, so picks always store
+// cells in the scan's own indexing.
+//
+// Messages: everything the user should read goes to the status line and to logMessage()
+// (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
+// message box. No slot lets an exception escape.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <QMainWindow>
+#include <QPointF>
+#include <QString>
+#include <array>
+#include <functional>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <vector>
+
+#include "scancam/camera/camera_model.h"
+#include "scancam/colour/colourise.h"
+#include "scancam/ordered_scan.h"
+#include "scancam/progress.h"
+#include "scancam/solve/calibrate.h"
+
+class QAction;
+class QComboBox;
+class QLabel;
+class QTabWidget;
+class QTableView;
+class QTextEdit;
+class QToolButton;
+
+namespace scancam::ui {
+
+class ImageView;
+class PairsModel;
+
+/// How a scan view draws the grid: first cell (row, col) -> pixel (x = col, y = row), then an
+/// optional transpose (x <-> y), then optional flips of the resulting picture.
+struct ScanViewOrientation {
+  bool transpose = false;
+  bool flip_horizontal = false;
+  bool flip_vertical = false;
+};
+
+/// Cell (x = col, y = row; fractional, OpenCV-like: integer = cell centre) -> view pixel, for a
+/// grid of rows x cols. Its inverse is ViewPixelToCell.
+QPointF CellToViewPixel(const QPointF& cell, int rows, int cols, const ScanViewOrientation& o);
+QPointF ViewPixelToCell(const QPointF& px, int rows, int cols, const ScanViewOrientation& o);
+
+class CalibrationWindow : public QMainWindow {
+  Q_OBJECT
+ public:
+  enum LogLevel { kInfo = 0, kWarning = 1, kError = 2 };
+
+  /// Runs `work` while showing progress titled `title`; `work` receives the Progress to report
+  /// to and throws scancam::Cancelled when the user cancels. The default shows a
+  /// QProgressDialog; the plugin passes one that uses CloudCompare's progress dialog.
+  using ProgressRunner =
+      std::function<void(const QString& title, const std::function<void(const Progress&)>& work)>;
+
+  explicit CalibrationWindow(QWidget* parent = nullptr);
+  ~CalibrationWindow() override;
+
+  void setProgressRunner(ProgressRunner runner);
+  /// When false, errors are only written to the status line and logMessage (no message box;
+  /// CloudCompare's console shows its own for errors).
+  void setErrorDialogsEnabled(bool enabled) { error_dialogs_ = enabled; }
+
+  // ---- inputs (each returns false after reporting the problem) -----------------------------
+  /// The scan the pairs' cells refer to; computes its BA images (with progress).
+  bool setScan(std::shared_ptr<const OrderedScan> scan, const QString& name);
+  bool loadCamera(const QString& path);
+  /// Loads the camera image (8/16-bit, any format OpenCV reads) and reloads its pairs file.
+  bool loadImage(const QString& path);
+  bool loadPairs(const QString& path);
+  /// Writes the complete pairs (atomically) and makes `path` the autosave target.
+  bool savePairs(const QString& path);
+  /// Solves with the current pairs; fills residuals, result text and the edge overlay.
+  bool calibrate();
+  bool saveCalibration(const QString& path);
+  /// Takes T_cam_scan from a calibration JSON (scancam's, the simulator's truth, or an
+  /// OpenCalib extrinsic: colour::LoadExtrinsic).
+  bool loadCalibration(const QString& path);
+  /// Optional image mask (8-bit, 0 = pixel not usable, e.g. outside a catadioptric mirror).
+  bool loadMask(const QString& path);
+  void clearMask();
+  /// Colours the scan (with progress) and writes a textured mesh (.obj, .glb) or a coloured
+  /// cloud (.ply) by the file's extension (colour/export.h).
+  bool exportModel(const QString& path);
+
+  /// `<image>.scancam-pairs.csv`.
+  static QString SidecarPath(const QString& image_path);
+
+  // ---- state -----------------------------------------------------------------------------
+  std::shared_ptr<const OrderedScan> scan() const { return scan_; }
+  const CameraModel& camera() const { return camera_; }
+  bool hasCamera() const { return camera_.valid(); }
+  /// The camera image, BGR 8-bit (empty when none).
+  const cv::Mat& imageBgr() const { return image_bgr_; }
+  const cv::Mat& mask() const { return mask_; }
+  QString maskPath() const { return mask_path_; }
+  /// Camera + image + mask + pose as one colour::ColourView (call only when
+  /// colouringProblem() is empty).
+  colour::ColourView colourView() const;
+  QString cameraPath() const { return camera_path_; }
+  QString imagePath() const { return image_path_; }
+  QString autosavePath() const { return autosave_path_; }
+  /// The last solve (or loaded calibration).
+  const std::optional<Calibration>& calibration() const { return calibration_; }
+  std::optional<Eigen::Isometry3d> pose() const;
+  /// Empty when camera, image and pose are ready for colouring; else what is missing.
+  QString colouringProblem() const;
+  QString statusText() const;
+
+  PairsModel* pairsModel() const { return pairs_; }
+  QTableView* pairsTable() const { return table_; }
+  ImageView* cameraView() const { return camera_view_; }
+  QTabWidget* scanTabs() const { return scan_tabs_; }
+  /// Scan view `i`: 0..3 BA traces (ba_image.h order), 4 range.
+  ImageView* scanView(int i) const { return scan_views_.at(static_cast<std::size_t>(i)); }
+  QTextEdit* resultView() const { return result_view_; }
+  ScanViewOrientation scanOrientation() const { return orientation_; }
+  void setScanOrientation(const ScanViewOrientation& o);
+  int selectedPair() const;
+
+  /// The host says whether it can pick in its 3D view (enables the toggle).
+  void setPick3dAvailable(bool available);
+  /// The host says whether original colours can be restored (enables the button).
+  void setRestoreAvailable(bool available);
+
+ public slots:
+  /// A pick on the camera image, in image pixels (same as a click on the camera view).
+  void addImagePick(double u, double v);
+  /// A pick on the scan, as a (fractional) cell (same as a click on a scan view, or a point
+  /// picked in the host's 3D view).
+  void addScanPick(double row, double col);
+  void deleteSelectedPair();
+  void reportError(const QString& text);
+  void reportInfo(const QString& text, int level = kInfo);
+
+ signals:
+  void logMessage(const QString& text, int level);
+  void applyColoursRequested();
+  void restoreColoursRequested();
+  void pick3dToggled(bool on);
+  /// The camera file, image or mask changed (the host may remember them).
+  void inputsChanged();
+
+ protected:
+  void closeEvent(QCloseEvent* event) override;
+
+ private:
+  void buildUi();
+  void updateActions();
+  void refreshMarkers();
+  void refreshScanPictures();
+  void refreshOverlay();
+  /// After the pose, camera, image or mask changed: visibility, edge alignment, result text,
+  /// overlay, actions.
+  void poseChanged();
+  void showResult();
+  void autosave();
+  bool writePairsFile(const QString& path);
+  void setStatus(const QString& text, int level);
+  void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
+  template <typename F>
+  bool guarded(const QString& what, F&& f);
+
+  void onCameraClicked(double u, double v);
+  void onScanClicked(double x, double y);
+  void chooseCamera();
+  void chooseImage();
+  void choosePairsToLoad();
+  void choosePairsToSave();
+  void chooseCalibrationToSave();
+  void chooseCalibrationToLoad();
+  void chooseMask();
+  void chooseExport();
+  void measureEdgeAlignment();
+
+  ProgressRunner runner_;
+  bool error_dialogs_ = true;
+  bool loading_pairs_ = false;  // suppresses autosave while a file is read in
+
+  std::shared_ptr<const OrderedScan> scan_;
+  QString scan_name_;
+  std::array<cv::Mat, 4> ba_;
+  cv::Mat range_;
+  std::vector<Eigen::Vector3f> edge_points_;      // laser points on BA edges (scan frame)
+  std::vector<std::size_t> edge_point_cells_;     // their cells
+  std::optional<colour::ColouredScan> coloured_;  // visibility with the current pose
+  cv::Mat edge_cells_;                            // colour::BaEdgeCells of the scan
+  cv::Mat image_edge_distance_;                   // colour::ImageEdgeDistance of the image
+  QString alignment_text_;
+  ScanViewOrientation orientation_;
+
+  CameraModel camera_;
+  QString camera_path_;
+  cv::Mat image_bgr_;
+  QString image_path_;
+  cv::Mat mask_;
+  QString mask_path_;
+  QString autosave_path_;
+  std::optional<Calibration> calibration_;
+  QString calibration_source_;
+
+  PairsModel* pairs_ = nullptr;
+  QTableView* table_ = nullptr;
+  ImageView* camera_view_ = nullptr;
+  QTabWidget* scan_tabs_ = nullptr;
+  std::array<ImageView*, 5> scan_views_{};
+  QTextEdit* result_view_ = nullptr;
+  QLabel* status_label_ = nullptr;
+  QLabel* autosave_label_ = nullptr;
+  QComboBox* method_combo_ = nullptr;
+
+  QAction* act_camera_ = nullptr;
+  QAction* act_image_ = nullptr;
+  QAction* act_load_pairs_ = nullptr;
+  QAction* act_save_pairs_ = nullptr;
+  QAction* act_delete_ = nullptr;
+  QAction* act_calibrate_ = nullptr;
+  QAction* act_save_calib_ = nullptr;
+  QAction* act_load_calib_ = nullptr;
+  QAction* act_apply_ = nullptr;
+  QAction* act_restore_ = nullptr;
+  QAction* act_export_ = nullptr;
+  QAction* act_mask_ = nullptr;
+  QAction* act_pick3d_ = nullptr;
+  QAction* act_overlay_ = nullptr;
+  QAction* act_transpose_ = nullptr;
+  QAction* act_flip_h_ = nullptr;
+  QAction* act_flip_v_ = nullptr;
+  bool restore_available_ = false;
+  QString status_text_;
+};
+
+}  // namespace scancam::ui

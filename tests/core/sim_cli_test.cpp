@@ -1,0 +1,99 @@
+// `scancam simulate` end to end: the built CLI writes what the library writes, and refuses
+// bad options with a message.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "scancam/io/json_util.h"
+#include "scancam/io/pairs_csv.h"
+#include "scancam/rotation_rpy.h"
+#include "scancam/sim/simulate.h"
+#include "test_util.h"
+
+namespace scancam {
+namespace {
+
+namespace fs = std::filesystem;
+using test::ReadFile;
+using test::TempDir;
+
+int RunCli(const std::string& dir, const std::string& args) {
+  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
+                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+const char* kSmall =
+    " --planes 90 --phi-step-deg 4 --beams 61 --theta-step-deg 3 --supersample 1 --pairs 6"
+    " --wrong-pairs 1 --seed 9 --quiet";
+
+TEST(CliSimulate, WritesTheSameFilesAsTheLibrary) {
+  const std::string dir = TempDir();
+  ASSERT_EQ(RunCli(dir, "simulate --out " + dir + "/cli" + kSmall), 0)
+      << ReadFile(dir + "/stderr.txt");
+  sim::SimulateOptions o;
+  o.rotating.planes = 90;
+  o.rotating.phi_step_deg = 4;
+  o.rotating.beams = 61;
+  o.rotating.theta_step_deg = 3;
+  o.rotating.theta0_deg = -90;
+  o.supersample = 1;
+  o.pairs = 6;
+  o.wrong_pairs = 1;
+  o.seed = 9;
+  sim::WriteSimulation(sim::Simulate(o), dir + "/lib");
+  for (const char* name : {"scan.txt", "scan.ptx", "image.png", "camera.txt", "mask.png",
+                           "pairs.csv", "truth.csv", "ground_truth.json"}) {
+    EXPECT_TRUE(ReadFile(dir + "/cli/" + name) == ReadFile(dir + "/lib/" + name)) << name;
+  }
+  EXPECT_EQ(ReadPairsCsv(dir + "/cli/pairs.csv").size(), 7u);
+  EXPECT_TRUE(ReadFile(dir + "/stdout.txt").empty());  // --quiet
+}
+
+TEST(CliSimulate, RigOptionsSetTheGroundTruth) {
+  const std::string dir = TempDir();
+  ASSERT_EQ(RunCli(dir, "simulate --out " + dir +
+                            "/o --camera equirect --rotation-rpy-deg "
+                            "10,-80,30 --translation-m 0.1,0.2,-0.3" +
+                            std::string(kSmall)),
+            0)
+      << ReadFile(dir + "/stderr.txt");
+  const std::string gt = dir + "/o/ground_truth.json";
+  const auto j = ReadJsonFile(gt);
+  const Eigen::Isometry3d T = PoseFromJson(JsonField(j, "T_cam_scan", gt), gt, "T_cam_scan");
+  EXPECT_LT((T.linear() - RpyDegToRotation({10, -80, 30})).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((T.translation() - Eigen::Vector3d(0.1, 0.2, -0.3)).norm(), 1e-12);
+  EXPECT_TRUE(fs::is_regular_file(dir + "/o/camera.yaml"));
+  EXPECT_EQ(j["camera"]["model"], "equirect");
+}
+
+TEST(CliSimulate, BadOptionsFailWithAMessage) {
+  const std::string dir = TempDir();
+  struct Case {
+    std::string args, message;
+  };
+  const Case cases[] = {
+      {"simulate", "missing required option --out"},
+      {"simulate --out " + dir + "/x --camera kinect", "unknown camera preset 'kinect'"},
+      {"simulate --out " + dir + "/x --scanner sonar", "unknown scanner 'sonar'"},
+      {"simulate --out " + dir + "/x --seed -3", "--seed"},
+      {"simulate --out " + dir + "/x --pairs many", "--pairs"},
+      {"simulate --out " + dir + "/x --translation-m 1,2", "three numbers"},
+      {"simulate --out " + dir + "/x --dropout 2", "dropout"},
+      {"simulate --out " + dir + "/x --planes 500", "360 degrees"},
+      {"simulate --out " + dir + "/x --bogus 1", "unknown option --bogus"},
+  };
+  for (const Case& c : cases) {
+    EXPECT_EQ(RunCli(dir, c.args), 1) << c.args;
+    const std::string err = ReadFile(dir + "/stderr.txt");
+    EXPECT_NE(err.find(c.message), std::string::npos) << c.args << "\n" << err;
+  }
+  EXPECT_FALSE(fs::exists(dir + "/x/image.png"));
+}
+
+}  // namespace
+}  // namespace scancam
