@@ -22,9 +22,10 @@ echo "== 3/4 calibration from the sample's picked pairs =="
 echo
 echo "== 4/4 colouring, textured model, overlays =="
 "$scancam" colorize --scan "$out/scene/scan.txt" --camera "$out/scene/camera.txt" \
-  --image "$out/scene/image.png" --calib "$out/calib.json" \
+  --image "$out/scene/image.png" --mask "$out/scene/mask.png" --calib "$out/calib.json" \
   --out "$out/coloured.ply" --mesh "$out/model.glb" --mesh "$out/model.obj" \
-  --overlay "$out/overlay_depth.png" --edge-overlay "$out/overlay_edges.png"
+  --overlay "$out/overlay_depth.png" --edge-overlay "$out/overlay_edges.png" \
+  --grid-image "$out/coloured_grid.png"
 echo
 cat <<TXT
 Done. Files in $out:

@@ -107,7 +107,11 @@ Command MakeCalibrateCommand() {
           {"--out", "FILE", "Output calibration JSON. Required."},
           {"--image", "FILE", "The camera image: checked against the camera file's size."},
           {"--method", "M", "ransac | paper | epnp | upnp. Default ransac."},
-          {"--threshold-deg", "DEG", "Inlier threshold on the angular error, degrees. Default 1."},
+          {"--threshold-px", "PX",
+           "Inlier threshold in image pixels (converted to an angle with the camera model at "
+           "each pair's pixel). Default 5."},
+          {"--threshold-deg", "DEG",
+           "A fixed angular inlier threshold in degrees instead of --threshold-px."},
           {"--loss", "L", "Robust loss in the refinement: none | huber | cauchy. Default none."},
           {"--no-refine", "", "Skip the Ceres refinement (and the covariance)."},
           {"--seed", "N", "RANSAC random seed (same seed, same result). Default 1."},

@@ -9,9 +9,20 @@
 #include <GenericProgressCallback.h>
 #include <ScalarField.h>
 
+class ccGLWindow;  // 2.12+: ccGLWindowInterface (the picking modes moved there)
+
 namespace scancam_cc {
 namespace cclib = ::CCLib;  // 2.12+: ::CCCoreLib
 
 using GenericProgressCallback = cclib::GenericProgressCallback;
 using ScalarField = cclib::ScalarField;
+
+/// Registers `listener` with CloudCompare's picking hub for single points in the active 3D view
+/// (not exclusive; starts picking). A template so that this header needs no GL header: the
+/// picking mode is looked up when the caller (which includes ccPickingHub.h) instantiates it.
+template <typename Hub, typename Listener, typename GlWindow = ccGLWindow>
+bool AddPointPickingListener(Hub& hub, Listener* listener) {
+  return hub.addListener(listener, /*exclusive=*/false, /*autoStartPicking=*/true,
+                         GlWindow::POINT_PICKING);
+}
 }  // namespace scancam_cc

@@ -309,8 +309,7 @@ void qScanCam::setPicking(bool on) {
   ccPickingHub* hub = m_app ? m_app->pickingHub() : nullptr;
   if (!hub) return;
   if (on && !picking_) {
-    if (!hub->addListener(this, /*exclusive=*/false, /*autoStartPicking=*/true,
-                          ccGLWindow::POINT_PICKING)) {
+    if (!scancam_cc::AddPointPickingListener(*hub, static_cast<ccPickingListener*>(this))) {
       if (window_) window_->setPick3dAvailable(true);  // unchecks the toggle
       throw scancam::Error(
           "CloudCompare's point picking is busy (another tool uses it): close that tool first");

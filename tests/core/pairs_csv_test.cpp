@@ -8,6 +8,7 @@
 #include <limits>
 
 #include "scancam/error.h"
+#include "scancam/io/json_util.h"
 #include "test_util.h"
 
 namespace scancam {
@@ -264,6 +265,68 @@ TEST(PairLaserPoint, PointWinsOverCell) {
   p.point_m = Eigen::Vector3d(9, 8, 7);
   EXPECT_EQ(*PairLaserPoint(p, &s), Eigen::Vector3d(9, 8, 7));
   EXPECT_EQ(*PairLaserPoint(p, nullptr), Eigen::Vector3d(9, 8, 7));
+}
+
+// ---- JSON pose helpers (io/json_util.h), used by ground_truth.json and calibration files ----
+
+TEST(JsonUtil, PoseRoundTripIsExact) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() =
+      Eigen::AngleAxisd(2.9, Eigen::Vector3d(0.3, -0.2, 0.93).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.207, 0.042, 0.139);
+  const std::string path = TempDir() + "/pose.json";
+  WriteJsonFile(path, {{"T_cam_scan", PoseToJson(T)}});
+  const nlohmann::json j = ReadJsonFile(path);
+  ASSERT_TRUE(j["T_cam_scan"].is_array());
+  ASSERT_EQ(j["T_cam_scan"].size(), 4u);  // nested rows, row-major
+  EXPECT_EQ(j["T_cam_scan"][0][3].get<double>(), 0.207);
+  EXPECT_EQ(j["T_cam_scan"][3], nlohmann::json({0.0, 0.0, 0.0, 1.0}));
+  const Eigen::Isometry3d back = PoseFromJson(JsonField(j, "T_cam_scan", path), path, "T_cam_scan");
+  EXPECT_LT((back.matrix() - T.matrix()).cwiseAbs().maxCoeff(), 1e-15);
+  // A flat row-major array of 16 works too.
+  nlohmann::json flat = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) flat.push_back(T.matrix()(r, c));
+  EXPECT_LT((PoseFromJson(flat, "f", "T").matrix() - T.matrix()).cwiseAbs().maxCoeff(), 1e-15);
+}
+
+TEST(JsonUtil, BadPosesAndFilesAreNamed) {
+  auto expect = [](const nlohmann::json& j, const std::string& part) {
+    try {
+      PoseFromJson(j, "calib.json", "T_cam_scan");
+      FAIL() << j.dump();
+    } catch (const Error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("calib.json"), std::string::npos) << msg;
+      EXPECT_NE(msg.find(part), std::string::npos) << msg;
+    }
+  };
+  expect(nlohmann::json::array({1, 2, 3}), "4x4");
+  expect("identity", "4x4");
+  expect({{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 1, 1}}, "last row");
+  expect({{2, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "not a rotation");
+  expect({{-1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "not a rotation");  // mirror
+  expect({{1, 0, 0, 0}, {0, 1, 0, "x"}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "T_cam_scan[1][3]");
+  expect({{1, 0, 0, 0}, {0, 1, 0, nullptr}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "must be a number");
+  EXPECT_THROW(Vector3FromJson(nlohmann::json::array({1, 2}), "f", "t"), Error);
+  EXPECT_EQ(Vector3FromJson({1.5, 2, -3}, "f", "t"), Eigen::Vector3d(1.5, 2, -3));
+  try {
+    JsonField(nlohmann::json{{"a", {{"b", 1}}}}["a"], "c", "calib.json", "a");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("calib.json: field 'a.c' is missing"), std::string::npos)
+        << e.what();
+  }
+  const std::string bad = TempDir() + "/bad.json";
+  WriteFile(bad, "{\n  \"a\": 1,\n  \"b\": [1, 2,,]\n}\n");
+  try {
+    ReadJsonFile(bad);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json:3: invalid JSON"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(ReadJsonFile(TempDir() + "/none.json"), Error);
 }
 
 }  // namespace

@@ -53,7 +53,10 @@
 // Speed: one pass over the grid, rows in parallel (OpenMP), branch-free hand-written SIMD
 // kernels (SSE2, and AVX chosen at run time; detail::BaKernel) with a polynomial atan2
 // (|error| < 1e-6 rad, see FastAtan2NonNeg), no transcendental library calls. Numbers:
-// bench/ba_bench.cpp. dphi is never formed: the kernel uses the squared chord
+// bench/ba_bench.cpp. Threads: OpenMP's default. On a machine loaded by other processes a
+// fork-join over 2 cores can take longer than one thread (the join waits for a descheduled
+// thread); OMP_DYNAMIC=true lets OpenMP use fewer threads under load, OMP_NUM_THREADS=1
+// forces one. dphi is never formed: the kernel uses the squared chord
 // h = |b_i - b_{i-1}|^2 = 2 - 2 cos dphi, so cos dphi = 1 - h/2 and
 // sin dphi = sqrt(h (1 - h/4)), and rho_i - rho_{i-1} cos dphi = (rho_i - rho_{i-1}) +
 // rho_{i-1} h/2, which avoids the cancellation of the textbook form for small dphi.

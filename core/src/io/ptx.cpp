@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include "io_util.h"
 #include "scancam/error.h"
@@ -271,14 +272,42 @@ OrderedScan PtxToOrderedScan(const PtxScan& ptx, bool apply_pose, const std::str
   for (int c = 0; c < ptx.rows; ++c) {
     if (!el[c].empty()) row_el[c] = MedianAngle(el[c]);
   }
+  // A no-return cell's beam: interpolated along its grid line from the nearest
+  // returns on both sides (within kReach cells), which fits any scanner whose beams
+  // vary smoothly over the grid (also ones whose lines are not separable into a
+  // column azimuth and a row elevation, e.g. a rotating 2D scanner); else the
+  // column-azimuth / row-elevation medians.
+  constexpr int kReach = 8;
+  const std::vector<Eigen::Vector3f> measured = scan.beam_dir;
+  auto interpolate = [&](int r, int c, int dr, int dc) -> std::optional<Eigen::Vector3f> {
+    int a = 0, b = 0;
+    for (int s = 1; s <= kReach && !a; ++s)
+      if (scan.valid(r - s * dr, c - s * dc)) a = s;
+    for (int s = 1; s <= kReach && !b; ++s)
+      if (scan.valid(r + s * dr, c + s * dc)) b = s;
+    if (!a || !b) return std::nullopt;
+    const Eigen::Vector3f da = measured[scan.index(r - a * dr, c - a * dc)];
+    const Eigen::Vector3f db = measured[scan.index(r + b * dr, c + b * dc)];
+    const Eigen::Vector3f d = (float(b) * da + float(a) * db) / float(a + b);
+    if (!(d.norm() > 0.5f)) return std::nullopt;  // lines bending by more than ~120 deg
+    return Eigen::Vector3f(d.normalized());
+  };
   for (int r = 0; r < ptx.columns; ++r) {
     for (int c = 0; c < ptx.rows; ++c) {
       const std::size_t k = scan.index(r, c);
-      if (scan.valid(k) || std::isnan(col_az[r]) || std::isnan(row_el[c])) continue;
-      const double ce = std::cos(row_el[c]);
-      scan.beam_dir[k] =
-          Eigen::Vector3d(ce * std::cos(col_az[r]), ce * std::sin(col_az[r]), std::sin(row_el[c]))
-              .cast<float>();
+      if (scan.valid(k)) continue;
+      auto along_col = interpolate(r, c, 0, 1);
+      auto along_row = interpolate(r, c, 1, 0);
+      if (along_col && along_row) {
+        scan.beam_dir[k] = (*along_col + *along_row).normalized();
+      } else if (along_col || along_row) {
+        scan.beam_dir[k] = along_col ? *along_col : *along_row;
+      } else if (!std::isnan(col_az[r]) && !std::isnan(row_el[c])) {
+        const double ce = std::cos(row_el[c]);
+        scan.beam_dir[k] =
+            Eigen::Vector3d(ce * std::cos(col_az[r]), ce * std::sin(col_az[r]), std::sin(row_el[c]))
+                .cast<float>();
+      }
     }
   }
 

@@ -377,6 +377,14 @@ Scene BuildOfficeScene() {
     c.Rect(0.03, 0.45, 0.4, 0.67, Rgb(30, 30, 30));
     t_art = s.AddTexture(c.Done("colour-block canvas"));
   }
+  // Radiator front (1.0 x 0.6 m): white fins.
+  int t_radiator;
+  {
+    Canvas c(1.0, 0.6, 0.003, Rgb(236, 236, 232));
+    for (double x = 0.02; x < 1.0; x += 0.04) c.Rect(x, 0.02, x + 0.012, 0.58, Rgb(200, 200, 198));
+    c.Rect(0, 0, 1.0, 0.6, Rgb(180, 180, 178), 0.01);
+    t_radiator = s.AddTexture(c.Done("radiator"));
+  }
   // Picture: a landscape painting inside a dark frame border (0.9 x 0.65 m).
   int t_picture;
   {
@@ -529,6 +537,8 @@ Scene BuildOfficeScene() {
           Col(240, 240, 240), "checkerboard poster");
   AddSlab(s, {5.35, 0, 1.55}, Vector3d::UnitY(), 0.7, 0.7, 0.02, Tex(t_art), Col(235, 235, 230),
           "colour-block canvas");
+  AddSlab(s, {0, 3.4, 0.45}, Vector3d::UnitX(), 1.0, 0.6, 0.1, Tex(t_radiator), Col(225, 225, 222),
+          "radiator");
 
   // ---- furniture ----
   const Material metal = Col(90, 92, 98);

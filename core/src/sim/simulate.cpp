@@ -151,9 +151,21 @@ std::vector<Candidate> FindCandidates(const Scene& scene, const Simulation& sim,
   const SimScanner& sc = *sim.scanner;
   const Eigen::Isometry3d T_scan_world = sim.T_world_scan.inverse();
   for (const Feature& f : scene.features()) {
-    // The corner itself must be seen by the camera and by the scanner.
+    // The corner itself must be seen by the camera and by the scanner (from the origin of the
+    // beam nearest to it; for a face's corner the beam may graze the face's own edge, hence the
+    // small margin), else a user could not pick it in both.
     if (!VisibleFromCamera(scene, sim.camera, sim.T_world_cam, sim.mask, f.p_m)) continue;
     const Eigen::Vector3d corner_scan = T_scan_world * f.p_m;
+    {
+      const auto cell = sc.CellOf(corner_scan);
+      if (!cell) continue;
+      Eigen::Vector3d o, d;
+      sc.Beam(std::clamp(static_cast<int>(std::lround(cell->x())), 0, sc.rows() - 1),
+              std::clamp(static_cast<int>(std::lround(cell->y())), 0, sc.cols() - 1), &o, &d);
+      const Eigen::Vector3d ow = sim.T_world_scan * o;
+      const double dist = (f.p_m - ow).norm();
+      if (scene.Intersect(ow, (f.p_m - ow) / dist, 1e-9, dist - 1e-3)) continue;
+    }
     const double range = corner_scan.norm();
     const double cell_m = sc.MaxStepRad() * range;
     std::vector<double> insets = {0.0};
@@ -267,7 +279,7 @@ Eigen::Isometry3d PresetTCamScan(const std::string& preset) {
     T.translation() = P.transpose() * t_ocam;
     return T;
   }
-  if (preset == "pinhole") return ForwardRig(130.0, 12.0, 1.0, {0.05, 0.12, 0.16});
+  if (preset == "pinhole") return ForwardRig(115.0, 15.0, 1.0, {0.05, 0.12, 0.16});
   if (preset == "fisheye") return ForwardRig(95.0, 12.0, -0.8, {0.05, 0.12, 0.16});
   if (preset == "equirect") return ForwardRig(167.0, 1.2, 0.6, {-0.2, -0.04, 0.14});
   throw Error("unknown camera preset '" + preset + "' (omni, pinhole, fisheye, equirect)");

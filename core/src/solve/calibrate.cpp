@@ -247,7 +247,10 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (const auto& d : dirs) mean += d / double(dirs.size());
     const double spread_deg = std::acos(std::clamp(mean.norm(), 0.0, 1.0)) / kDeg;
-    if (spread_deg < 15.0) {
+    // Relative to what the camera can see: a narrow pinhole's picks cannot span
+    // as wide an angle as an omnidirectional camera's.
+    const double half_fov_deg = std::min(90.0, camera.max_angle_rad() / kDeg);
+    if (spread_deg < 0.3 * half_fov_deg) {
       std::ostringstream m;
       m << "the laser points span only ~" << std::fixed << std::setprecision(0) << spread_deg
         << " deg around their mean direction: clustered picks bias the result; add pairs in "

@@ -33,9 +33,11 @@
 // (rotation re-orthonormalised as CloudCompare does) is applied: points and beam directions
 // are in the registered frame and origin_m is the transform's translation.
 // Beam directions: a valid cell's is its point's direction from the origin. A no-return cell
-// gets the direction of its PTX column's median azimuth and its PTX row's median elevation
-// (both estimated from the scan's valid points, in the scanner frame, z up); it stays NaN when
-// its column or row has no valid point at all.
+// gets the direction interpolated along its grid row and column from the nearest returns on
+// both sides (up to 8 cells away; any scanner whose beams vary smoothly over the grid, also a
+// rotating 2D scanner whose lines are not an azimuth x elevation product); failing that, its
+// PTX column's median azimuth and PTX row's median elevation (scanner frame, z up); it stays
+// NaN when neither is available.
 #pragma once
 
 #include <Eigen/Core>

@@ -5,7 +5,8 @@
 //   - walls in different paints; boards hung on them as thin slabs: a framed picture on the
 //     west wall (15 mm proud of the wall, as in the paper's Fig. 5), a whiteboard (12 mm), a
 //     cork board (20 mm), posters with shapes and text on 10-20 mm boards; a paper page glued
-//     flat (texture only); tiled floor; ceiling panels with two light panels;
+//     flat (texture only); a radiator (0.1 m deep) under the checkerboard poster; tiled floor;
+//     ceiling panels with two light panels;
 //   - a door recess in the east wall (opening 0.9 x 2.05 m, 0.18 m deep, the door at its back);
 //   - a desk with a monitor and a box, a table with a chessboard and a box, a bookshelf with
 //     books, cardboard boxes on the floor (rotated about z).

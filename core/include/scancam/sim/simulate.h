@@ -12,8 +12,8 @@
 //             -1.24, yaw 166.95 deg and t = (0.207, 0.042, 0.139) m (Table I); converted to
 //             the OpenCV frame (X_ocam = (Y_cv, X_cv, -Z_cv)). The camera hangs 0.14 m below
 //             the scanner, 0.21 m to the side, and looks at the room through its mirror.
-//   pinhole   pitched down 12 deg towards the west wall (picture frame, checkerboard poster,
-//             whiteboard, table), 0.16 m above the scanner.
+//   pinhole   pitched down 15 deg towards the west wall (picture frame, checkerboard poster,
+//             radiator, whiteboard, table), 0.16 m above the scanner.
 //   fisheye   pitched down 12 deg towards the north-west corner (most of the room), 0.16 m
 //             above the scanner.
 //   equirect  a 360-degree camera 0.14 m above the scanner, forward ~ opposite to the
