@@ -331,11 +331,11 @@ int main(int argc, char** argv) {
       {"UPnP + refine", {"upnp", true}},
       {"RANSAC + refine", {"ransac", true}}};
   std::map<std::string, std::vector<Stats>> spread, clustered;
-  std::vector<Stats> cv_pin, ours_pin;
+  std::vector<Stats> cv_pin, ours_pin, epnp_pin;
   std::mt19937 rng(static_cast<std::uint32_t>(o.seed));
   for (int n = 4; n <= 10; ++n) {
     std::map<std::string, std::vector<Err>> es, ec;
-    std::vector<Err> ecv, eop;
+    std::vector<Err> ecv, eop, eep;
     for (int t = 0; t < o.trials; ++t) {
       for (int mode = 0; mode < 2; ++mode) {
         const auto idx = Choose(omni, n, mode == 1, rng);
@@ -347,11 +347,13 @@ int main(int argc, char** argv) {
       const auto ppairs = Usable(pin, NoisyPairs(pin, pidx, o, rng));
       ecv.push_back(RunOpenCv(pin, ppairs));
       eop.push_back(RunScanCam(pin, ppairs, "ransac", true));
+      eep.push_back(RunScanCam(pin, ppairs, "epnp", true));
     }
     for (auto& [name, v] : es) spread[name].push_back(Summarise(v));
     for (auto& [name, v] : ec) clustered[name].push_back(Summarise(v));
     cv_pin.push_back(Summarise(ecv));
     ours_pin.push_back(Summarise(eop));
+    epnp_pin.push_back(Summarise(eep));
     std::cerr << "N = " << n << " done\n";
   }
 
@@ -403,9 +405,9 @@ int main(int argc, char** argv) {
   table(spread, "Spread picks", 10);
   table(spread, "Spread picks", 6);
   table(clustered, "Clustered picks", 10);
-  std::map<std::string, std::vector<Stats>> pinm = {
-      {"OpenCV solvePnP SQPnP+LM (pinhole)", cv_pin},
-      {"ScanCam RANSAC + refine (pinhole)", ours_pin}};
+  std::map<std::string, std::vector<Stats>> pinm = {{"OpenCV solvePnP SQPnP+LM (pinhole)", cv_pin},
+                                                    {"ScanCam RANSAC + refine (pinhole)", ours_pin},
+                                                    {"ScanCam EPnP + refine (pinhole)", epnp_pin}};
   table(pinm, "Baseline, pinhole twin of the scene", 10);
   md << "**One planted wrong pair among 10** (" << wrong_trials
      << " trials, RANSAC + refine): flagged " << flagged << "/" << wrong_trials

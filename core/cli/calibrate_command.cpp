@@ -42,6 +42,7 @@ int RunCalibrate(const Args& args) {
   opt.method = args.get("--method", opt.method);
   opt.refine = !args.has("--no-refine");
   opt.threshold_px = args.get_double("--threshold-px", opt.threshold_px);
+  opt.threshold_cells = args.get_double("--threshold-cells", opt.threshold_cells);
   opt.threshold_deg = args.get_double("--threshold-deg", opt.threshold_deg);
   opt.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   opt.refine_options.loss = args.get("--loss", opt.refine_options.loss);
@@ -110,6 +111,9 @@ Command MakeCalibrateCommand() {
           {"--threshold-px", "PX",
            "Inlier threshold in image pixels (converted to an angle with the camera model at "
            "each pair's pixel). Default 5."},
+          {"--threshold-cells", "C",
+           "Added to the threshold for pairs picked on a scan cell: C times the angle between "
+           "neighbouring beams there (scan picks are uncertain too). Default 1.5."},
           {"--threshold-deg", "DEG",
            "A fixed angular inlier threshold in degrees instead of --threshold-px."},
           {"--loss", "L", "Robust loss in the refinement: none | huber | cauchy. Default none."},

@@ -34,6 +34,26 @@ double LineSpread(const std::vector<Eigen::Vector3d>& pts) {
   return s(0) > 0 ? s(1) / s(0) : 0.0;
 }
 
+// The largest angle between the beam of a pair's scan cell and its right and
+// lower neighbours' beams [rad]; 0 when the pair has no cell or no scan.
+double CellAngle(const OrderedScan* scan, const PointPair& p) {
+  if (!scan || !p.has_scan_cell()) return 0.0;
+  const int r = static_cast<int>(std::lround(p.scan_row));
+  const int c = static_cast<int>(std::lround(p.scan_col));
+  if (!scan->inside(r, c)) return 0.0;
+  const Eigen::Vector3f& b = scan->beam_dir[scan->index(r, c)];
+  if (!b.allFinite()) return 0.0;
+  double best = 0.0;
+  for (const auto& [dr, dc] :
+       {std::pair{0, 1}, std::pair{1, 0}, std::pair{0, -1}, std::pair{-1, 0}}) {
+    if (!scan->inside(r + dr, c + dc)) continue;
+    const Eigen::Vector3f& n = scan->beam_dir[scan->index(r + dr, c + dc)];
+    if (!n.allFinite()) continue;
+    best = std::max(best, double(std::atan2(b.cross(n).norm(), b.dot(n))));
+  }
+  return best;
+}
+
 void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* mx) {
   *mean = *sd = *mx = 0;
   if (v.empty()) return;
@@ -137,7 +157,7 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
       }
     }
     const double per_px = cnt ? sum / cnt : 1e-3;
-    thr[i] = options.threshold_px * per_px;
+    thr[i] = options.threshold_px * per_px + options.threshold_cells * CellAngle(scan, pairs[i]);
   }
   for (std::size_t i = 0; i < n; ++i) cal.pairs[i].threshold_deg = thr[i] / kDeg;
 

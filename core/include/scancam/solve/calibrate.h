@@ -40,7 +40,12 @@ struct CalibrateOptions {
   /// pixels: each pair's angular threshold is threshold_px times the angle one pixel
   /// subtends at that pair's pixel, so it means the same on every camera model.
   double threshold_px = 5.0;
-  double threshold_deg = 0.0;  ///< when > 0: a fixed angular threshold instead of threshold_px
+  /// Added to the pixel part for pairs picked on a scan cell: this many times the angle
+  /// between neighbouring beams at that cell, because a pick on the scan is uncertain by a
+  /// fraction of a cell too (seen from the camera at about the same angle, as the camera
+  /// sits close to the scanner relative to the scene).
+  double threshold_cells = 1.5;
+  double threshold_deg = 0.0;  ///< when > 0: a fixed angular threshold instead of the above
   std::uint64_t seed = 1;      ///< RANSAC random seed
   RefineOptions refine_options;
   std::string pairs_source = "pairs";  ///< name used in error messages (the pairs file)
