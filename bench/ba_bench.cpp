@@ -362,7 +362,7 @@ int main(int argc, char** argv) {
   for (const char* n : {"ba_all_four/omp", "ba_all_four_reuse/omp"}) {
     const double all = reporter.Median(n).first;
     if (!std::isnan(all)) {
-      std::printf("%s, %d threads: %.2f ms real (goal < 20 ms): %s\n", n, cores, all,
+      std::printf("%s (OpenMP, up to %d threads): %.2f ms real (goal < 20 ms): %s\n", n, cores, all,
                   all < 20 ? "met" : "NOT met");
     }
   }
