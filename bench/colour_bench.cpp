@@ -18,13 +18,16 @@
 //   opencv_baseline         cv::projectPoints of the same points (pinhole, same K and
 //                           distortion) + cv::remap (bilinear) of the image at the projections,
 //                           no occlusion, no validity states
-// Counters: peak_MiB = peak resident memory during the benchmark, input_MiB = bytes of the
+// Counters: cpu_ns_per_point = process CPU time (all threads) per point (meaningful when other
+// processes load the machine and wall time is not), peak_MiB = peak resident memory during the
+// benchmark, input_MiB = bytes of the
 // scan (OrderedScan: range, point, beam direction) + the image, peak_ratio = peak / input
 // (the goal is < 1.3; the process's code and libraries count in the peak), extra_MiB = peak
 // minus the resident size at the start of the benchmark.
 // After the runs a table gives points/s, the ratio to the OpenCV baseline and peak memory.
 #include <benchmark/benchmark.h>
 #include <omp.h>
+#include <sys/resource.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -152,10 +155,22 @@ struct ThreadScope {
   ~ThreadScope() { omp_set_num_threads(saved); }
 };
 
-std::map<std::string, double> g_points_per_s, g_peak_mib;
+std::map<std::string, double> g_points_per_s, g_peak_mib, g_cpu_ns;
 
-void Finish(benchmark::State& state, double rss_start, const std::string& key) {
+// Process CPU time (all threads), seconds.
+double ProcessCpuSeconds() {
+  rusage u;
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+void Finish(benchmark::State& state, double rss_start, double cpu_start, const std::string& key) {
   const Data& d = GetData();
+  const double points = double(state.iterations()) * kRows * kCols;
+  const double cpu_ns = 1e9 * (ProcessCpuSeconds() - cpu_start) / points;
+  state.counters["cpu_ns_per_point"] = cpu_ns;
+  g_cpu_ns[key] = g_cpu_ns.count(key) ? std::min(g_cpu_ns[key], cpu_ns) : cpu_ns;
   const double peak = scancam::bench::PeakRssMiB();
   state.counters["peak_MiB"] = peak;
   state.counters["input_MiB"] = d.input_mib;
@@ -175,6 +190,7 @@ void BM_Colourise(benchmark::State& state, int threads, bool occlusion, bool qua
   const std::vector<sc::ColourView> views = {d.view};
   scancam::bench::ResetPeakRss();
   const double rss = scancam::bench::CurrentRssMiB();
+  const double cpu = ProcessCpuSeconds();
   std::size_t coloured = 0;
   for (auto _ : state) {
     const sc::ColouredScan out = sc::Colourise(d.scan, views, o);
@@ -182,13 +198,14 @@ void BM_Colourise(benchmark::State& state, int threads, bool occlusion, bool qua
     benchmark::DoNotOptimize(out.rgb.data());
   }
   state.counters["coloured"] = static_cast<double>(coloured);
-  Finish(state, rss, key);
+  Finish(state, rss, cpu, key);
 }
 
 void BM_OpenCv(benchmark::State& state, const std::string& key) {
   const Data& d = GetData();
   scancam::bench::ResetPeakRss();
   const double rss = scancam::bench::CurrentRssMiB();
+  const double cpu = ProcessCpuSeconds();
   // The scan's points are contiguous float triples: a view, no copy.
   const cv::Mat pts(kRows * kCols, 1, CV_32FC3,
                     const_cast<Eigen::Vector3f*>(d.scan.point_m.data()));
@@ -200,7 +217,7 @@ void BM_OpenCv(benchmark::State& state, const std::string& key) {
     cv::remap(d.view.image, colours, map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
     benchmark::DoNotOptimize(colours.data);
   }
-  Finish(state, rss, key);
+  Finish(state, rss, cpu, key);
 }
 
 class Reporter : public benchmark::ConsoleReporter {
@@ -248,12 +265,14 @@ int main(int argc, char** argv) {
   const auto bit = g_points_per_s.find("opencv_baseline");
   const double base = bit == g_points_per_s.end() ? 0.0 : bit->second;
   const double input = GetData().input_mib;
-  std::printf("\n%-28s %14s %12s %10s %8s\n", "benchmark", "Mpoints/s", "x OpenCV", "peak MiB",
-              "/input");
+  std::printf("\n%-28s %10s %9s %12s %15s %9s %7s\n", "benchmark", "Mpoints/s", "x OpenCV",
+              "CPU ns/point", "idle est. Mp/s", "peak MiB", "/input");
   for (const auto& [key, pps] : g_points_per_s) {
     const double peak = g_peak_mib[key];
-    std::printf("%-28s %14.1f %12.2f %10.0f %8.2f\n", key.c_str(), pps / 1e6,
-                base > 0 ? pps / base : 0.0, peak, peak / input);
+    const double cpu_ns = g_cpu_ns[key];
+    const int threads = key.find("1thread") != std::string::npos ? 1 : omp_get_max_threads();
+    std::printf("%-28s %10.1f %9.2f %12.1f %15.1f %9.0f %7.2f\n", key.c_str(), pps / 1e6,
+                base > 0 ? pps / base : 0.0, cpu_ns, 1e3 * threads / cpu_ns, peak, peak / input);
   }
   std::printf(
       "input (scan + image): %.0f MiB; goals: >= 50 Mpoints/s (colourise/omp), peak "

@@ -116,9 +116,11 @@ void PrintAlignment(std::ostream& o, const OrderedScan& scan, const ColourView& 
   }
   std::snprintf(buf, sizeof buf,
                 "  perturbed poses (+-0.5 deg about each camera axis, +-5 cm along each): mean "
-                "%.2f .. %.2f px; %d of %zu are better aligned than the calibration%s\n",
+                "%.2f .. %.2f px; %d of %zu align better than the calibration%s\n",
                 best, worst, better, perts.size(),
-                better == 0 ? " (it is a local minimum)" : " (check the calibration)");
+                better == 0 ? " (it is a local minimum)"
+                            : " (a right calibration has few; the measure is weak where depth "
+                              "edges have little image contrast)");
   o << buf;
 }
 

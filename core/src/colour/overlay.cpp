@@ -79,6 +79,38 @@ cv::Mat BaEdgeCells(const OrderedScan& scan, const OverlayOptions& options) {
     const cv::Mat edges = SobelEdges(ba[static_cast<int>(t)]);
     out |= EdgeMask(edges, options.edge_percentile);
   }
+  // Where the beams of neighbouring cells converge (the poles of a rotating scanner, the top of
+  // a spherical grid), dphi -> 0 and the BA is dominated by range noise: its "edges" there are
+  // rings of noise. Cells whose row or column neighbour is less than 0.1 times the median beam
+  // spacing away are left out.
+  std::vector<float> dv, dh;
+  const std::size_t stride = std::max<std::size_t>(1, scan.size() / 20000);
+  auto spacing = [&](int r, int c, int dr, int dc) {
+    if (!scan.inside(r + dr, c + dc)) return -1.f;
+    const Eigen::Vector3f& a = scan.beam_dir[scan.index(r, c)];
+    const Eigen::Vector3f& b = scan.beam_dir[scan.index(r + dr, c + dc)];
+    return a.allFinite() && b.allFinite() ? (a - b).norm() : -1.f;
+  };
+  for (std::size_t i = 0; i < scan.size(); i += stride) {
+    const int r = static_cast<int>(i / scan.cols), c = static_cast<int>(i % scan.cols);
+    if (const float v = spacing(r, c, 1, 0); v > 0.f) dv.push_back(v);
+    if (const float h = spacing(r, c, 0, 1); h > 0.f) dh.push_back(h);
+  }
+  auto median = [](std::vector<float>& v) {
+    if (v.empty()) return 0.f;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  const float min_v = 0.1f * median(dv), min_h = 0.1f * median(dh);
+  for (int r = 0; r < scan.rows; ++r) {
+    std::uint8_t* row = out.ptr<std::uint8_t>(r);
+    for (int c = 0; c < scan.cols; ++c) {
+      if (!row[c]) continue;
+      const float v = std::max(spacing(r, c, 1, 0), spacing(r, c, -1, 0));
+      const float h = std::max(spacing(r, c, 0, 1), spacing(r, c, 0, -1));
+      if ((v >= 0.f && v < min_v) || (h >= 0.f && h < min_h)) row[c] = 0;
+    }
+  }
   return out;
 }
 

@@ -19,12 +19,16 @@
 //      such vectors), so neighbouring boxes meet and a sparse scan still occludes. A
 //      neighbour counts with its real projection when it is CONTINUOUS with the cell
 //      (ContinuousNeighbours below); otherwise (no return, across a depth discontinuity) a
-//      virtual neighbour is used: the cell's own range along the neighbour's beam direction
-//      (the grid's angular spacing projected into the image), scaled by `edge_fill` (2 = the
-//      box reaches the virtual neighbour: the true silhouette of an object lies somewhere
-//      between its last beam and the next one, so this is the smallest extent that hides
-//      everything behind it); at the border of the grid the opposite side is mirrored. The
-//      box is clamped to max_splat_px and always covers the cell's own pixel.
+//      virtual neighbour is used: the point where the cell's surface (the plane through the
+//      cell and its continuous opposite neighbour; without one, the cell's own range) meets
+//      the neighbour's beam, i.e. the grid's angular spacing projected into the image, scaled
+//      by `edge_fill` (2 = the box reaches the virtual neighbour: the true silhouette of an
+//      object lies somewhere between its last beam and the next one, so this is the smallest
+//      extent that hides everything behind it; cells with no continuous neighbour at all use
+//      isolated_fill); at the border of the grid the opposite side is mirrored. Neighbours
+//      more than 2 max_splat_px away in the image (across a panorama's seam) are not used.
+//      The box covers the pixels whose centres it contains, always the cell's own pixel, and
+//      is clamped to max_splat_px.
 //      The depth written at pixel p is not d_i but the cell's local plane at p's centre,
 //        z_i(p) = d_i + g_i . (p - uv_i),
 //      g_i = the least-squares depth gradient in the image (m per px) from the continuous
@@ -42,12 +46,13 @@
 //      pixel centres around it (coordinates clamped at the border), rounded to 8 bits,
 //      stored as RGB.
 //   5. Quality (how well the image resolves the surface there): q_i = sqrt(|du x dv| /
-//      |dP_a x dP_b|), image pixels per metre of surface, from two continuous neighbours a
-//      (left or right) and b (up or down): du, dv their pixel offsets, dP their 3D offsets
-//      (scan frame). It combines the distance, the cosine of the viewing angle (foreshortening)
-//      and the camera's local resolution: q ~ f_px sqrt(cos theta) / d for a pinhole at the
-//      image centre (the area ratio has cos theta; its square root is taken so q stays in
-//      px/m). With only one continuous direction: |du| / |dP_a|; with none: 0 (unknown).
+//      |dP_h x dP_v|), image pixels per metre of surface, from the grid tangents: dP_h = P_right
+//      - P_left (or the one-sided difference when only one is continuous), dP_v likewise along
+//      the column, du, dv the same differences of the projections. It combines the distance,
+//      the cosine of the viewing angle (foreshortening) and the camera's local resolution:
+//      q ~ f_px sqrt(cos theta) / d for a pinhole at the image centre (the area ratio has
+//      cos theta; its square root keeps q in px/m). With only one continuous direction:
+//      |du| / |dP|; with none: 0 (unknown).
 //
 // Several images (several shots, or a camera on a rotating mount; each with its own camera
 // and T_cam_scan): each image gets its own z-buffer; a point's colour comes from the image
@@ -57,10 +62,23 @@
 // images: kColoured if any image sees it, else kOccluded if any image has it occluded, else
 // kOutOfView.
 //
+// Back faces: a cell whose local surface (normal from its continuous grid neighbours, oriented
+// towards the scanner) has the camera centre behind it by more than backface_margin_deg is
+// kOccluded too (the camera sees the object's other side).
+//
+// Limits (what the depth buffer cannot know): occluders are known only where the scanner
+// sampled them. A surface the scanner sees at a grazing angle from just above (a table top
+// with one or two rows of samples) may hide more from a camera placed higher than the scan
+// shows; parts of objects outside the scan's field of view do not occlude; porous objects
+// (foliage, fences) hide the background behind their samples up to the next beam (edge_fill).
+// tests/core/colour_sim_test.cpp measures these effects per camera preset.
+//
 // Speed and memory: per image, two passes over the grid (splat, then test + sample), rows in
-// parallel (OpenMP), each thread with three rolling rows of projections (no allocation per
-// point). Memory: the result (8 bytes per cell: rgb 3, state 1, quality 4; plus 9 bytes per
-// cell with several images) and one 4-byte depth buffer per image pixel, reused per image.
+// parallel (OpenMP), each thread with three rolling rows of projections and continuity flags
+// (no allocation per point; every cell is projected once per pass). Memory: the result (8 bytes
+// per cell: rgb 3, state 1, quality 4 (0 without compute_quality); plus 9 bytes per cell with
+// several images, 16 more with BlendMode::kWeighted) and one 2-byte depth buffer per image
+// pixel (depths as truncated half floats, 0.1 % steps), reused per image.
 #pragma once
 
 #include <Eigen/Core>

@@ -55,7 +55,9 @@ struct OverlayOptions {
   Rgb8 no_return_rgb{0, 0, 0};       ///< black
 };
 
-/// The edge cells (CV_8UC1, scan rows x cols, 255 = edge) of the union of the chosen traces.
+/// The edge cells (CV_8UC1, scan rows x cols, 255 = edge) of the union of the chosen traces,
+/// without the cells where neighbouring beams converge (closer than 0.1 times the median beam
+/// spacing, e.g. the poles of a rotating scanner), whose BA is range noise.
 cv::Mat BaEdgeCells(const OrderedScan& scan, const OverlayOptions& options = {});
 
 /// Fig. 8 overlay of view `view_index` (see the file comment). `coloured` may be null.
