@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "command.h"
+#include "scan_options.h"
 #include "scancam/ba_image.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
@@ -86,18 +87,7 @@ int RunBa(const Args& args) {
   const std::string path = args.positional()[0];
   const bool quiet = args.has("--quiet");
 
-  ScanLoadOptions load;
-  load.format = args.get("--format", load.format);
-  if (args.has("--dx-m") || args.has("--dz-m")) {
-    load.has_offsets = true;
-    load.dx_m = args.get_double("--dx-m", 0.0);
-    load.dz_m = args.get_double("--dz-m", 0.0);
-  }
-  load.ptx_scan_index = args.get_int("--ptx-scan", load.ptx_scan_index);
-  load.ptx_apply_pose = args.has("--ptx-apply-pose");
-  load.pcd_mode = args.get("--pcd-mode", load.pcd_mode);
-  load.grid_step_deg = args.get_double("--grid-step-deg", load.grid_step_deg);
-  load.rawlog_index = args.get_int("--rawlog-index", load.rawlog_index);
+  const ScanLoadOptions load = ParseScanLoadOptions(args);
 
   std::vector<GridStep> extra;
   for (const auto& s : args.all("--step")) extra.push_back(ParseStep(s));
@@ -217,45 +207,24 @@ Command MakeBaCommand() {
       "Prints the grid size, the fraction of valid cells and the files written (stdout);\n"
       "progress goes to stderr. Exit code 0 on success, 1 on an error (the message names the\n"
       "file and what is wrong).";
-  c.options = {
-      {"--out", "DIR", "Output directory (created if missing). Required."},
-      {"--format", "FMT",
-       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog), rotating, "
-       "ptx, pcd or rawlog. Default auto."},
-      {"--dx-m", "M",
-       "Rotating 2D scanner: offset d_x of the rotation axis from the mirror centre, metres "
-       "(eq. 3). Overrides the log's header; giving only one of --dx-m/--dz-m sets the other "
-       "to 0. BA images use ranges and beam angles only (eq. 4), so the offsets move the 3D "
-       "points but do not change the images."},
-      {"--dz-m", "M", "Rotating 2D scanner: offset d_z, metres (see --dx-m)."},
-      {"--ptx-scan", "N", "PTX: which scan of a multi-scan file, 0-based. Default 0."},
-      {"--ptx-apply-pose", "",
-       "PTX: apply the header's scanner pose (points in the registered frame). BA images do "
-       "not change (ranges and beam angles are pose-independent)."},
-      {"--pcd-mode", "MODE",
-       "PCD: auto | organised (the file's own HEIGHT x WIDTH grid) | ring (spinning lidar: one "
-       "row per ring, columns by azimuth) | spherical (re-grid an unordered cloud on an "
-       "azimuth/elevation grid). Default auto: organised if HEIGHT > 1, else ring if there is "
-       "a ring field, else spherical."},
-      {"--grid-step-deg", "DEG",
-       "PCD ring/spherical: angular cell size in degrees; 0 = estimate from the data. "
-       "Default 0."},
-      {"--rawlog-index", "N",
-       "MRPT rawlog: which scan-like observation, 0-based; -1 = the first. Default -1."},
-      {"--step", "DROW,DCOL",
-       "Extra trace: previous cell of (r, c) is (r - DROW, c - DCOL), e.g. --step 2,-1. Writes "
-       "ba_step_DROW_DCOL.",
-       true},
-      {"--colormap", "MAP",
-       "PNG views: grey, jet or both (grey in NAME.png, jet in NAME_jet.png). Default grey."},
-      {"--fixed-range", "",
-       "BA views map [0, pi] to the full scale instead of the 1-99 % percentile stretch "
-       "(comparable between images; range and edge views stay stretched)."},
-      {"--edges", "", "Also write Sobel edge maps of every BA image (paper Fig. 8b)."},
-      {"--edge-percentile", "P",
-       "Edge mask threshold as a percentile of the valid gradient values, 0-100. Default 90."},
-      {"--quiet", "", "No progress on stderr and no summary on stdout (errors still printed)."},
-  };
+  c.options = Concat(
+      {
+          {"--out", "DIR", "Output directory (created if missing). Required."},
+          {"--step", "DROW,DCOL",
+           "Extra trace: previous cell of (r, c) is (r - DROW, c - DCOL), e.g. --step 2,-1. Writes "
+           "ba_step_DROW_DCOL.",
+           true},
+          {"--colormap", "MAP",
+           "PNG views: grey, jet or both (grey in NAME.png, jet in NAME_jet.png). Default grey."},
+          {"--fixed-range", "",
+           "BA views map [0, pi] to the full scale instead of the 1-99 % percentile stretch "
+           "(comparable between images; range and edge views stay stretched)."},
+          {"--edges", "", "Also write Sobel edge maps of every BA image (paper Fig. 8b)."},
+          {"--edge-percentile", "P",
+           "Edge mask threshold as a percentile of the valid gradient values, 0-100. Default 90."},
+          {"--quiet", "", "No progress on stderr and no summary on stdout (errors still printed)."},
+      },
+      ScanLoadOptionSpecs());
   c.run = RunBa;
   return c;
 }
