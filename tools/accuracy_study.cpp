@@ -22,6 +22,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -182,10 +183,13 @@ std::vector<PointPair> Usable(const Bench& b, std::vector<PointPair> pairs) {
 }
 
 Err RunScanCam(const Bench& b, const std::vector<PointPair>& pairs, const std::string& method,
-               bool refine) {
+               bool refine, bool weighted, const Options& o) {
   scancam::CalibrateOptions co;
   co.method = method;
   co.refine = refine;
+  co.weighted = weighted;
+  co.sigma_px = o.sigma_px;
+  co.sigma_cells = o.sigma_cells;
   try {
     const auto c = scancam::Calibrate(pairs, &b.sim.scan, b.sim.camera, co);
     return ErrorOf(c.T_cam_scan, b.sim.T_cam_scan, c.mean_px);
@@ -221,6 +225,57 @@ Err RunOpenCv(const Bench& b, const std::vector<PointPair>& pairs) {
   return ErrorOf(T, b.sim.T_cam_scan, px);
 }
 
+// First-order Cramer-Rao bound of the pose for the chosen pairs under the study's noise
+// model: the weighted refinement's covariance at the true pose from exact pairs, not
+// rescaled by the (zero) residuals. Returns the variances (rpy deg^2, t m^2).
+std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> CramerRao(const Bench& b,
+                                                                     const std::vector<int>& idx,
+                                                                     const Options& o) {
+  Options exact = o;
+  exact.sigma_px = exact.sigma_cells = 0;
+  std::mt19937 unused(0);
+  const auto pairs = Usable(b, NoisyPairs(b, idx, exact, unused));
+  scancam::CalibrateOptions co;
+  co.method = "epnp";
+  co.sigma_px = o.sigma_px;
+  co.sigma_cells = o.sigma_cells;
+  co.refine_options.scale_covariance = false;
+  try {
+    const auto c = scancam::Calibrate(pairs, &b.sim.scan, b.sim.camera, co);
+    if (!c.has_covariance) return std::nullopt;
+    return std::make_pair(Eigen::Vector3d(c.std_rpy_deg.cwiseAbs2()),
+                          Eigen::Vector3d(c.std_t_m.cwiseAbs2()));
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// Information-optimal picks: from the farthest-spread 4, greedily add the corner that
+// lowers the largest rotation std of the Cramer-Rao bound most (what a "where to pick
+// next" hint can aim at), up to n.
+std::vector<int> ChooseInformative(const Bench& b, int n, std::mt19937& rng, const Options& o) {
+  std::vector<int> chosen = Choose(b, 4, false, rng);
+  while (static_cast<int>(chosen.size()) < n) {
+    int best = -1;
+    double best_v = 1e300;
+    for (int i : b.good) {
+      if (std::find(chosen.begin(), chosen.end(), i) != chosen.end()) continue;
+      auto c = chosen;
+      c.push_back(i);
+      const auto crb = CramerRao(b, c, o);
+      if (!crb) continue;
+      const double v = crb->first.maxCoeff();
+      if (v < best_v) {
+        best_v = v;
+        best = i;
+      }
+    }
+    if (best < 0) break;
+    chosen.push_back(best);
+  }
+  return chosen;
+}
+
 // ---- plots (Figs. 6-7 style: error vs N, mean +- std, one panel per component) ----
 void Plot(const std::map<std::string, std::vector<Stats>>& by_method, bool rotation,
           const std::string& path, const std::string& title) {
@@ -228,8 +283,8 @@ void Plot(const std::map<std::string, std::vector<Stats>>& by_method, bool rotat
   cv::Mat img(H, W, CV_8UC3, cv::Scalar(255, 255, 255));
   const char* names_r[] = {"roll error (deg)", "pitch error (deg)", "yaw error (deg)"};
   const char* names_t[] = {"x error (m)", "y error (m)", "z error (m)"};
-  const cv::Scalar colours[] = {{200, 80, 0},  {0, 140, 0},  {0, 0, 220},  {160, 0, 160},
-                                {0, 160, 200}, {90, 90, 90}, {40, 40, 160}};
+  const cv::Scalar colours[] = {{200, 80, 0},  {0, 140, 0},  {0, 0, 220},   {160, 0, 160},
+                                {0, 160, 200}, {90, 90, 90}, {40, 40, 160}, {0, 100, 160}};
   cv::putText(img, title, {left, 24}, cv::FONT_HERSHEY_SIMPLEX, 0.55, {0, 0, 0}, 1);
   for (int k = 0; k < 3; ++k) {
     const int x0 = left + k * (pw + 40), y0 = top;
@@ -266,8 +321,9 @@ void Plot(const std::map<std::string, std::vector<Stats>>& by_method, bool rotat
     cv::putText(img, "number of pairs N", {x0 + pw / 2 - 70, y0 + ph + 38},
                 cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 0}, 1);
     int mi = 0;
+    int legend_x = left;
     for (const auto& [m, v] : by_method) {
-      const cv::Scalar col = colours[mi % 7];
+      const cv::Scalar col = colours[mi % 8];
       const double off = (mi - 0.5 * (by_method.size() - 1)) * 0.08;
       cv::Point prev(-1, -1);
       for (std::size_t j = 0; j < v.size(); ++j) {
@@ -281,7 +337,10 @@ void Plot(const std::map<std::string, std::vector<Stats>>& by_method, bool rotat
         prev = c;
       }
       if (k == 0) {  // legend: one row under the title
-        cv::putText(img, m, {left + 135 * mi, 48}, cv::FONT_HERSHEY_SIMPLEX, 0.42, col, 1);
+        int baseline = 0;
+        const int w = cv::getTextSize(m, cv::FONT_HERSHEY_SIMPLEX, 0.42, 1, &baseline).width;
+        cv::putText(img, m, {legend_x, 48}, cv::FONT_HERSHEY_SIMPLEX, 0.42, col, 1);
+        legend_x += w + 22;
       }
       ++mi;
     }
@@ -322,39 +381,95 @@ int main(int argc, char** argv) {
   const Bench pin = MakeBench("pinhole", o.seed);
   std::cerr << omni.good.size() << " corners (omni), " << pin.good.size() << " (pinhole)\n";
 
-  const std::vector<std::pair<std::string, std::pair<std::string, bool>>> methods = {
-      {"paper linear", {"paper", false}},
-      {"paper + refine", {"paper", true}},
-      {"EPnP", {"epnp", false}},
-      {"EPnP + refine", {"epnp", true}},
-      {"UPnP", {"upnp", false}},
-      {"UPnP + refine", {"upnp", true}},
-      {"RANSAC + refine", {"ransac", true}}};
+  struct Method {
+    std::string method;
+    bool refine, weighted;
+  };
+  // "+ refine" is the default weighted (maximum-likelihood) refinement; "eq. 7" the paper's
+  // unweighted one.
+  const std::vector<std::pair<std::string, Method>> methods = {
+      {"paper linear", {"paper", false, true}},
+      {"paper + refine", {"paper", true, true}},
+      {"EPnP", {"epnp", false, true}},
+      {"EPnP + refine", {"epnp", true, true}},
+      {"UPnP", {"upnp", false, true}},
+      {"UPnP + refine", {"upnp", true, true}},
+      {"RANSAC + refine", {"ransac", true, true}},
+      {"RANSAC + eq. 7 unweighted", {"ransac", true, false}}};
+  // Cramer-Rao bound per N (spread picks): root of the mean variance over the trials.
+  std::vector<Stats> crb_spread;
   std::map<std::string, std::vector<Stats>> spread, clustered;
   std::vector<Stats> cv_pin, ours_pin, epnp_pin;
   std::mt19937 rng(static_cast<std::uint32_t>(o.seed));
   for (int n = 4; n <= 10; ++n) {
     std::map<std::string, std::vector<Err>> es, ec;
     std::vector<Err> ecv, eop, eep;
+    Eigen::Vector3d crb_r = Eigen::Vector3d::Zero(), crb_t = Eigen::Vector3d::Zero();
+    int crb_n = 0;
     for (int t = 0; t < o.trials; ++t) {
       for (int mode = 0; mode < 2; ++mode) {
         const auto idx = Choose(omni, n, mode == 1, rng);
         const auto pairs = Usable(omni, NoisyPairs(omni, idx, o, rng));
         for (const auto& [name, m] : methods)
-          (mode ? ec : es)[name].push_back(RunScanCam(omni, pairs, m.first, m.second));
+          (mode ? ec : es)[name].push_back(
+              RunScanCam(omni, pairs, m.method, m.refine, m.weighted, o));
+        if (mode == 0) {
+          if (const auto c = CramerRao(omni, idx, o)) {
+            crb_r += c->first;
+            crb_t += c->second;
+            ++crb_n;
+          }
+        }
       }
       const auto pidx = Choose(pin, n, false, rng);
       const auto ppairs = Usable(pin, NoisyPairs(pin, pidx, o, rng));
       ecv.push_back(RunOpenCv(pin, ppairs));
-      eop.push_back(RunScanCam(pin, ppairs, "ransac", true));
-      eep.push_back(RunScanCam(pin, ppairs, "epnp", true));
+      eop.push_back(RunScanCam(pin, ppairs, "ransac", true, true, o));
+      eep.push_back(RunScanCam(pin, ppairs, "epnp", true, true, o));
     }
+    Stats crb;
+    crb.ok = crb.total = crb_n;
+    if (crb_n) {
+      crb.std_rpy = (crb_r / crb_n).cwiseSqrt();
+      crb.std_t = (crb_t / crb_n).cwiseSqrt();
+    }
+    crb_spread.push_back(crb);
     for (auto& [name, v] : es) spread[name].push_back(Summarise(v));
     for (auto& [name, v] : ec) clustered[name].push_back(Summarise(v));
     cv_pin.push_back(Summarise(ecv));
     ours_pin.push_back(Summarise(eop));
     epnp_pin.push_back(Summarise(eep));
     std::cerr << "N = " << n << " done\n";
+  }
+
+  // Information-guided picks at N = 10 (the corners a "where to pick next" hint would ask
+  // for), same noise.
+  std::map<std::string, std::vector<Stats>> guided;
+  {
+    std::vector<Err> eg, eu;
+    Eigen::Vector3d cr = Eigen::Vector3d::Zero(), ct = Eigen::Vector3d::Zero();
+    int cn = 0;
+    for (int t = 0; t < o.trials; ++t) {
+      const auto idx = ChooseInformative(omni, 10, rng, o);
+      const auto pairs = Usable(omni, NoisyPairs(omni, idx, o, rng));
+      eg.push_back(RunScanCam(omni, pairs, "ransac", true, true, o));
+      eu.push_back(RunScanCam(omni, pairs, "ransac", true, false, o));
+      if (const auto c = CramerRao(omni, idx, o)) {
+        cr += c->first;
+        ct += c->second;
+        ++cn;
+      }
+    }
+    Stats crb;
+    crb.ok = crb.total = cn;
+    if (cn) {
+      crb.std_rpy = (cr / cn).cwiseSqrt();
+      crb.std_t = (ct / cn).cwiseSqrt();
+    }
+    // Index N - 4 = 6 is what table() reads for N = 10.
+    guided["RANSAC + refine"] = std::vector<Stats>(7, Summarise(eg));
+    guided["RANSAC + eq. 7 unweighted"] = std::vector<Stats>(7, Summarise(eu));
+    guided["(Cramer-Rao bound, first order)"] = std::vector<Stats>(7, crb);
   }
 
   // Wrong pair among 10: flagged how often, and the pose error with it.
@@ -402,8 +517,11 @@ int main(int argc, char** argv) {
     }
     md << "\n";
   };
-  table(spread, "Spread picks", 10);
-  table(spread, "Spread picks", 6);
+  auto spread_crb = spread;
+  spread_crb["(Cramer-Rao bound, first order)"] = crb_spread;
+  table(spread_crb, "Spread picks", 10);
+  table(spread_crb, "Spread picks", 6);
+  table(guided, "Information-guided picks (greedy on the Cramer-Rao bound)", 10);
   table(clustered, "Clustered picks", 10);
   std::map<std::string, std::vector<Stats>> pinm = {{"OpenCV solvePnP SQPnP+LM (pinhole)", cv_pin},
                                                     {"ScanCam RANSAC + refine (pinhole)", ours_pin},

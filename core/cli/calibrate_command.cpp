@@ -1,7 +1,9 @@
 // scancam calibrate: T_cam_scan from picked pairs (thin front over solve/calibrate.h).
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "command.h"
 #include "scan_options.h"
@@ -46,6 +48,14 @@ int RunCalibrate(const Args& args) {
   opt.threshold_deg = args.get_double("--threshold-deg", opt.threshold_deg);
   opt.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   opt.refine_options.loss = args.get("--loss", opt.refine_options.loss);
+  opt.weighted = !args.has("--unweighted");
+  opt.sigma_px = args.get_double("--sigma-px", opt.sigma_px);
+  opt.sigma_cells = args.get_double("--sigma-cells", opt.sigma_cells);
+  opt.sigma_point_m = args.get_double("--sigma-point-m", opt.sigma_point_m);
+  if (!(opt.sigma_px >= 0) || !(opt.sigma_cells >= 0) || !(opt.sigma_point_m >= 0) ||
+      opt.sigma_px + opt.sigma_cells + opt.sigma_point_m <= 0) {
+    throw Error("--sigma-px, --sigma-cells and --sigma-point-m must be >= 0, not all 0");
+  }
   opt.pairs_source = pairs_path;
   const Calibration cal = Calibrate(pairs, have_scan ? &scan : nullptr, camera, opt);
 
@@ -62,9 +72,28 @@ int RunCalibrate(const Args& args) {
     const double t_m = (T_true.translation() - cal.T_cam_scan.translation()).norm();
     out["error_vs_truth"] = {
         {"rotation_deg", rot_deg}, {"translation_m", t_m}, {"truth", args.get("--truth")}};
+    // Is the error what the reported uncertainty allows? Mahalanobis distance of (rotation
+    // vector, t) under the 6x6 covariance (R_true = exp(delta) R_est, calibrate.h).
+    std::string verdict;
+    if (cal.has_covariance) {
+      const Eigen::AngleAxisd aa(T_true.linear() * cal.T_cam_scan.linear().transpose());
+      Eigen::Matrix<double, 6, 1> e;
+      e << aa.angle() * aa.axis(), T_true.translation() - cal.T_cam_scan.translation();
+      const auto ldlt = cal.covariance.ldlt();
+      if (ldlt.info() == Eigen::Success) {
+        const double d = std::sqrt(std::max(0.0, e.dot(ldlt.solve(e))));
+        out["error_vs_truth"]["mahalanobis"] = d;
+        std::ostringstream m;
+        // 3.55 = sqrt of the chi-square 95 % quantile with 6 degrees of freedom.
+        m << "; " << std::setprecision(2) << d
+          << " sigma (Mahalanobis, 6 dof): " << (d <= 3.55 ? "within" : "OUTSIDE")
+          << " the reported uncertainty (95 %: 3.55)";
+        verdict = m.str();
+      }
+    }
     if (!quiet)
       std::cout << "against " << args.get("--truth") << ": rotation error " << rot_deg
-                << " deg, translation error " << t_m << " m\n";
+                << " deg, translation error " << t_m << " m" << verdict << "\n";
   }
   WriteJsonFile(out_path, out);
   if (!quiet) std::cout << FormatCalibrationSummary(cal) << "wrote " << out_path << "\n";
@@ -118,6 +147,15 @@ Command MakeCalibrateCommand() {
            "A fixed angular inlier threshold in degrees instead of --threshold-px."},
           {"--loss", "L", "Robust loss in the refinement: none | huber | cauchy. Default none."},
           {"--no-refine", "", "Skip the Ceres refinement (and the covariance)."},
+          {"--sigma-px", "PX",
+           "Picking noise in the image, pixels per axis, for the weighted refinement. "
+           "Default 1."},
+          {"--sigma-cells", "C", "Picking noise on the scan grid, cells per axis. Default 0.5."},
+          {"--sigma-point-m", "M",
+           "Noise of a laser point given as x,y,z (no scan cell), metres. Default 0 (exact)."},
+          {"--unweighted", "",
+           "Refine the paper's eq. 7 as written (every pair weighs the same) instead of the "
+           "maximum-likelihood weighting by the picking noise."},
           {"--seed", "N", "RANSAC random seed (same seed, same result). Default 1."},
           {"--truth", "FILE",
            "A JSON with the true T_cam_scan (e.g. the simulator's ground_truth.json): print "

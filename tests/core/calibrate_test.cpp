@@ -182,6 +182,27 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
   EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/calib.json"), TruePose()), 0.1);
   EXPECT_NE(test::ReadFile(dir + "/stdout.txt").find("reprojection error"), std::string::npos);
 
+  // --truth: the error and whether the reported uncertainty covers it; a truth 2 deg away
+  // must be called outside.
+  for (const double off_deg : {0.0, 2.0}) {
+    Eigen::Isometry3d truth = TruePose();
+    truth.linear() = RpyDegToRotation({off_deg, 0, 0}) * truth.linear();
+    WriteJsonFile(dir + "/truth.json", {{"T_cam_scan", PoseToJson(truth)}});
+    const std::string tc = cmd.substr(0, cmd.find(" > ")) + " --truth " + dir + "/truth.json > " +
+                           dir + "/stdout.txt 2>&1";
+    ASSERT_EQ(std::system(tc.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+    const auto j = ReadJsonFile(dir + "/calib.json");
+    const double d = j["error_vs_truth"]["mahalanobis"].get<double>();
+    const std::string text = test::ReadFile(dir + "/stdout.txt");
+    if (off_deg == 0) {
+      EXPECT_LT(d, 3.55) << text;
+      EXPECT_NE(text.find("within the reported uncertainty"), std::string::npos) << text;
+    } else {
+      EXPECT_GT(d, 10.0) << text;
+      EXPECT_NE(text.find("OUTSIDE the reported uncertainty"), std::string::npos) << text;
+    }
+  }
+
   test::WriteFile(dir + "/bad.csv", "image_u,image_v,x,y,z\n1,2,3,4\n");
   const std::string bad = std::string(SCANCAM_CLI) + " calibrate --camera " + dir +
                           "/cam.yaml --pairs " + dir + "/bad.csv --out " + dir + "/c2.json > " +

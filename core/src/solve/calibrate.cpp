@@ -54,6 +54,87 @@ double CellAngle(const OrderedScan* scan, const PointPair& p) {
   return best;
 }
 
+// d(beam direction) / d(row) and / d(col) at a pair's cell (central differences of the
+// grid's beams, one-sided at the border); false without a cell or beams.
+bool BeamDerivatives(const OrderedScan* scan, const PointPair& p, Eigen::Vector3d* d_row,
+                     Eigen::Vector3d* d_col) {
+  if (!scan || !p.has_scan_cell()) return false;
+  const int r = static_cast<int>(std::lround(p.scan_row));
+  const int c = static_cast<int>(std::lround(p.scan_col));
+  auto beam = [&](int rr, int cc) -> std::optional<Eigen::Vector3d> {
+    if (!scan->inside(rr, cc)) return std::nullopt;
+    const Eigen::Vector3f& b = scan->beam_dir[scan->index(rr, cc)];
+    if (!b.allFinite()) return std::nullopt;
+    return b.cast<double>();
+  };
+  auto diff = [&](int dr, int dc, Eigen::Vector3d* out) {
+    const auto a = beam(r + dr, c + dc), b = beam(r - dr, c - dc), m = beam(r, c);
+    if (a && b) {
+      *out = (*a - *b) / 2.0;
+    } else if (a && m) {
+      *out = *a - *m;
+    } else if (b && m) {
+      *out = *m - *b;
+    } else {
+      return false;
+    }
+    return true;
+  };
+  return diff(1, 0, d_row) && diff(0, 1, d_col);
+}
+
+// Covariance of a pair's bearing error seen from the camera (calibrate.h, "Weighted
+// refinement"), rad^2, 3x3 on the tangent plane at the pixel's bearing.
+Eigen::Matrix3d BearingCovariance(const CameraModel& camera, const OrderedScan* scan,
+                                  const PointPair& pair, const Eigen::Vector3d& bearing,
+                                  const Eigen::Vector3d& p_scan, const Eigen::Isometry3d& T,
+                                  const CalibrateOptions& o) {
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  const Eigen::Vector2d px(pair.image_u, pair.image_v);
+  const Eigen::Matrix3d Pb = Eigen::Matrix3d::Identity() - bearing * bearing.transpose();
+  // Image part: the bearing's change per pixel along u and v.
+  for (const Eigen::Vector2d& d : {Eigen::Vector2d(0.5, 0), Eigen::Vector2d(0, 0.5)}) {
+    auto a = camera.Unproject(px + d), b = camera.Unproject(px - d);
+    Eigen::Vector3d j;
+    if (a && b) {
+      j = *a - *b;
+    } else if (a) {
+      j = 2.0 * (*a - bearing);
+    } else if (b) {
+      j = 2.0 * (bearing - *b);
+    } else {
+      continue;
+    }
+    j = Pb * j;
+    S += o.sigma_px * o.sigma_px * j * j.transpose();
+  }
+  // Scan part: the laser point's displacement for a pick off by one cell, seen from the
+  // camera (at fixed range: moving along the beam changes the camera's view little as
+  // the camera sits near the scanner).
+  const Eigen::Vector3d Xc = T * p_scan;
+  const double dist = Xc.norm();
+  if (dist > 0) {
+    const Eigen::Vector3d f = Xc / dist;
+    const Eigen::Matrix3d Pf = Eigen::Matrix3d::Identity() - f * f.transpose();
+    Eigen::Vector3d d_row, d_col;
+    if (BeamDerivatives(scan, pair, &d_row, &d_col)) {
+      const double range = p_scan.norm();
+      for (const Eigen::Vector3d& db : {d_row, d_col}) {
+        const Eigen::Vector3d dX = range * db;
+        const Eigen::Vector3d j = Pb * (Pf * (T.linear() * dX) / dist);
+        S += o.sigma_cells * o.sigma_cells * j * j.transpose();
+      }
+    } else {
+      S += o.sigma_point_m * o.sigma_point_m * (Pb * Pf * Pb.transpose()) / (dist * dist);
+    }
+  }
+  // A floor (1e-3 of the largest part, and 1e-12 rad^2) keeps it invertible on the
+  // tangent plane when one part vanishes (sigma 0, a degenerate camera Jacobian).
+  const double floor = std::max(1e-12, 1e-3 * S.trace());
+  S += floor * Pb;
+  return S;
+}
+
 void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* mx) {
   *mean = *sd = *mx = 0;
   if (v.empty()) return;
@@ -187,7 +268,22 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   }
   cal.T_cam_scan = *T0;
   if (options.refine) {
-    RefineResult rr = RefinePose(bearings, points, *T0, options.refine_options, inlier);
+    // Weighted: covariances from the pose they are evaluated at (see calibrate.h).
+    auto covs = [&](const Eigen::Isometry3d& T) {
+      std::vector<Eigen::Matrix3d> c;
+      if (!options.weighted) return c;
+      for (std::size_t i = 0; i < n; ++i)
+        c.push_back(BearingCovariance(camera, scan, pairs[i], bearings[i], points[i], T, options));
+      return c;
+    };
+    auto refine = [&](const Eigen::Isometry3d& T) {
+      RefineResult r = RefinePose(bearings, points, T, options.refine_options, inlier, covs(T));
+      if (options.weighted)
+        r = RefinePose(bearings, points, r.T_cam_scan, options.refine_options, inlier,
+                       covs(r.T_cam_scan));
+      return r;
+    };
+    RefineResult rr = refine(*T0);
     if (options.method == "ransac") {
       // The minimal-sample consensus can reject a good pair that lies near the
       // threshold; re-classify with the refined pose and refine again until the
@@ -198,7 +294,7 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
           again[i] = AngularError(rr.T_cam_scan, bearings[i], points[i]) < thr[i];
         if (again == inlier || std::count(again.begin(), again.end(), true) < 4) break;
         inlier = again;
-        rr = RefinePose(bearings, points, rr.T_cam_scan, options.refine_options, inlier);
+        rr = refine(rr.T_cam_scan);
       }
     }
     cal.T_cam_scan = rr.T_cam_scan;
@@ -207,6 +303,8 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
     cal.std_rpy_deg = rr.std_rpy_deg;
     cal.std_t_m = rr.std_t_m;
     cal.covariance = rr.covariance;
+    cal.weighted = options.weighted;
+    cal.variance_factor = rr.variance_factor;
     if (!rr.has_covariance) cal.warnings.push_back("no parameter uncertainty: " + rr.message);
   }
   cal.rotation_rpy_deg = RotationToRpyDeg(cal.T_cam_scan.linear());
@@ -292,6 +390,8 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
   j["translation_m"] = Vector3ToJson(c.T_cam_scan.translation());
   j["method"] = c.method;
   j["refined"] = c.refined;
+  j["weighted"] = c.weighted;
+  if (c.refined) j["variance_factor"] = c.variance_factor;
   j["pair_count"] = c.pair_count;
   j["inlier_count"] = c.inlier_count;
   j["errors"] = {{"reprojection_px", {{"mean", c.mean_px}, {"std", c.std_px}, {"max", c.max_px}}},
@@ -337,8 +437,11 @@ Eigen::Isometry3d ReadCalibrationPose(const std::string& path) {
 std::string FormatCalibrationSummary(const Calibration& c) {
   std::ostringstream o;
   o << std::fixed;
-  o << "method: " << c.method << (c.refined ? " + refinement (eq. 7)" : "") << ", "
-    << c.inlier_count << " of " << c.pair_count << " pairs inliers\n";
+  o << "method: " << c.method
+    << (c.refined ? (c.weighted ? " + refinement (eq. 7 weighted by the picking noise)"
+                                : " + refinement (eq. 7)")
+                  : "")
+    << ", " << c.inlier_count << " of " << c.pair_count << " pairs inliers\n";
   o << "T_cam_scan (X_cam = R X_scan + t):\n";
   const Eigen::Matrix4d M = c.T_cam_scan.matrix();
   for (int r = 0; r < 4; ++r) {
@@ -356,6 +459,11 @@ std::string FormatCalibrationSummary(const Calibration& c) {
     << " " << c.T_cam_scan.translation().y() << " " << c.T_cam_scan.translation().z() << " m";
   if (c.has_covariance)
     o << "  (std " << c.std_t_m.x() << " " << c.std_t_m.y() << " " << c.std_t_m.z() << ")";
+  if (c.refined && c.weighted) {
+    o << "\nresiduals / picking-noise model (reduced chi-square): " << std::setprecision(2)
+      << c.variance_factor
+      << (c.variance_factor > 4 ? "  (picks noisier than --sigma-px/--sigma-cells say)" : "");
+  }
   o << "\nreprojection error: mean " << std::setprecision(2) << c.mean_px << " px, std " << c.std_px
     << ", max " << c.max_px << "   angular: mean " << std::setprecision(3) << c.mean_deg
     << " deg, max " << c.max_deg << "\n";

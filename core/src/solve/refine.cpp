@@ -14,14 +14,29 @@ namespace {
 
 // Eq. 7 residual for one pair, as a smooth 2-vector whose squared norm is the
 // squared geodesic angle (see refine.h).
+// With a bearing covariance the 2-vector is whitened by W (W^T W = Sigma^-1 in the
+// (e1, e2) basis); W = identity gives eq. 7 as written.
 struct GeodesicResidual {
-  GeodesicResidual(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p) : b(bearing), p(p) {
+  GeodesicResidual(const Eigen::Vector3d& bearing, const Eigen::Vector3d& p,
+                   const Eigen::Matrix3d* cov)
+      : b(bearing), p(p) {
     b.normalize();
     // Any orthonormal basis of the tangent plane at b.
     const Eigen::Vector3d helper =
         std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
     e1 = b.cross(helper).normalized();
     e2 = b.cross(e1);
+    if (cov) {
+      Eigen::Matrix<double, 3, 2> E;
+      E << e1, e2;
+      const Eigen::Matrix2d S = E.transpose() * (*cov) * E;
+      const Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (S + S.transpose()));
+      if (llt.info() != Eigen::Success || !(S.determinant() > 0)) {
+        throw Error("RefinePose: a bearing covariance is not positive definite");
+      }
+      // r' = L^-1 r: whitened, |r'|^2 = r^T S^-1 r.
+      W = llt.matrixL().solve(Eigen::Matrix2d::Identity());
+    }
   }
 
   template <typename T>
@@ -41,12 +56,15 @@ struct GeodesicResidual {
     } else {
       scale = T(1.0) / c;
     }
-    r[0] = scale * x;
-    r[1] = scale * y;
+    const T r0 = scale * x;
+    const T r1 = scale * y;
+    r[0] = T(W(0, 0)) * r0 + T(W(0, 1)) * r1;
+    r[1] = T(W(1, 0)) * r0 + T(W(1, 1)) * r1;
     return true;
   }
 
   Eigen::Vector3d b, p, e1, e2;
+  Eigen::Matrix2d W = Eigen::Matrix2d::Identity();
 };
 
 // Ceres' EigenQuaternionManifold: Plus(q, d) = [cos|d|, sin|d| d/|d|] * q, i.e.
@@ -65,10 +83,12 @@ Eigen::Quaterniond PlusDelta(const Eigen::Quaterniond& q, const Eigen::Vector3d&
 
 RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
                         const std::vector<Eigen::Vector3d>& p_scan, const Eigen::Isometry3d& T_init,
-                        const RefineOptions& options, const std::vector<bool>& use) {
+                        const RefineOptions& options, const std::vector<bool>& use,
+                        const std::vector<Eigen::Matrix3d>& bearing_cov_rad2) {
   const std::size_t n = bearing_cam.size();
-  if (p_scan.size() != n || (!use.empty() && use.size() != n)) {
-    throw Error("RefinePose: bearings, points and flags differ in count");
+  if (p_scan.size() != n || (!use.empty() && use.size() != n) ||
+      (!bearing_cov_rad2.empty() && bearing_cov_rad2.size() != n)) {
+    throw Error("RefinePose: bearings, points, flags and covariances differ in count");
   }
   RefineResult res;
   res.T_cam_scan = T_init;
@@ -96,19 +116,23 @@ RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
   double tv[3] = {t.x(), t.y(), t.z()};
 
   ceres::Problem problem;
+  std::vector<GeodesicResidual*> residuals(n, nullptr);
   for (std::size_t i = 0; i < n; ++i) {
     if (!(use.empty() || use[i])) continue;
     ceres::LossFunction* loss = nullptr;
+    const double scale =
+        bearing_cov_rad2.empty() ? options.loss_scale_rad : options.loss_scale_sigma;
     if (options.loss == "huber") {
-      loss = new ceres::HuberLoss(options.loss_scale_rad);
+      loss = new ceres::HuberLoss(scale);
     } else if (options.loss == "cauchy") {
-      loss = new ceres::CauchyLoss(options.loss_scale_rad);
+      loss = new ceres::CauchyLoss(scale);
     } else if (options.loss != "none") {
       throw Error("unknown loss '" + options.loss + "' (expected none, huber or cauchy)");
     }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GeodesicResidual, 2, 4, 3>(
-                                 new GeodesicResidual(bearing_cam[i], p_scan[i])),
-                             loss, qv, tv);
+    residuals[i] = new GeodesicResidual(bearing_cam[i], p_scan[i],
+                                        bearing_cov_rad2.empty() ? nullptr : &bearing_cov_rad2[i]);
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<GeodesicResidual, 2, 4, 3>(residuals[i]), loss, qv, tv);
   }
   problem.SetManifold(qv, new ceres::EigenQuaternionManifold);
 
@@ -159,14 +183,22 @@ RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
     return res;
   }
   C = Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(full);
-  // Ceres assumes unit-variance residuals; scale by the observed variance
-  // (2 residuals per pair, 6 parameters).
-  double ss = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (use.empty() || use[i]) ss += res.error_rad[i] * res.error_rad[i];
+  // Ceres assumes unit-variance residuals; scale by the observed variance factor
+  // (2 residuals per pair, 6 parameters): for unweighted residuals the angular
+  // variance, for whitened ones the reduced chi-square.
+  double ss = 0, ssw = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!(use.empty() || use[i])) continue;
+    ss += res.error_rad[i] * res.error_rad[i];
+    double r[2];
+    const double* prm[2] = {qv, tv};
+    (*residuals[i])(prm[0], prm[1], r);
+    ssw += r[0] * r[0] + r[1] * r[1];
+  }
   const double dof = 2.0 * used - 6.0;
   res.sigma_rad = dof > 0 ? std::sqrt(ss / dof) : 0.0;
-  C *= res.sigma_rad * res.sigma_rad;
+  res.variance_factor = dof > 0 ? ssw / dof : 0.0;
+  if (options.scale_covariance) C *= res.variance_factor;
 
   // Tangent delta d rotates by 2|d| (see PlusDelta): rotation vector = 2 d.
   Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();

@@ -12,6 +12,20 @@
 // then (unless refine = false) Ceres refinement of eq. 7 on the inliers, and the
 // parameter covariance.
 //
+// Weighted refinement (default; `weighted = false` gives the paper's plain eq. 7). Each
+// pair's bearing error is modelled as the sum of two picking noises, both seen from the
+// camera as a 3x3 covariance on the tangent plane of the bearing (rad^2):
+//   image:  sigma_px^2 (J_u J_u^T + J_v J_v^T), J_u, J_v = d bearing / d u, d v (the camera
+//           model's local angular resolution: an omni or fisheye image is coarser at its rim);
+//   scan:   sigma_cells^2 sum_k (P R r dbeam/dk)(P R r dbeam/dk)^T / |X_cam|^2 for k = row, col,
+//           with r the range, dbeam/dk the change of the beam direction per cell (the grid's
+//           own angular steps: 1 deg x 0.5 deg for the paper's scanner), P = I - f f^T the
+//           projection onto the tangent plane at f = X_cam / |X_cam|; for pairs given by x,y,z
+//           instead of a cell, sigma_point_m^2 P / |X_cam|^2.
+// The scan part depends on the pose, so the refinement runs twice: weights from the initial
+// pose, then from the refined one. This is the maximum-likelihood estimate to first order
+// when both picks have Gaussian noise of these sizes.
+//
 // Errors (scancam::Error, naming the pairs file and line): fewer than 4 usable
 // pairs, a pixel outside the image / field of view, a scan cell with no return,
 // duplicate pairs, collinear laser points or bearings. Warnings (in the result):
@@ -46,7 +60,14 @@ struct CalibrateOptions {
   /// sits close to the scanner relative to the scene).
   double threshold_cells = 1.5;
   double threshold_deg = 0.0;  ///< when > 0: a fixed angular threshold instead of the above
-  std::uint64_t seed = 1;      ///< RANSAC random seed
+  /// Weighted (maximum-likelihood) refinement with the picking noise below (see file comment).
+  bool weighted = true;
+  double sigma_px = 1.0;     ///< std of a pick in the image, pixels (per axis)
+  double sigma_cells = 0.5;  ///< std of a pick on the scan grid, cells (per axis)
+  /// std of a laser point given as x,y,z (no cell), metres; 0 = taken as exact (surveyed
+  /// targets), only the pixel pick is uncertain.
+  double sigma_point_m = 0.0;
+  std::uint64_t seed = 1;  ///< RANSAC random seed
   RefineOptions refine_options;
   std::string pairs_source = "pairs";  ///< name used in error messages (the pairs file)
 };
@@ -80,6 +101,8 @@ struct Calibration {
   Eigen::Vector3d std_rpy_deg = Eigen::Vector3d::Zero();
   Eigen::Vector3d std_t_m = Eigen::Vector3d::Zero();
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  bool weighted = false;       ///< the refinement used the picking-noise weights
+  double variance_factor = 0;  ///< reduced chi-square of the refinement (RefineResult)
   std::vector<PairResult> pairs;
   std::vector<std::string> warnings;
 };

@@ -9,9 +9,17 @@
 // |r_i|^2 = theta_i^2 exactly (eq. 7) while r_i stays smooth at theta_i = 0.
 // rho is the identity or a robust loss (Huber / Cauchy, scale `loss_scale_rad`).
 //
+// Weighted (maximum-likelihood) form: when a covariance Sigma_i of each measured bearing's
+// error is given (3x3, camera frame, rad^2, tangent to the sphere at the bearing — it holds
+// the pixel picking noise and the scan picking noise seen from the camera, see
+// calibrate.h), each residual is whitened, r_i' = L_i^-1 r_i with Sigma_i = L_i L_i^T
+// expressed in the residual's tangent basis, so pairs with a precise pick count more and
+// anisotropic noise (a scanner with 1 deg x 0.5 deg steps) is weighted per direction.
+//
 // Uncertainty: ceres::Covariance of (rotation tangent, t) scaled by the residual
-// variance sigma^2 = sum theta_i^2 / (2n - 6); the rotation part is mapped to
-// roll/pitch/yaw of R (ZYX convention, see rotation_rpy.h) by a numeric Jacobian.
+// variance factor s^2 = sum |r_i'|^2 / (2n - 6) (unweighted: r' = theta, so s = sigma_rad;
+// weighted: s^2 is the reduced chi-square, ~1 when the noise model is right); the rotation part is
+// mapped to roll/pitch/yaw of R (ZYX convention, see rotation_rpy.h) by a numeric Jacobian.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -22,10 +30,15 @@
 namespace scancam {
 
 struct RefineOptions {
-  std::string loss = "none";  ///< none | huber | cauchy
-  double loss_scale_rad = 0.2 * 3.14159265358979323846 / 180.0;
+  std::string loss = "none";                                     ///< none | huber | cauchy
+  double loss_scale_rad = 0.2 * 3.14159265358979323846 / 180.0;  ///< unweighted residuals
+  double loss_scale_sigma = 2.0;  ///< weighted (whitened) residuals: in standard deviations
   int max_iterations = 100;
   bool compute_covariance = true;
+  /// Scale the covariance by the observed variance factor s^2 (default). false: trust the
+  /// given bearing covariances as they are (with exact data this gives the first-order
+  /// Cramer-Rao bound of the pose for that noise model).
+  bool scale_covariance = true;
 };
 
 struct RefineResult {
@@ -41,14 +54,20 @@ struct RefineResult {
   bool has_covariance = false;
   Eigen::Vector3d std_rpy_deg = Eigen::Vector3d::Zero();  ///< std of roll, pitch, yaw
   Eigen::Vector3d std_t_m = Eigen::Vector3d::Zero();      ///< std of t (x, y, z)
-  double sigma_rad = 0;  ///< residual standard deviation used to scale the covariance
-  std::string message;   ///< Ceres' summary line or why the covariance failed
+  double sigma_rad = 0;  ///< rms angular residual (rad, over 2n - 6 degrees of freedom)
+  /// Factor the covariance was scaled by: s^2 (see the file comment); 1 = the noise model
+  /// predicted the residuals exactly.
+  double variance_factor = 0;
+  std::string message;  ///< Ceres' summary line or why the covariance failed
 };
 
 /// Refines `T_init`. Needs >= 3 pairs (>= 4 for a covariance). Pairs with
 /// `use[i] == false` are left out of the cost (outliers), but get an error.
+/// `bearing_cov_rad2`: empty (unweighted, the paper's eq. 7) or one covariance per pair (see
+/// the file comment; must be positive definite on the tangent plane).
 RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
                         const std::vector<Eigen::Vector3d>& p_scan, const Eigen::Isometry3d& T_init,
-                        const RefineOptions& options = {}, const std::vector<bool>& use = {});
+                        const RefineOptions& options = {}, const std::vector<bool>& use = {},
+                        const std::vector<Eigen::Matrix3d>& bearing_cov_rad2 = {});
 
 }  // namespace scancam
