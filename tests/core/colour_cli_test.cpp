@@ -125,7 +125,7 @@ TEST(CliColorize, SimulatedFilesAllOutputs) {
   ASSERT_EQ(truth.size(), 360u * 361u);
   int f_state = -1, f_rgb = -1;
   for (std::size_t k = 0; k < cloud.fields.size(); ++k) {
-    if (cloud.fields[k].name == "scancam_state") f_state = static_cast<int>(k);
+    if (cloud.fields[k].name == "scalar_scancam_state") f_state = static_cast<int>(k);
     if (cloud.fields[k].name == "rgb") f_rgb = static_cast<int>(k);
   }
   ASSERT_GE(f_state, 0);

@@ -20,6 +20,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -137,10 +138,10 @@ TEST(ColouredPly, RoundTripThroughPcl) {
   pcl::PCLPointCloud2 cloud;
   ASSERT_EQ(pcl::io::loadPLYFile(path, cloud), 0);
   ASSERT_EQ(static_cast<std::size_t>(cloud.width) * cloud.height, s.scan.valid_count());
-  const int fx = FieldIndex(cloud, "x"), fs = FieldIndex(cloud, "scancam_state"),
-            fq = FieldIndex(cloud, "quality"), frgb = FieldIndex(cloud, "rgb");
+  const int fx = FieldIndex(cloud, "x"), fs = FieldIndex(cloud, "scalar_scancam_state"),
+            fq = FieldIndex(cloud, "scalar_quality"), frgb = FieldIndex(cloud, "rgb");
   ASSERT_GE(fx, 0);
-  ASSERT_GE(fs, 0) << "scancam_state is a property";
+  ASSERT_GE(fs, 0) << "scalar_scancam_state is a property";
   ASSERT_GE(fq, 0) << "quality is a property";
   ASSERT_GE(frgb, 0) << "PCL packs red/green/blue into rgb";
   std::size_t k = 0, states[4] = {0, 0, 0, 0};
@@ -244,6 +245,29 @@ TEST(TexturedMesh, FacesAndTextureCoordinates) {
   const TexturedMesh only = BuildTexturedMesh(s.scan, s.views, s.coloured, drop);
   ASSERT_EQ(only.parts.size(), 1u);
   EXPECT_EQ(only.face_count(), tex.faces.size());
+}
+
+// The scene's single dropout at (7, 9) on the wall is closed by two triangles; a two-cell
+// hole is not (its neighbours are two cells apart).
+TEST(TexturedMesh, ClosesSingleDropoutsOnly) {
+  Scene s = GetScene();
+  MeshOptions keep_holes;
+  keep_holes.fill_dropouts = false;
+  const std::size_t filled = BuildTexturedMesh(s.scan, s.views, s.coloured).face_count();
+  const std::size_t holes = BuildTexturedMesh(s.scan, s.views, s.coloured, keep_holes).face_count();
+  EXPECT_EQ(filled, holes + 2);
+  for (int c : {40, 41}) {  // a two-cell hole on the wall
+    const std::size_t i = s.scan.index(20, c);
+    ASSERT_TRUE(s.scan.valid(i));
+    s.scan.range_m[i] = std::numeric_limits<float>::quiet_NaN();
+  }
+  s.coloured = Colourise(s.scan, s.views);
+  const std::size_t filled2 = BuildTexturedMesh(s.scan, s.views, s.coloured).face_count();
+  const std::size_t holes2 =
+      BuildTexturedMesh(s.scan, s.views, s.coloured, keep_holes).face_count();
+  EXPECT_EQ(filled2, holes2 + 2) << "only the single dropout is closed";
+  // Two quads lose both triangles, the four beside them one each.
+  EXPECT_EQ(holes2, holes - 8) << "a horizontal two-cell hole removes eight triangles";
 }
 
 TEST(TexturedMesh, ObjThroughPcl) {

@@ -82,12 +82,12 @@ void WriteColouredPly(const std::string& path, const OrderedScan& scan,
   std::ofstream f = OpenOut(path);
   f << "ply\nformat binary_little_endian 1.0\n"
     << "comment ScanCam coloured scan, scan frame, metres\n"
-    << "comment scancam_state: 1 out_of_view, 2 occluded, 3 coloured\n"
-    << "comment quality: image pixels per metre of surface (0: not coloured or unknown)\n"
+    << "comment scalar_scancam_state: 1 out_of_view, 2 occluded, 3 coloured\n"
+    << "comment scalar_quality: image pixels per metre of surface (0: not coloured or unknown)\n"
     << "element vertex " << count << "\n"
     << "property float x\nproperty float y\nproperty float z\n"
     << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-    << "property uchar scancam_state\nproperty float quality\nend_header\n";
+    << "property uchar scalar_scancam_state\nproperty float scalar_quality\nend_header\n";
   std::vector<char> buf;
   buf.reserve(20 * 65536);
   for (std::size_t i = 0; i < scan.size(); ++i) {
@@ -243,6 +243,27 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
       } else if (d_anti) {
         if (e_top && e_left) triangle(p00, p10, p01);
         if (e_right && e_bottom) triangle(p01, p10, p11);
+      }
+    }
+  }
+  if (options.fill_dropouts) {
+    // A single missing return leaves a diamond-shaped hole between its four direct
+    // neighbours (each grid quad around it keeps only its far triangle). Close it when the
+    // four neighbours are valid and continuous around the diamond (diagonal grid neighbours,
+    // the same test as every other edge).
+    for (int r = 1; r + 1 < scan.rows; ++r) {
+      for (int c = 1; c + 1 < scan.cols; ++c) {
+        if (scan.valid(r, c)) continue;
+        if (!scan.valid(r - 1, c) || !scan.valid(r + 1, c) || !scan.valid(r, c - 1) ||
+            !scan.valid(r, c + 1))
+          continue;
+        if (!cont(r - 1, c, 1, -1) || !cont(r - 1, c, 1, 1) || !cont(r + 1, c, -1, -1) ||
+            !cont(r + 1, c, -1, 1))
+          continue;
+        const std::size_t up = scan.index(r - 1, c), down = scan.index(r + 1, c),
+                          left = scan.index(r, c - 1), right = scan.index(r, c + 1);
+        triangle(up, left, right);
+        triangle(down, right, left);
       }
     }
   }

@@ -7,11 +7,13 @@
 // Point clouds.
 //   PLY (WriteColouredPly): binary little-endian, one vertex per valid scan cell (row-major
 //     order), properties
-//       float x, y, z;  uchar red, green, blue;  uchar scancam_state;  float quality
-//     scancam_state = PointState (0 no_return never appears, 1 out_of_view, 2 occluded,
+//       float x, y, z;  uchar red, green, blue;  uchar scalar_scancam_state;  float scalar_quality
+//     scalar_scancam_state = PointState (0 no_return never appears, 1 out_of_view, 2 occluded,
 //     3 coloured); quality = ColouredScan::quality (pixels per metre of surface, 0 where not
 //     coloured). Points without a colour get ExportOptions::uncoloured_rgb, or are left out
-//     with drop_uncoloured. CloudCompare shows scancam_state and quality as scalar fields.
+//     with drop_uncoloured. The "scalar_" prefix is CloudCompare's own convention: it loads
+//     them as the scalar fields "scancam_state" and "quality" without asking (also with
+//     -SILENT; tests/plugin/cc_opens_exports.sh).
 //   PCD (WriteColouredPcd): organised pcl::PointXYZRGB, height = scan rows, width = scan
 //     columns (cell (r, c) at row r, column c), binary, is_dense = false; cells without a
 //     return (and uncoloured cells with drop_uncoloured) have NaN x, y, z.
@@ -23,6 +25,9 @@
 //     near 0 or pi marks a depth discontinuity or a grazing surface, plus the range-noise
 //     allowance), so no triangle spans a depth jump; the quad is split along the diagonal
 //     that is continuous and shorter in 3D;
+//   - a single missing return (a dropout) whose four direct neighbours are valid and
+//     continuous with each other (diagonal neighbours) is closed by two triangles over the
+//     diamond they form (MeshOptions::fill_dropouts), instead of leaving a hole;
 //   - triangles are wound counter-clockwise as seen from the scanner origin (their front
 //     faces the scanner);
 //   - texture: a triangle is textured from image k when image k sees all three corners
@@ -74,9 +79,12 @@ void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
 struct MeshOptions {
   ContinuityOptions continuity;  ///< which neighbours may share a triangle
   bool keep_untextured = true;   ///< keep faces no image sees completely (grey material)
-  int jpeg_quality = 0;          ///< 0: textures as PNG (lossless); 1..100: JPEG (smaller)
-  bool glb_z_up = true;          ///< .glb: rotate the scan's +z to glTF's +y (a node rotation
-                                 ///< of -90 deg about x); false: no rotation
+  /// Close single-cell holes (one missing return, e.g. a dropout) whose four direct
+  /// neighbours are valid and continuous around it, with two triangles.
+  bool fill_dropouts = true;
+  int jpeg_quality = 0;  ///< 0: textures as PNG (lossless); 1..100: JPEG (smaller)
+  bool glb_z_up = true;  ///< .glb: rotate the scan's +z to glTF's +y (a node rotation
+                         ///< of -90 deg about x); false: no rotation
 };
 
 /// One part of the mesh: the faces textured from one image (image >= 0) or untextured (-1).
