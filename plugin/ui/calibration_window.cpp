@@ -24,6 +24,7 @@
 #include <QToolBar>
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -548,13 +549,16 @@ bool CalibrationWindow::loadImage(const QString& path) {
         loading_pairs_ = true;
         try {
           pairs_->setPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+          restoreIncompletePair(autosave_path_);
         } catch (...) {
           loading_pairs_ = false;
           throw;
         }
         loading_pairs_ = false;
-        msg += tr("; reloaded %1 pairs from %2")
-                   .arg(pairs_->size())
+        msg += tr("; reloaded %1 pairs%2 from %3")
+                   .arg(pairs_->completeCount())
+                   .arg(pairs_->size() > pairs_->completeCount() ? tr(" and a half-picked one")
+                                                                 : QString())
                    .arg(QFileInfo(autosave_path_).fileName());
       } else if (had_image && pairs_->size() > 0) {
         // The pairs belong to the previous image (and are in its pairs file).
@@ -590,6 +594,7 @@ bool CalibrationWindow::loadPairs(const QString& path) {
     std::vector<PointPair> pairs = ReadPairsCsv(path.toStdString());
     // Autosave goes on to the current target (the file read is not overwritten by edits).
     pairs_->setPointPairs(pairs);
+    restoreIncompletePair(path);
     calibration_.reset();
     coloured_.reset();
     result_view_->clear();
@@ -598,8 +603,17 @@ bool CalibrationWindow::loadPairs(const QString& path) {
   });
 }
 
+void CalibrationWindow::restoreIncompletePair(const QString& path) {
+  std::ifstream in(path.toStdString());
+  std::string line;
+  while (std::getline(in, line))
+    if (pairs_->restoreIncompletePair(line)) break;
+}
+
 bool CalibrationWindow::writePairsFile(const QString& path) {
-  const std::string text = FormatPairsCsv(pairs_->completePointPairs());
+  // The half-picked pair too, as a comment line (pairs_model.h).
+  const std::string text =
+      FormatPairsCsv(pairs_->completePointPairs()) + pairs_->incompletePairComment();
   QSaveFile file(path);  // writes a temporary file and renames it over `path` on commit
   if (!file.open(QIODevice::WriteOnly) ||
       file.write(text.data(), static_cast<qint64>(text.size())) !=

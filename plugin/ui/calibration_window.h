@@ -14,7 +14,7 @@
 // Autosave: every change is written at once (atomically: temporary file + rename) to the
 // pairs file of the current image, by default the sidecar `<image>.scancam-pairs.csv`
 // (SidecarPath), or the file last chosen with "Save pairs as". Opening an image whose sidecar
-// exists reloads its pairs. Only complete pairs are written (the CSV cannot hold half a pair).
+// exists reloads its pairs; a half-picked pair is kept too (as a comment line, pairs_model.h).
 //
 // Scan views: pixel (x, y) of an unrotated view is cell (row = y, col = x) (ba_image.h). The
 // View menu can transpose / flip the pictures (e.g. PTX grids are transposed panoramas,
@@ -182,6 +182,8 @@ class CalibrationWindow : public QMainWindow {
   void poseChanged();
   void showResult();
   void autosave();
+  /// Restores the half-picked pair kept in a pairs file (pairs_model.h), if any.
+  void restoreIncompletePair(const QString& path);
   bool writePairsFile(const QString& path);
   void setStatus(const QString& text, int level);
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);

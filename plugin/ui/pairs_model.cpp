@@ -3,6 +3,7 @@
 #include <QBrush>
 #include <QColor>
 #include <cmath>
+#include <sstream>
 
 namespace scancam::ui {
 
@@ -209,6 +210,54 @@ std::vector<PointPair> PairsModel::completePointPairs(std::vector<int>* rows) co
     if (rows) rows->push_back(static_cast<int>(i));
   }
   return out;
+}
+
+namespace {
+constexpr char kIncompleteTag[] = "# scancam-incomplete-pair:";
+}  // namespace
+
+std::string PairsModel::incompletePairComment() const {
+  if (pairs_.empty() || pairs_.back().complete()) return {};
+  const EditablePair& p = pairs_.back();
+  if (!p.image_px && !p.scan_cell) return {};
+  std::ostringstream o;
+  o.precision(10);
+  o << kIncompleteTag << " ";
+  if (p.image_px)
+    o << p.image_px->x() << "," << p.image_px->y();
+  else
+    o << ",";
+  o << ",";
+  if (p.scan_cell)
+    o << p.scan_cell->y() << "," << p.scan_cell->x();
+  else
+    o << ",";
+  // The label may hold anything but a line break.
+  o << "," << p.label.simplified().toStdString() << "\n";
+  return o.str();
+}
+
+bool PairsModel::restoreIncompletePair(const std::string& line) {
+  if (line.rfind(kIncompleteTag, 0) != 0) return false;
+  const QStringList f =
+      QString::fromStdString(line.substr(sizeof(kIncompleteTag) - 1)).trimmed().split(',');
+  if (f.size() < 4) return false;
+  auto num = [&](int i, double* v) {
+    bool ok = false;
+    *v = f[i].trimmed().toDouble(&ok);
+    return ok && std::isfinite(*v);
+  };
+  EditablePair p;
+  double a = 0, b = 0;
+  if (num(0, &a) && num(1, &b)) p.image_px = QPointF(a, b);
+  if (num(2, &a) && num(3, &b)) p.scan_cell = QPointF(b, a);
+  if (!p.image_px && !p.scan_cell) return false;
+  if (f.size() > 4) p.label = f.mid(4).join(',').trimmed();
+  beginInsertRows(QModelIndex(), size(), size());
+  pairs_.push_back(p);
+  endInsertRows();
+  emit pairsEdited();
+  return true;
 }
 
 void PairsModel::setResults(const Calibration& calibration, const std::vector<int>& rows) {

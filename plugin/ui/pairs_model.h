@@ -6,8 +6,12 @@
 //     the top-left pixel, u right, v down);
 //   - the scan half: a fractional cell (row, col) of the ordered scan (io/pairs_csv.h), and/or
 //     a laser point x, y, z (scanner frame, metres) when the pairs file gave one.
-// A pair is complete when both halves exist; only complete pairs are solved and saved (the
-// pairs CSV cannot hold half a pair).
+// A pair is complete when both halves exist; only complete pairs are solved and written as
+// pairs. A half-picked pair (only the last pair can be one) is kept in the pairs file as a
+// comment line, which every other reader of the CSV ignores:
+//   # scancam-incomplete-pair: image_u,image_v,scan_row,scan_col,label
+// with the missing half's fields empty (IncompletePairComment / RestoreIncompletePair), so an
+// autosave loses nothing that was clicked.
 //
 // Picking rule (PlaceImageHalf / PlaceScanHalf), the one place that decides what a click does:
 //   - a pair is selected: the click replaces that side of the selected pair (moving it);
@@ -92,6 +96,12 @@ class PairsModel : public QAbstractTableModel {
   /// The complete pairs, in table order, for solving or saving; `rows` (optional) receives the
   /// table row of each.
   std::vector<PointPair> completePointPairs(std::vector<int>* rows = nullptr) const;
+  /// The last pair as the comment line above (with a trailing newline) while it is
+  /// incomplete; empty when every pair is complete.
+  std::string incompletePairComment() const;
+  /// Appends the half pair that such a comment line describes (a pair picked from the scan
+  /// by its laser point only keeps its cell). Returns false for any other line.
+  bool restoreIncompletePair(const std::string& line);
 
   /// Stores the residuals of a solve made on completePointPairs(&rows) (same order).
   void setResults(const Calibration& calibration, const std::vector<int>& rows);

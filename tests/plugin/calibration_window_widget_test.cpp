@@ -198,21 +198,38 @@ class CalibrationWindowTest : public QObject {
       QCOMPARE(saved.size(), std::size_t(1));
       QCOMPARE(saved[0].image_u, 310.5);
       QCOMPARE(saved[0].scan_row, cell.y());
-      // A half pair is not written (the file keeps the complete one).
-      w->addImagePick(250, 250);
+      // A half pair is kept as a comment line: the CSV still holds one pair for every other
+      // reader, and the half comes back with the window.
+      w->addImagePick(250.25, 240.5);
       QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(1));
+      {
+        QFile f(sidecar);
+        QVERIFY(f.open(QIODevice::ReadOnly));
+        QVERIFY(
+            QString::fromUtf8(f.readAll()).contains("# scancam-incomplete-pair: 250.25,240.5,,,"));
+      }
       // No temporary file left beside it.
       QCOMPARE(QDir(QFileInfo(image).path()).entryList(QDir::Files).size(), 2);
       // The window is closed (or the host crashes) here: nothing more to do.
     }
     auto w2 = MakeWindow(image);
     QVERIFY(w2);
-    QCOMPARE(w2->pairsModel()->size(), 1);
+    QCOMPARE(w2->pairsModel()->size(), 2);
     QCOMPARE(w2->pairsModel()->pairs()[0].image_px->x(), 310.5);
     QCOMPARE(w2->pairsModel()->pairs()[0].scan_cell->y(), cell.y());
-    QVERIFY(w2->statusText().contains("reloaded 1 pairs") ||
+    const auto& half = w2->pairsModel()->pairs()[1];
+    QVERIFY(!half.complete());
+    QCOMPARE(half.image_px->x(), 250.25);
+    QCOMPARE(half.image_px->y(), 240.5);
+    QVERIFY(!half.scan_cell);
+    QVERIFY(w2->statusText().contains("reloaded 1 pairs and a half-picked one") ||
             w2->statusText().contains("Camera"));  // the last message may be the camera's
-    QCOMPARE(w2->cameraView()->markers().size(), 1);
+    // Picking its scan side completes it (the picking rule fills the last incomplete pair).
+    w2->addScanPick(cell.y() + 2, cell.x() + 3);
+    QCOMPARE(w2->pairsModel()->size(), 2);
+    QVERIFY(w2->pairsModel()->pairs()[1].complete());
+    QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(2));
+    QCOMPARE(w2->cameraView()->markers().size(), 2);
   }
 
   void saveAndLoadRoundTrip() {
