@@ -6,6 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
+
+#include "scancam/error.h"
 
 namespace scancam::test {
 
@@ -14,11 +17,11 @@ inline std::string SharedDataset(const std::string& rel) {
   return std::string(SCANCAM_SHARED_DIR) + "/datasets/" + rel;
 }
 inline bool HaveShared() { return std::filesystem::exists(SharedDataset("README.md")); }
-#define SCANCAM_REQUIRE_SHARED()                                                        \
-  do {                                                                                  \
-    if (!::scancam::test::HaveShared())                                                 \
+#define SCANCAM_REQUIRE_SHARED()                                                         \
+  do {                                                                                   \
+    if (!::scancam::test::HaveShared())                                                  \
       GTEST_SKIP() << "../shared/datasets not found beside the project: real-data test " \
-                      "skipped (CI always has it)";                                     \
+                      "skipped (CI always has it)";                                      \
   } while (0)
 
 /// A fresh temporary directory for one test: <build>/tests/tmp/<suite>.<name>.
@@ -39,6 +42,21 @@ inline void WriteFile(const std::string& path, const std::string& content) {
 inline std::string ReadFile(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+/// Runs `f` and expects a scancam::Error whose message contains every one of `parts` (the
+/// file, the place and what is wrong).
+template <typename F>
+void ExpectError(F f, const std::vector<std::string>& parts) {
+  try {
+    f();
+    ADD_FAILURE() << "no error thrown; expected one containing '" << parts.front() << "'";
+  } catch (const Error& e) {
+    const std::string msg = e.what();
+    for (const std::string& p : parts) {
+      EXPECT_NE(msg.find(p), std::string::npos) << "message '" << msg << "' lacks '" << p << "'";
+    }
+  }
 }
 
 }  // namespace scancam::test

@@ -23,18 +23,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-template <typename F>
-void ExpectError(F f, const std::vector<std::string>& parts) {
-  try {
-    f();
-    ADD_FAILURE() << "no error thrown; expected one containing '" << parts.front() << "'";
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    for (const std::string& p : parts) {
-      EXPECT_NE(msg.find(p), std::string::npos) << "message '" << msg << "' lacks '" << p << "'";
-    }
-  }
-}
+using test::ExpectError;
 
 double Azimuth(const Eigen::Vector3f& d) { return std::atan2(double(d.y()), double(d.x())); }
 double Elevation(const Eigen::Vector3f& d) {

@@ -15,19 +15,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Runs `f`, expects a scancam::Error whose message contains every one of `parts`.
-template <typename F>
-void ExpectError(F f, const std::vector<std::string>& parts) {
-  try {
-    f();
-    ADD_FAILURE() << "no error thrown; expected one containing '" << parts.front() << "'";
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    for (const std::string& p : parts) {
-      EXPECT_NE(msg.find(p), std::string::npos) << "message '" << msg << "' lacks '" << p << "'";
-    }
-  }
-}
+using test::ExpectError;
 
 bool SameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
 
