@@ -17,8 +17,8 @@ ls "$out/ba"/*.png | sed 's/^/  /'
 echo
 echo "== 3/4 calibration from the sample's picked pairs =="
 "$scancam" calibrate --scan "$out/scene/scan.txt" --camera "$out/scene/camera.txt" \
-  --image "$out/scene/image.png" --pairs "$out/scene/pairs.csv" \
-  --out "$out/calib.json" --truth "$out/scene/ground_truth.json"
+  --image "$out/scene/image.png" --mask "$out/scene/mask.png" --pairs "$out/scene/pairs.csv" \
+  --out "$out/calib.json" --truth "$out/scene/ground_truth.json" --plot "$out/pairs_plot.png"
 echo
 echo "== 4/4 colouring, textured model, overlays =="
 "$scancam" colorize --scan "$out/scene/scan.txt" --camera "$out/scene/camera.txt" \
@@ -31,6 +31,7 @@ cat <<TXT
 Done. Files in $out:
   ba/*.png               Bearing-Angle images (pick pairs on these)
   calib.json             T_cam_scan, errors, parameter std, per-pair residuals
+  pairs_plot.png         the pairs on the photo (residuals) and where to pick next
   coloured.ply           the scan coloured from the photo (open in CloudCompare)
   model.obj / model.glb  textured mesh (CloudCompare / Blender or a glTF viewer)
   overlay_edges.png      laser edge points drawn on the photo (judge the calibration)

@@ -3,6 +3,7 @@
 #include <iomanip>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "command.h"
@@ -16,6 +17,36 @@
 namespace scancam::cli {
 namespace {
 
+// The photo with every pair: the picked pixel (circle), the calibrated projection of its laser
+// point (cross) joined by the residual, green for inliers and red for flagged pairs, numbered;
+// and the pick suggestions as magenta squares "next k".
+cv::Mat PlotPairs(const cv::Mat& image, const Calibration& cal) {
+  cv::Mat out = image.clone();
+  const double s = std::max(1.0, image.cols / 640.0);  // line widths for big images
+  const int th = static_cast<int>(std::lround(s));
+  auto pt = [](const Eigen::Vector2d& p) { return cv::Point2d(p.x(), p.y()); };
+  for (const PairResult& p : cal.pairs) {
+    const cv::Scalar col = p.inlier ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 0, 255);
+    cv::circle(out, pt(p.image_px), static_cast<int>(6 * s), col, th, cv::LINE_AA);
+    if (p.reprojected_px) {
+      cv::line(out, pt(p.image_px), pt(*p.reprojected_px), col, th, cv::LINE_AA);
+      cv::drawMarker(out, pt(*p.reprojected_px), col, cv::MARKER_CROSS, static_cast<int>(10 * s),
+                     th, cv::LINE_AA);
+    }
+    cv::putText(out, std::to_string(p.index + 1), pt(p.image_px) + cv::Point2d(7 * s, -7 * s),
+                cv::FONT_HERSHEY_SIMPLEX, 0.45 * s, col, th, cv::LINE_AA);
+  }
+  for (std::size_t k = 0; k < cal.suggestions.size(); ++k) {
+    const cv::Point2d c = pt(cal.suggestions[k].image_px);
+    const cv::Scalar mag(255, 0, 255);
+    cv::rectangle(out, c - cv::Point2d(8 * s, 8 * s), c + cv::Point2d(8 * s, 8 * s), mag, th,
+                  cv::LINE_AA);
+    cv::putText(out, "next " + std::to_string(k + 1), c + cv::Point2d(10 * s, 4 * s),
+                cv::FONT_HERSHEY_SIMPLEX, 0.45 * s, mag, th, cv::LINE_AA);
+  }
+  return out;
+}
+
 int RunCalibrate(const Args& args) {
   if (!args.positional().empty())
     throw Error("unexpected argument '" + args.positional()[0] + "' (see --help)");
@@ -25,13 +56,15 @@ int RunCalibrate(const Args& args) {
   const bool quiet = args.has("--quiet");
 
   const CameraModel camera = LoadCamera(camera_path);
+  cv::Mat image;
   if (args.has("--image")) {
     const std::string image_path = args.get("--image");
-    // Header only would do, but OpenCV has no portable size probe; images are small.
-    const cv::Mat img = cv::imread(image_path, cv::IMREAD_UNCHANGED);
-    if (img.empty()) throw Error(image_path + ": cannot read the image");
-    CheckImageSize(camera, img.cols, img.rows, image_path);
+    image = cv::imread(image_path, cv::IMREAD_COLOR);
+    if (image.empty()) throw Error(image_path + ": cannot read the image");
+    CheckImageSize(camera, image.cols, image.rows, image_path);
   }
+  if (args.has("--plot") && image.empty())
+    throw Error("--plot needs --image (the photo to draw on)");
   const std::vector<PointPair> pairs = ReadPairsCsv(pairs_path);
   OrderedScan scan;
   const bool have_scan = args.has("--scan");
@@ -41,6 +74,17 @@ int RunCalibrate(const Args& args) {
   }
 
   CalibrateOptions opt;
+  if (args.has("--mask")) {
+    const std::string mask_path = args.get("--mask");
+    opt.image_mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
+    if (opt.image_mask.empty()) throw Error(mask_path + ": cannot read the mask image");
+    if (opt.image_mask.cols != camera.width() || opt.image_mask.rows != camera.height()) {
+      throw Error(mask_path + ": the mask is " + std::to_string(opt.image_mask.cols) + "x" +
+                  std::to_string(opt.image_mask.rows) + " px but the camera is " +
+                  std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
+    }
+  }
+  opt.suggest_picks = args.get_int("--suggest", opt.suggest_picks);
   opt.method = args.get("--method", opt.method);
   opt.refine = !args.has("--no-refine");
   opt.threshold_px = args.get_double("--threshold-px", opt.threshold_px);
@@ -96,6 +140,12 @@ int RunCalibrate(const Args& args) {
                 << " deg, translation error " << t_m << " m" << verdict << "\n";
   }
   WriteJsonFile(out_path, out);
+  if (args.has("--plot")) {
+    const std::string plot_path = args.get("--plot");
+    if (!cv::imwrite(plot_path, PlotPairs(image, cal)))
+      throw Error(plot_path + ": cannot write the image");
+    if (!quiet) std::cout << "wrote " << plot_path << "\n";
+  }
   if (!quiet) std::cout << FormatCalibrationSummary(cal) << "wrote " << out_path << "\n";
   return 0;
 }
@@ -136,6 +186,16 @@ Command MakeCalibrateCommand() {
            "x,y,z)."},
           {"--out", "FILE", "Output calibration JSON. Required."},
           {"--image", "FILE", "The camera image: checked against the camera file's size."},
+          {"--mask", "FILE",
+           "Image mask (black = unusable, e.g. outside an omni mirror): pick suggestions "
+           "avoid it; pairs on it are warned about."},
+          {"--plot", "FILE.png",
+           "Draw the pairs on the --image: picked pixel (circle), projected laser point "
+           "(cross), residual line; green inliers, red flagged; magenta squares: where to pick "
+           "next."},
+          {"--suggest", "K",
+           "Suggest K places where one more pair would lower the parameter std most "
+           "(0 = none). Default 3."},
           {"--method", "M", "ransac | paper | epnp | upnp. Default ransac."},
           {"--threshold-px", "PX",
            "Inlier threshold in image pixels (converted to an angle with the camera model at "

@@ -743,6 +743,23 @@ void CalibrationWindow::refreshMarkers() {
       scan_markers.push_back(m);
     }
   }
+  // Where to pick next (the last solve's suggestions), magenta, on both sides.
+  if (calibration_ && calibration_source_.isEmpty()) {
+    for (std::size_t k = 0; k < calibration_->suggestions.size(); ++k) {
+      const PickSuggestion& g = calibration_->suggestions[k];
+      Marker m;
+      m.id = static_cast<int>(k) + 1;
+      m.colour = QColor(255, 0, 255);
+      m.text = tr("next %1").arg(k + 1);
+      m.px = QPointF(g.image_px.x(), g.image_px.y());
+      image_markers.push_back(m);
+      if (scan_) {
+        m.px = CellToViewPixel(QPointF(g.scan_col, g.scan_row), scan_->rows, scan_->cols,
+                               orientation_);
+        scan_markers.push_back(m);
+      }
+    }
+  }
   camera_view_->setMarkers(image_markers);
   for (ImageView* v : scan_views_) v->setMarkers(scan_markers);
 }
@@ -759,6 +776,9 @@ bool CalibrationWindow::calibrate() {
     CalibrateOptions opt;
     opt.method = method_combo_->currentData().toString().toStdString();
     opt.pairs_source = "pairs";
+    // Pick suggestions stay off the mask (a mask of another size is reported elsewhere).
+    if (!mask_.empty() && mask_.cols == camera_.width() && mask_.rows == camera_.height())
+      opt.image_mask = mask_;
     Calibration cal;
     QApplication::setOverrideCursor(Qt::WaitCursor);
     try {
@@ -866,7 +886,10 @@ void CalibrationWindow::showResult() {
   } else {
     html += tr("<b>Method</b> %1%2 &nbsp; <b>%3</b> of %4 pairs inliers<br>")
                 .arg(QString::fromStdString(c.method))
-                .arg(c.refined ? tr(" + refinement (eq. 7)") : QString())
+                .arg(c.refined
+                         ? (c.weighted ? tr(" + refinement (eq. 7, weighted by the picking noise)")
+                                       : tr(" + refinement (eq. 7)"))
+                         : QString())
                 .arg(c.inlier_count)
                 .arg(c.pair_count);
   }
@@ -904,6 +927,17 @@ void CalibrationWindow::showResult() {
   if (!alignment_text_.isEmpty())
     html += tr("<br><b>Edge alignment</b> (green dots on the image): %1")
                 .arg(alignment_text_.toHtmlEscaped());
+  if (calibration_source_.isEmpty() && !c.suggestions.empty()) {
+    html += tr("<br><b>To tighten the result</b>, pick next a feature near the magenta marks:");
+    for (std::size_t k = 0; k < c.suggestions.size(); ++k) {
+      const PickSuggestion& g = c.suggestions[k];
+      html += tr("<br>&nbsp; next %1: pixel (%2, %3) &rarr; predicted std %4 %5 %6 deg")
+                  .arg(k + 1)
+                  .arg(num(g.image_px.x(), 0), num(g.image_px.y(), 0),
+                       num(g.predicted_std_rpy_deg.x(), 3), num(g.predicted_std_rpy_deg.y(), 3),
+                       num(g.predicted_std_rpy_deg.z(), 3));
+    }
+  }
   for (const std::string& w : c.warnings)
     html += tr("<br><span style='color:#a05000'>warning: %1</span>")
                 .arg(QString::fromStdString(w).toHtmlEscaped());

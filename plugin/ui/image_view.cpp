@@ -158,7 +158,7 @@ void ImageView::rebuildMarkers() {
     cross_v->setPen(thin);
     marker_group_->addToGroup(cross_h);
     marker_group_->addToGroup(cross_v);
-    auto* label = new QGraphicsSimpleTextItem(QString::number(m.id));
+    auto* label = new QGraphicsSimpleTextItem(m.text.isEmpty() ? QString::number(m.id) : m.text);
     label->setBrush(m.colour);
     QFont f = label->font();
     f.setBold(true);

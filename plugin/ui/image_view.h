@@ -23,6 +23,7 @@ struct Marker {
   QPointF px;  ///< OpenCV pixel coordinates
   QColor colour = Qt::yellow;
   bool selected = false;
+  QString text;  ///< shown instead of the number when not empty (e.g. a suggestion "next 1")
 };
 
 class ImageView : public QGraphicsView {

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 
 #include "scancam/camera/camera_io.h"
@@ -202,6 +203,21 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
       EXPECT_NE(text.find("OUTSIDE the reported uncertainty"), std::string::npos) << text;
     }
   }
+
+  // --plot draws the pairs on the photo (image size kept, something drawn); without --image
+  // it is an error.
+  cv::imwrite(dir + "/photo.png", cv::Mat(cam.height(), cam.width(), CV_8UC3, cv::Scalar::all(0)));
+  const std::string base = cmd.substr(0, cmd.find(" > "));
+  const std::string plot = base + " --image " + dir + "/photo.png --plot " + dir + "/plot.png > " +
+                           dir + "/stdout.txt 2>&1";
+  ASSERT_EQ(std::system(plot.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  const cv::Mat drawn = cv::imread(dir + "/plot.png");
+  ASSERT_EQ(drawn.cols, cam.width());
+  ASSERT_EQ(drawn.rows, cam.height());
+  EXPECT_GT(cv::countNonZero(drawn.reshape(1)), 10 * 30) << "10 pairs drawn";
+  const std::string no_image = base + " --plot " + dir + "/p2.png > " + dir + "/err.txt 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(no_image.c_str())), 1);
+  EXPECT_NE(test::ReadFile(dir + "/err.txt").find("--plot needs --image"), std::string::npos);
 
   test::WriteFile(dir + "/bad.csv", "image_u,image_v,x,y,z\n1,2,3,4\n");
   const std::string bad = std::string(SCANCAM_CLI) + " calibrate --camera " + dir +

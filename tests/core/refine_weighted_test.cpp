@@ -5,6 +5,7 @@
 #include <random>
 
 #include "scancam/rotation_rpy.h"
+#include "scancam/sim/render.h"
 #include "scancam/sim/simulate.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/refine.h"
@@ -187,6 +188,62 @@ TEST(WeightedCalibrate, NoiseModelFitsPickingNoiseOnThePaperRig) {
   EXPECT_GT(chi2, 0.65);
   EXPECT_LT(chi2, 1.35);
   EXPECT_LT(err_w, 1.05 * err_u);
+}
+
+// Pick suggestions: in the image, off the mask, apart; and the predicted std is what a solve
+// with a pair exactly there reports (model covariance, not rescaled).
+TEST(PickSuggestions, PredictWhatAnExtraPairThereGives) {
+  sim::SimulateOptions so;
+  so.camera = "omni";
+  so.pairs = 8;
+  so.seed = 4;
+  const auto s = sim::Simulate(so);
+  std::vector<PointPair> pairs;
+  for (const auto& t : s.pair_truth) {
+    PointPair q;
+    q.image_u = t.uv_true.x();
+    q.image_v = t.uv_true.y();
+    q.scan_row = t.cell_true.x();
+    q.scan_col = t.cell_true.y();
+    pairs.push_back(q);
+  }
+  CalibrateOptions co;
+  co.refine_options.scale_covariance = false;
+  const cv::Mat mask = sim::MaskImage(s.mask, s.camera.width(), s.camera.height());
+  co.image_mask = mask;
+  ASSERT_FALSE(co.image_mask.empty());
+  const auto c = Calibrate(pairs, &s.scan, s.camera, co);
+  ASSERT_EQ(c.suggestions.size(), 3u);
+  const double diag = std::hypot(s.camera.width(), s.camera.height());
+  for (std::size_t k = 0; k < 3; ++k) {
+    const auto& g = c.suggestions[k];
+    ASSERT_TRUE(s.camera.InImage(g.image_px));
+    EXPECT_NE(mask.at<std::uint8_t>(static_cast<int>(std::lround(g.image_px.y())),
+                                    static_cast<int>(std::lround(g.image_px.x()))),
+              0);
+    for (std::size_t m = 0; m < k; ++m)
+      EXPECT_GE((g.image_px - c.suggestions[m].image_px).norm(), 0.08 * diag);
+    // Each further pick lowers the largest angle std.
+    const double before =
+        k == 0 ? c.std_rpy_deg.maxCoeff() : c.suggestions[k - 1].predicted_std_rpy_deg.maxCoeff();
+    EXPECT_LT(g.predicted_std_rpy_deg.maxCoeff(), before);
+  }
+  // Add the first suggestion as an exact pair: the solve's std is the predicted one.
+  const auto& g = c.suggestions[0];
+  PointPair extra;
+  extra.image_u = g.image_px.x();
+  extra.image_v = g.image_px.y();
+  extra.scan_row = g.scan_row;
+  extra.scan_col = g.scan_col;
+  pairs.push_back(extra);
+  const auto c2 = Calibrate(pairs, &s.scan, s.camera, co);
+  for (int a = 0; a < 3; ++a)
+    EXPECT_NEAR(c2.std_rpy_deg(a), g.predicted_std_rpy_deg(a), 0.03 * g.predicted_std_rpy_deg(a));
+  for (int a = 0; a < 3; ++a)
+    EXPECT_NEAR(c2.std_t_m(a), g.predicted_std_t_m(a), 0.03 * g.predicted_std_t_m(a));
+  // A mask of the wrong size is an error, not a silent ignore.
+  co.image_mask = cv::Mat(10, 10, CV_8UC1, cv::Scalar(255));
+  EXPECT_THROW(Calibrate(pairs, &s.scan, s.camera, co), Error);
 }
 
 }  // namespace

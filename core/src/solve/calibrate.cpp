@@ -1,11 +1,13 @@
 #include "scancam/solve/calibrate.h"
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
 
+#include "scancam/colour/colourise.h"
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
 #include "scancam/rotation_rpy.h"
@@ -135,6 +137,37 @@ Eigen::Matrix3d BearingCovariance(const CameraModel& camera, const OrderedScan* 
   return S;
 }
 
+// Whether a pixel is usable under an optional mask (0 = unusable).
+bool Usable(const cv::Mat& mask, const Eigen::Vector2d& px) {
+  if (mask.empty()) return true;
+  const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
+  if (u < 0 || v < 0 || u >= mask.cols || v >= mask.rows) return false;
+  return mask.at<std::uint8_t>(v, u) != 0;
+}
+
+// Fisher information (6x6, rotation vector in the camera frame then t; the refinement's
+// parameters) of one pair's bearing under a noise covariance (3x3 tangent, rad^2).
+Eigen::Matrix<double, 6, 6> PairInformation(const Eigen::Isometry3d& T, const Eigen::Vector3d& p,
+                                            const Eigen::Matrix3d& cov) {
+  const Eigen::Vector3d Rp = T.linear() * p;
+  const Eigen::Vector3d Xc = Rp + T.translation();
+  const double d = Xc.norm();
+  const Eigen::Vector3d f = Xc / d;
+  const Eigen::Vector3d h =
+      std::abs(f.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  Eigen::Matrix<double, 3, 2> E;
+  E.col(0) = f.cross(h).normalized();
+  E.col(1) = f.cross(E.col(0));
+  // d f = (I - f f^T) / d * dXc; dXc = -[Rp]x ddelta + dt (X = exp(delta) R p + t).
+  Eigen::Matrix<double, 3, 6> J;
+  Eigen::Matrix3d skew;
+  skew << 0, -Rp.z(), Rp.y(), Rp.z(), 0, -Rp.x(), -Rp.y(), Rp.x(), 0;
+  J << -skew, Eigen::Matrix3d::Identity();
+  const Eigen::Matrix<double, 2, 6> J2 = E.transpose() * J / d;  // E^T f = 0
+  const Eigen::Matrix2d S = E.transpose() * cov * E;
+  return J2.transpose() * S.inverse() * J2;
+}
+
 void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* mx) {
   *mean = *sd = *mx = 0;
   if (v.empty()) return;
@@ -144,6 +177,129 @@ void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* 
   }
   for (double x : v) *sd += (x - *mean) * (x - *mean);
   *sd = v.size() > 1 ? std::sqrt(*sd / (v.size() - 1)) : 0.0;
+}
+
+// Fills cal->suggestions (see PickSuggestion in calibrate.h).
+void SuggestPicks(const CameraModel& camera, const OrderedScan& scan,
+                  const std::vector<PointPair>& pairs, const std::vector<Eigen::Vector3d>& bearings,
+                  const std::vector<Eigen::Vector3d>& points, const std::vector<bool>& inlier,
+                  const CalibrateOptions& options, Calibration* cal) {
+  const Eigen::Isometry3d& T = cal->T_cam_scan;
+  // Information of the inliers under the noise model: the predicted covariances are in the
+  // model's units; the reported std is scaled by the ratio predicted / current, so the
+  // suggestion keeps the calibration's own (chi-square scaled) level.
+  using Mat6 = Eigen::Matrix<double, 6, 6>;
+  Mat6 info = Mat6::Zero();
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    if (!inlier[i]) continue;
+    info += PairInformation(
+        T, points[i],
+        BearingCovariance(camera, &scan, pairs[i], bearings[i], points[i], T, options));
+  }
+  Eigen::LDLT<Mat6> ldlt(info);
+  if (ldlt.info() != Eigen::Success) return;
+  Mat6 C = ldlt.solve(Mat6::Identity());
+  const Eigen::Matrix3d R = T.linear();
+  const Eigen::Vector3d std0 = RpyStdDeg(R, C.topLeftCorner<3, 3>());  // model units
+  const Eigen::Vector3d std0_t = C.bottomRightCorner<3, 3>().diagonal().cwiseSqrt();
+  if (!(std0.minCoeff() > 0) || !(std0_t.minCoeff() > 0)) return;
+
+  // Candidates: features a user can pick in the scan — the near side of a depth edge (a cell
+  // with a grid neighbour that is farther and not continuous with it, colour/colourise.h: an
+  // object's outline, where its corners are), about 1000 of them spread over the grid, that
+  // the camera sees.
+  auto feature = [&](int r, int c) {
+    if (!scan.valid(r, c)) return false;
+    const float range = scan.range_m[scan.index(r, c)];
+    for (const auto& [dr, dc] :
+         {std::pair{0, 1}, std::pair{1, 0}, std::pair{0, -1}, std::pair{-1, 0}}) {
+      if (!scan.valid(r + dr, c + dc)) continue;
+      if (scan.range_m[scan.index(r + dr, c + dc)] > range &&
+          !colour::ContinuousNeighbours(scan, r, c, dr, dc))
+        return true;
+    }
+    return false;
+  };
+  struct Cand {
+    int r, c;
+    Eigen::Vector3d p;
+    Eigen::Vector2d px;
+    Eigen::Matrix<double, 6, 2> L;  // information = L L^T (rank 2)
+  };
+  std::vector<Cand> cands;
+  const int stride =
+      std::max(1, static_cast<int>(std::sqrt(double(scan.rows) * double(scan.cols) / 1000.0)));
+  for (int r0 = 0; r0 < scan.rows; r0 += stride) {
+    for (int c0 = 0; c0 < scan.cols; c0 += stride) {
+      // One feature cell of this stride x stride block (the first in row order).
+      int r = -1, c = -1;
+      for (int rr = r0; rr < std::min(r0 + stride, scan.rows) && r < 0; ++rr)
+        for (int cc = c0; cc < std::min(c0 + stride, scan.cols); ++cc)
+          if (feature(rr, cc)) {
+            r = rr;
+            c = cc;
+            break;
+          }
+      if (r < 0) continue;
+      const Eigen::Vector3d p = scan.point_m[scan.index(r, c)].cast<double>();
+      const auto px = camera.Project(T * p);
+      if (!px || !Usable(options.image_mask, *px)) continue;
+      PointPair q;
+      q.image_u = px->x();
+      q.image_v = px->y();
+      q.scan_row = r;
+      q.scan_col = c;
+      const auto b = camera.Unproject(*px);
+      if (!b) continue;
+      const Mat6 I = PairInformation(T, p, BearingCovariance(camera, &scan, q, *b, p, T, options));
+      Eigen::SelfAdjointEigenSolver<Mat6> es(I);
+      Cand k{r, c, p, *px, Eigen::Matrix<double, 6, 2>::Zero()};
+      for (int m = 0; m < 2; ++m)  // the two non-zero eigenpairs
+        k.L.col(m) =
+            es.eigenvectors().col(4 + m) * std::sqrt(std::max(0.0, es.eigenvalues()(4 + m)));
+      cands.push_back(k);
+    }
+  }
+  const double min_dist = 0.08 * std::hypot(double(camera.width()), double(camera.height()));
+  // The rpy map's Jacobian, once: std_rpy = sqrt(diag(Jr C_rot Jr^T)).
+  const Eigen::Matrix3d Jr = RpyJacobianDegPerRad(R);
+  std::vector<Eigen::Vector2d> taken;
+  for (int round = 0; round < options.suggest_picks; ++round) {
+    int best = -1;
+    double best_v = 1e300;
+    Mat6 best_C;
+    for (std::size_t i = 0; i < cands.size(); ++i) {
+      const Cand& k = cands[i];
+      bool near = false;
+      for (const auto& t : taken) near = near || (t - k.px).norm() < min_dist;
+      if (near) continue;
+      // Woodbury: (C^-1 + L L^T)^-1 = C - C L (I + L^T C L)^-1 L^T C.
+      const Eigen::Matrix<double, 6, 2> CL = C * k.L;
+      const Eigen::Matrix2d M = Eigen::Matrix2d::Identity() + k.L.transpose() * CL;
+      const Mat6 Cn = C - CL * M.inverse() * CL.transpose();
+      const double v = (Jr * Cn.topLeftCorner<3, 3>() * Jr.transpose()).diagonal().maxCoeff();
+      if (v < best_v) {
+        best_v = v;
+        best = static_cast<int>(i);
+        best_C = Cn;
+      }
+    }
+    if (best < 0) break;
+    C = best_C;
+    const Cand& k = cands[best];
+    taken.push_back(k.px);
+    PickSuggestion sug;
+    sug.image_px = k.px;
+    sug.scan_row = k.r;
+    sug.scan_col = k.c;
+    sug.p_scan = k.p;
+    const Eigen::Vector3d std_r =
+        (Jr * C.topLeftCorner<3, 3>() * Jr.transpose()).diagonal().cwiseMax(0).cwiseSqrt();
+    const Eigen::Vector3d std_t = C.bottomRightCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
+    sug.predicted_std_rpy_deg = cal->std_rpy_deg.cwiseProduct(std_r.cwiseQuotient(std0));
+    sug.predicted_std_t_m = cal->std_t_m.cwiseProduct(std_t.cwiseQuotient(std0_t));
+    cal->suggestions.push_back(sug);
+  }
 }
 
 }  // namespace
@@ -156,6 +312,14 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
     throw Error(options.pairs_source + ": " + std::to_string(n) +
                 " pairs; at least 4 are needed to calibrate (6 or more, spread over the scene, "
                 "are recommended)");
+  }
+  if (!options.image_mask.empty() &&
+      (options.image_mask.type() != CV_8UC1 || options.image_mask.cols != camera.width() ||
+       options.image_mask.rows != camera.height())) {
+    throw Error("calibration: the image mask must be 8-bit one-channel and " +
+                std::to_string(camera.width()) + "x" + std::to_string(camera.height()) +
+                " px like the camera, got " + std::to_string(options.image_mask.cols) + "x" +
+                std::to_string(options.image_mask.rows));
   }
   Calibration cal;
   cal.method = options.method;
@@ -309,6 +473,10 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   }
   cal.rotation_rpy_deg = RotationToRpyDeg(cal.T_cam_scan.linear());
 
+  if (options.refine && cal.has_covariance && scan && options.suggest_picks > 0) {
+    SuggestPicks(camera, *scan, pairs, bearings, points, inlier, options, &cal);
+  }
+
   // Per-pair errors; non-RANSAC methods flag by the same threshold after the fact.
   std::vector<double> px_err, deg_err;
   for (std::size_t i = 0; i < n; ++i) {
@@ -337,6 +505,13 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
         << std::setprecision(2) << r.error_deg << " deg / " << r.error_px
         << " px from the solution; re-pick it or remove it";
       cal.warnings.push_back(m.str());
+    }
+  }
+  for (const auto& r : cal.pairs) {
+    if (!Usable(options.image_mask, r.image_px)) {
+      cal.warnings.push_back("pair " + std::to_string(r.index + 1) +
+                             (r.line ? " (line " + std::to_string(r.line) + ")" : "") +
+                             " lies on the image mask (a pixel marked unusable)");
     }
   }
   if (n < 6) {
@@ -424,6 +599,15 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
     pairs.push_back(q);
   }
   j["pairs"] = pairs;
+  nlohmann::json sug = nlohmann::json::array();
+  for (const auto& g : c.suggestions) {
+    sug.push_back({{"image_px", {g.image_px.x(), g.image_px.y()}},
+                   {"scan_cell", {g.scan_row, g.scan_col}},
+                   {"p_scan_m", Vector3ToJson(g.p_scan)},
+                   {"predicted_std_rotation_rpy_deg", Vector3ToJson(g.predicted_std_rpy_deg)},
+                   {"predicted_std_translation_m", Vector3ToJson(g.predicted_std_t_m)}});
+  }
+  j["suggested_picks"] = sug;
   j["warnings"] = c.warnings;
   if (!inputs.is_null()) j["inputs"] = inputs;
   return j;
@@ -473,6 +657,17 @@ std::string FormatCalibrationSummary(const Calibration& c) {
       << p.image_px.x() << " " << std::setw(8) << p.image_px.y() << "  " << std::setprecision(2)
       << std::setw(9) << p.error_px << "  " << std::setprecision(3) << std::setw(9) << p.error_deg
       << "  " << (p.inlier ? "  yes " : "  NO  ") << "  " << p.label << "\n";
+  }
+  if (!c.suggestions.empty()) {
+    o << "to tighten the result, pick next a feature near (predicted std roll/pitch/yaw deg "
+         "after each, assuming the ones above are picked):\n";
+    for (std::size_t k = 0; k < c.suggestions.size(); ++k) {
+      const auto& g = c.suggestions[k];
+      o << "  " << k + 1 << ". pixel (" << std::setprecision(0) << g.image_px.x() << ", "
+        << g.image_px.y() << "), scan cell (" << g.scan_row << ", " << g.scan_col
+        << "): " << std::setprecision(3) << g.predicted_std_rpy_deg.x() << " "
+        << g.predicted_std_rpy_deg.y() << " " << g.predicted_std_rpy_deg.z() << "\n";
+    }
   }
   for (const auto& w : c.warnings) o << "warning: " << w << "\n";
   return o.str();

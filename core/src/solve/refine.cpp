@@ -67,19 +67,31 @@ struct GeodesicResidual {
   Eigen::Matrix2d W = Eigen::Matrix2d::Identity();
 };
 
-// Ceres' EigenQuaternionManifold: Plus(q, d) = [cos|d|, sin|d| d/|d|] * q, i.e.
-// a rotation by 2|d| about d, applied on the left (camera frame).
-Eigen::Quaterniond PlusDelta(const Eigen::Quaterniond& q, const Eigen::Vector3d& d) {
-  const double n = d.norm();
-  Eigen::Quaterniond dq(1, 0, 0, 0);
-  if (n > 0) {
-    const Eigen::Vector3d v = std::sin(n) * d / n;
-    dq = Eigen::Quaterniond(std::cos(n), v.x(), v.y(), v.z());
-  }
-  return dq * q;
-}
+// Ceres' EigenQuaternionManifold: Plus(q, d) = [cos|d|, sin|d| d/|d|] * q, i.e. a rotation
+// by 2|d| about d, applied on the left (camera frame): rotation vector = 2 d.
 
 }  // namespace
+
+Eigen::Matrix3d RpyJacobianDegPerRad(const Eigen::Matrix3d& R_hat) {
+  Eigen::Matrix3d J;
+  const double h = 1e-7;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Matrix3d dp = Eigen::AngleAxisd(h, Eigen::Vector3d::Unit(k)).toRotationMatrix();
+    const Eigen::Matrix3d dm = Eigen::AngleAxisd(-h, Eigen::Vector3d::Unit(k)).toRotationMatrix();
+    Eigen::Vector3d diff = RotationToRpyDeg(dp * R_hat) - RotationToRpyDeg(dm * R_hat);
+    for (int m = 0; m < 3; ++m) {  // unwrap +-180 deg jumps
+      while (diff(m) > 180) diff(m) -= 360;
+      while (diff(m) < -180) diff(m) += 360;
+    }
+    J.col(k) = diff / (2 * h);
+  }
+  return J;
+}
+
+Eigen::Vector3d RpyStdDeg(const Eigen::Matrix3d& R_hat, const Eigen::Matrix3d& cov_rotvec_rad2) {
+  const Eigen::Matrix3d J = RpyJacobianDegPerRad(R_hat);
+  return (J * cov_rotvec_rad2 * J.transpose()).diagonal().cwiseMax(0).cwiseSqrt();
+}
 
 RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
                         const std::vector<Eigen::Vector3d>& p_scan, const Eigen::Isometry3d& T_init,
@@ -200,30 +212,14 @@ RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
   res.variance_factor = dof > 0 ? ssw / dof : 0.0;
   if (options.scale_covariance) C *= res.variance_factor;
 
-  // Tangent delta d rotates by 2|d| (see PlusDelta): rotation vector = 2 d.
+  // Tangent delta d rotates by 2|d| (see the manifold note above): rotation vector = 2 d.
   Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Identity();
   J.topLeftCorner<3, 3>() *= 2.0;
   res.covariance = J * C * J.transpose();
   res.has_covariance = true;
 
-  // Roll/pitch/yaw standard deviations through a central-difference Jacobian of
-  // rpy(Plus(q, d)) at d = 0.
-  Eigen::Matrix3d Jrpy;
-  const double h = 1e-7;
-  for (int k = 0; k < 3; ++k) {
-    Eigen::Vector3d d = Eigen::Vector3d::Zero();
-    d(k) = h;
-    Eigen::Vector3d a = RotationToRpyDeg(PlusDelta(qf, d).toRotationMatrix());
-    Eigen::Vector3d b = RotationToRpyDeg(PlusDelta(qf, -d).toRotationMatrix());
-    Eigen::Vector3d diff = a - b;
-    for (int m = 0; m < 3; ++m) {  // unwrap +-180 deg jumps
-      while (diff(m) > 180) diff(m) -= 360;
-      while (diff(m) < -180) diff(m) += 360;
-    }
-    Jrpy.col(k) = diff / (2 * h);
-  }
-  const Eigen::Matrix3d Crpy = Jrpy * C.topLeftCorner<3, 3>() * Jrpy.transpose();
-  res.std_rpy_deg = Crpy.diagonal().cwiseMax(0).cwiseSqrt();
+  res.std_rpy_deg =
+      RpyStdDeg(qf.normalized().toRotationMatrix(), res.covariance.topLeftCorner<3, 3>());
   res.std_t_m = C.bottomRightCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
   return res;
 }

@@ -35,6 +35,7 @@
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -67,6 +68,12 @@ struct CalibrateOptions {
   /// std of a laser point given as x,y,z (no cell), metres; 0 = taken as exact (surveyed
   /// targets), only the pixel pick is uncertain.
   double sigma_point_m = 0.0;
+  /// After a refinement with a covariance and a scan: suggest this many places to pick next
+  /// (0 = none), see PickSuggestion.
+  int suggest_picks = 3;
+  /// Optional image mask (CV_8UC1, the camera's size; 0 = unusable, e.g. outside a
+  /// catadioptric mirror): suggestions avoid it, and pairs picked on it get a warning.
+  cv::Mat image_mask;
   std::uint64_t seed = 1;  ///< RANSAC random seed
   RefineOptions refine_options;
   std::string pairs_source = "pairs";  ///< name used in error messages (the pairs file)
@@ -87,6 +94,24 @@ struct PairResult {
   std::optional<Eigen::Vector2d> reprojected_px;
 };
 
+/// Where one more pair would tighten the calibration most. Candidates are features a user can
+/// pick in the scan (the near side of depth edges, colour/colourise.h ContinuousNeighbours:
+/// object outlines, where their corners are), about 1000 of them spread over the grid, that
+/// the calibrated camera sees; each is scored by the parameter covariance
+/// predicted after adding it (the Fisher information of a pair there under the picking-noise
+/// model, added to that of the inliers), greedily: the k-th suggestion assumes the ones before
+/// it are picked too. The objective is the largest roll/pitch/yaw std; suggestions keep 8 % of
+/// the image diagonal apart and stay off the image mask (CalibrateOptions::image_mask). A user
+/// picks a distinct feature (a corner) near the suggested pixel; the predicted std is that of a
+/// pick exactly there.
+struct PickSuggestion {
+  Eigen::Vector2d image_px = Eigen::Vector2d::Zero();  ///< OpenCV pixel convention
+  int scan_row = 0, scan_col = 0;
+  Eigen::Vector3d p_scan = Eigen::Vector3d::Zero();  ///< laser point, scanner frame, m
+  Eigen::Vector3d predicted_std_rpy_deg = Eigen::Vector3d::Zero();  ///< after adding it
+  Eigen::Vector3d predicted_std_t_m = Eigen::Vector3d::Zero();
+};
+
 struct Calibration {
   Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
   Eigen::Vector3d rotation_rpy_deg = Eigen::Vector3d::Zero();  ///< rotation_rpy.h convention
@@ -104,6 +129,7 @@ struct Calibration {
   bool weighted = false;       ///< the refinement used the picking-noise weights
   double variance_factor = 0;  ///< reduced chi-square of the refinement (RefineResult)
   std::vector<PairResult> pairs;
+  std::vector<PickSuggestion> suggestions;  ///< where to pick next (CalibrateOptions)
   std::vector<std::string> warnings;
 };
 

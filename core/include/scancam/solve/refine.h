@@ -61,6 +61,14 @@ struct RefineResult {
   std::string message;  ///< Ceres' summary line or why the covariance failed
 };
 
+/// d(roll, pitch, yaw) [deg] / d(delta) [rad] of R = exp(delta) R_hat at delta = 0 (delta a
+/// rotation vector in the camera frame; rotation_rpy.h convention; central differences).
+Eigen::Matrix3d RpyJacobianDegPerRad(const Eigen::Matrix3d& R_hat);
+
+/// Standard deviations of roll, pitch, yaw (deg) of R_hat from the 3x3 covariance of that
+/// rotation vector delta (rad^2).
+Eigen::Vector3d RpyStdDeg(const Eigen::Matrix3d& R_hat, const Eigen::Matrix3d& cov_rotvec_rad2);
+
 /// Refines `T_init`. Needs >= 3 pairs (>= 4 for a covariance). Pairs with
 /// `use[i] == false` are left out of the cost (outliers), but get an error.
 /// `bearing_cov_rad2`: empty (unweighted, the paper's eq. 7) or one covariance per pair (see
