@@ -62,10 +62,34 @@ std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
   return best;
 }
 
+// The second scene: the same wall and a red table top (z = -0.5 m, x in [2.5, 3], |y| < 1) the
+// scanner sees at a grazing angle (10 deg below its horizon: one row of samples at 2 deg).
+std::optional<Hit> CastTable(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+  std::optional<Hit> best;
+  if (std::abs(d.z()) > 1e-12) {
+    const double t = (-0.5 - o.z()) / d.z();
+    const Eigen::Vector3d p = o + t * d;
+    if (t > 1e-9 && p.x() >= 2.5 && p.x() <= 3.0 && std::abs(p.y()) < 1.0)
+      best = Hit{t, kRed, true};
+  }
+  if (d.x() > 1e-12) {
+    const double t = (6.0 - o.x()) / d.x();
+    const Eigen::Vector3d p = o + t * d;
+    if (std::abs(p.y()) < 5 && std::abs(p.z()) < 4 && (!best || t < best->t)) {
+      const int cy = static_cast<int>(std::floor(p.y() / 0.5)),
+                cz = static_cast<int>(std::floor(p.z() / 0.5));
+      best = Hit{t, ((cy + cz) & 1) ? kBlue : kYellow, false};
+    }
+  }
+  return best;
+}
+
+using CastFn = std::optional<Hit> (*)(const Eigen::Vector3d&, const Eigen::Vector3d&);
+
 // A single-origin scan on a regular grid: rows elevation +el .. -el, cols azimuth +az .. -az.
 // The default +-30 deg of elevation covers more than the camera (+-25.6 deg), so every part of
 // the pole the camera sees was scanned (occluders the scanner never saw cannot be known).
-OrderedScan MakeScan(double step_deg, double az_deg = 30, double el_deg = 30) {
+OrderedScan MakeScan(double step_deg, double az_deg = 30, double el_deg = 30, CastFn cast = Cast) {
   const int rows = static_cast<int>(std::lround(2 * el_deg / step_deg)) + 1;
   const int cols = static_cast<int>(std::lround(2 * az_deg / step_deg)) + 1;
   OrderedScan s = OrderedScan::Empty(rows, cols);
@@ -76,7 +100,7 @@ OrderedScan MakeScan(double step_deg, double az_deg = 30, double el_deg = 30) {
       const Eigen::Vector3d b(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
       const std::size_t i = s.index(r, c);
       s.beam_dir[i] = b.cast<float>();
-      const auto h = Cast(Eigen::Vector3d::Zero(), b);
+      const auto h = cast(Eigen::Vector3d::Zero(), b);
       if (!h) continue;
       s.range_m[i] = static_cast<float>(h->t);
       s.point_m[i] = (h->t * b).cast<float>();
@@ -96,7 +120,8 @@ Eigen::Isometry3d CameraPose(const Eigen::Vector3d& centre) {
 }
 
 // The image the camera sees: one ray per pixel centre (colours exact away from edges).
-ColourView MakeView(const Eigen::Vector3d& centre, double focal = 500, int w = 640, int h = 480) {
+ColourView MakeView(const Eigen::Vector3d& centre, double focal = 500, int w = 640, int h = 480,
+                    CastFn cast = Cast) {
   ColourView v;
   v.camera =
       CameraModel::Pinhole(focal, focal, (w - 1) / 2.0, (h - 1) / 2.0, {}, w, h, "synthetic");
@@ -109,7 +134,7 @@ ColourView MakeView(const Eigen::Vector3d& centre, double focal = 500, int w = 6
       const auto b = v.camera.Unproject(Eigen::Vector2d(x, y));
       cv::Vec3b px(0, 0, 0);
       if (b) {
-        const auto hit = Cast(centre, R_scan_cam * *b);
+        const auto hit = cast(centre, R_scan_cam * *b);
         if (hit) {
           px = cv::Vec3b(static_cast<std::uint8_t>(hit->colour.z()),
                          static_cast<std::uint8_t>(hit->colour.y()),
@@ -123,10 +148,10 @@ ColourView MakeView(const Eigen::Vector3d& centre, double focal = 500, int w = 6
 }
 
 // True when the camera at `centre` sees scan point p (nothing nearer along the ray).
-bool SeenFrom(const Eigen::Vector3d& centre, const Eigen::Vector3f& p) {
+bool SeenFrom(const Eigen::Vector3d& centre, const Eigen::Vector3f& p, CastFn cast = Cast) {
   const Eigen::Vector3d d = p.cast<double>() - centre;
   const double dist = d.norm();
-  const auto h = Cast(centre, d / dist);
+  const auto h = cast(centre, d / dist);
   return h && h->t > dist - 1e-4;
 }
 
@@ -138,12 +163,12 @@ struct OcclusionCounts {
 };
 
 OcclusionCounts Count(const OrderedScan& scan, const ColourView& view,
-                      const Eigen::Vector3d& centre, const ColouredScan& res) {
+                      const Eigen::Vector3d& centre, const ColouredScan& res, CastFn cast = Cast) {
   OcclusionCounts n;
   for (std::size_t i = 0; i < scan.size(); ++i) {
     if (!scan.valid(i)) continue;
     if (!view.camera.Project(view.T_cam_scan * scan.point_m[i].cast<double>())) continue;
-    if (!SeenFrom(centre, scan.point_m[i])) {
+    if (!SeenFrom(centre, scan.point_m[i], cast)) {
       ++n.hidden;
       if (res.state[i] == PointState::kColoured) {
         if (getenv("COLOUR_DEBUG")) {
@@ -205,6 +230,38 @@ TEST_P(PoleOcclusion, HiddenWallKeepsNoColourAndZBufferIsNeeded) {
 }
 
 INSTANTIATE_TEST_SUITE_P(DenseAndSparse, PoleOcclusion, ::testing::Values(0.25, 2.0));
+
+// A table top that the scanner sees at a grazing angle, as one row of samples, and a camera
+// 40 cm higher that sees it from further above. The strip's splats (virtual neighbours across
+// it at its own range) cover what the camera sees of it: no wall point hidden behind it takes
+// its red. ColourOptions::strip_fill = 2 widens them further: still no red, but the wall just
+// beyond the table's edge, which the camera does see, loses colour (the price of the option).
+TEST(Colourise, GrazingStripHidesTheWallBehind) {
+  const Eigen::Vector3d centre(0.0, 0.0, 0.4);
+  const OrderedScan scan = MakeScan(2.0, 30, 30, CastTable);
+  const ColourView view = MakeView(centre, 500, 640, 480, CastTable);
+  std::size_t table_rows = 0;
+  for (int r = 0; r < scan.rows; ++r) {
+    bool table = false;
+    for (int c = 0; c < scan.cols; ++c)
+      table = table || (scan.valid(r, c) && scan.point_m[scan.index(r, c)].z() < -0.49f &&
+                        scan.point_m[scan.index(r, c)].x() < 3.01f);
+    table_rows += table;
+  }
+  ASSERT_EQ(table_rows, 1u) << "the table top must be a strip one sample wide";
+  ColourOptions wide;
+  wide.strip_fill = 2.0;
+  const ColouredScan a = Colourise(scan, {view});
+  const ColouredScan b = Colourise(scan, {view}, wide);
+  const OcclusionCounts na = Count(scan, view, centre, a, CastTable);
+  const OcclusionCounts nb = Count(scan, view, centre, b, CastTable);
+  ASSERT_GT(na.hidden, 10u) << "the table must hide part of the wall";
+  EXPECT_EQ(na.hidden_coloured, 0u) << "of " << na.hidden << " hidden";
+  EXPECT_EQ(nb.hidden_coloured, 0u);
+  ASSERT_GT(na.visible_wall, 100u);
+  EXPECT_GE(double(na.visible_wall_right) / double(na.visible_wall), 0.98);
+  EXPECT_LT(nb.visible_wall_right + 20, na.visible_wall_right);
+}
 
 // Points behind the camera, outside the image and outside the mask get no colour.
 TEST(Colourise, OutOfViewAndMask) {

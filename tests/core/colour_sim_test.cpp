@@ -13,8 +13,11 @@
 //     camera's ray meets another surface at least 5 cm nearer (a real occluder, not a
 //     numerical touch), and the point's surface is not seen edge-on by the camera (|cos| of
 //     the viewing angle >= sin 3 deg: an edge-on surface is a line in the image). Requirement:
-//     at most 0.5 % of them take a colour, for the presets where the scan samples every
-//     occluder; the others have looser, documented bounds.
+//     at most 0.5 % of them take a colour. Met for pinhole and fisheye; the other presets have
+//     measured bounds, for the reasons given at INSTANTIATE below;
+//   - of those, the ones whose occluder (where the camera's ray meets it) lies inside the
+//     scanner's field of view (SimScanner::CellOf): occluders the scan cannot contain are
+//     counted apart.
 // A colouring without z-buffer gives the comparison: it colours every hidden cell.
 #include <gtest/gtest.h>
 
@@ -61,8 +64,9 @@ ColourView ViewOf(const sim::Simulation& s) {
   return v;
 }
 
-// Truly hidden (see the file comment).
-bool TrulyHidden(const sim::Simulation& s, std::size_t i) {
+// Truly hidden (see the file comment); *occluder_in_fov tells whether the occluding point
+// lies inside the scanner's field of view.
+bool TrulyHidden(const sim::Simulation& s, std::size_t i, bool* occluder_in_fov) {
   const sim::ScanTruth& tr = s.sample.truth;
   if (tr.quad[i] < 0 || tr.visible[i]) return false;
   const auto uv = s.camera.Project(s.T_cam_scan * tr.point_m[i]);
@@ -73,15 +77,23 @@ bool TrulyHidden(const sim::Simulation& s, std::size_t i) {
   const Eigen::Vector3d d = (p - c) / dist;
   const auto hit = OfficeScene().Intersect(c, d);
   if (!hit || dist - hit->t < 0.05) return false;
-  return std::abs(OfficeScene().quads()[tr.quad[i]].normal.dot(d)) >= 0.0523;
+  if (std::abs(OfficeScene().quads()[tr.quad[i]].normal.dot(d)) < 0.0523) return false;
+  const auto cell = s.scanner->CellOf(s.T_world_scan.inverse() * (c + hit->t * d));
+  *occluder_in_fov = cell && std::lround(cell->x()) >= 0 && std::lround(cell->x()) < s.scan.rows &&
+                     std::lround(cell->y()) >= 0 && std::lround(cell->y()) < s.scan.cols;
+  return true;
 }
 
 struct Eval {
   std::size_t visible = 0, ideal_right = 0, ours_right = 0;
   std::size_t hidden = 0, hidden_coloured = 0, hidden_coloured_no_zbuffer = 0;
+  std::size_t hidden_in_fov = 0, hidden_in_fov_coloured = 0;  // occluder inside the scan's FOV
   double ideal_rate() const { return double(ideal_right) / double(visible); }
   double ours_rate() const { return double(ours_right) / double(visible); }
   double hidden_rate() const { return double(hidden_coloured) / double(hidden); }
+  double hidden_in_fov_rate() const {
+    return double(hidden_in_fov_coloured) / double(hidden_in_fov);
+  }
 };
 
 Eval Evaluate(const sim::Simulation& s, const ColouredScan& ours, const ColouredScan& no_z) {
@@ -98,10 +110,16 @@ Eval Evaluate(const sim::Simulation& s, const ColouredScan& ours, const Coloured
         ++e.ideal_right;
       if (ours.state[i] == PointState::kColoured && Close(ours.rgb[i], tr.colour[i]))
         ++e.ours_right;
-    } else if (TrulyHidden(s, i)) {
+      continue;
+    }
+    bool in_fov = false;
+    if (TrulyHidden(s, i, &in_fov)) {
+      const bool coloured = ours.state[i] == PointState::kColoured;
       ++e.hidden;
-      if (ours.state[i] == PointState::kColoured) ++e.hidden_coloured;
+      e.hidden_coloured += coloured;
       if (no_z.state[i] == PointState::kColoured) ++e.hidden_coloured_no_zbuffer;
+      e.hidden_in_fov += in_fov;
+      e.hidden_in_fov_coloured += in_fov && coloured;
     }
   }
   return e;
@@ -110,7 +128,8 @@ Eval Evaluate(const sim::Simulation& s, const ColouredScan& ours, const Coloured
 struct Case {
   const char* camera;
   const char* scanner;
-  double max_hidden_rate;  // see the comment at INSTANTIATE below
+  double max_hidden_rate;         // see the comment at INSTANTIATE below
+  double max_hidden_in_fov_rate;  // the same for occluders inside the scanner's FOV
   std::size_t min_hidden;
 };
 
@@ -127,9 +146,9 @@ TEST_P(SimColour, AsGoodAsIdealAndHiddenPointsKeepNoColour) {
   const Eval e = Evaluate(s, ours, no_z);
   std::printf(
       "%s/%s: visible %zu: ideal %.4f ours %.4f | hidden %zu: coloured %zu (%.4f), "
-      "without z-buffer %zu\n",
+      "without z-buffer %zu | occluder in the scan's FOV: %zu hidden, %zu coloured\n",
       c.camera, c.scanner, e.visible, e.ideal_rate(), e.ours_rate(), e.hidden, e.hidden_coloured,
-      e.hidden_rate(), e.hidden_coloured_no_zbuffer);
+      e.hidden_rate(), e.hidden_coloured_no_zbuffer, e.hidden_in_fov, e.hidden_in_fov_coloured);
   ASSERT_GT(e.visible, 10000u);
   EXPECT_GE(e.ideal_rate(), 0.85) << "the comparison is meaningful";
   EXPECT_GE(e.ours_rate(), e.ideal_rate() - 0.01);
@@ -137,26 +156,65 @@ TEST_P(SimColour, AsGoodAsIdealAndHiddenPointsKeepNoColour) {
   if (e.hidden > 0) {
     EXPECT_LE(e.hidden_rate(), c.max_hidden_rate);
   }
+  if (e.hidden_in_fov > 0) {
+    EXPECT_LE(e.hidden_in_fov_rate(), c.max_hidden_in_fov_rate);
+  }
   // Without a z-buffer every hidden cell takes some colour (the occluder's).
   EXPECT_EQ(e.hidden_coloured_no_zbuffer, e.hidden);
   EXPECT_TRUE(ours.warnings.empty());
 }
 
-// 0.5 % where the scan samples every occluder the camera sees (pinhole + lidar: the camera sees
-// nothing the lidar does not, no hidden cell; the visible criterion still applies). Looser bounds
-// elsewhere, for a documented reason: horizontal tops (table, table box, chessboard, shelf) that
-// the scanner sees at a grazing angle from just above, with one or two rows of samples, hide more
-// of the wall behind them from the camera than the scan shows; the depth buffer can only know
-// occluders where the scanner sampled them (omni/lidar: the lidar 1.7 m high above a table).
-INSTANTIATE_TEST_SUITE_P(
-    Presets, SimColour,
-    ::testing::Values(Case{"pinhole", "rotating", 0.005, 100}, Case{"pinhole", "lidar", 0.005, 0},
-                      Case{"fisheye", "rotating", 0.015, 300}, Case{"omni", "rotating", 0.04, 300},
-                      Case{"equirect", "rotating", 0.04, 500}, Case{"equirect", "lidar", 0.05, 500},
-                      Case{"omni", "lidar", 0.35, 500}),
-    [](const ::testing::TestParamInfo<Case>& i) {
-      return std::string(i.param.camera) + "_" + i.param.scanner;
-    });
+// Bounds: the measured rates (hidden cells that take a colour / truly hidden cells) with a
+// margin of about one cell. The 0.5 % of the issue is met for pinhole; what remains elsewhere,
+// measured cell by cell against the scene (which surface hides each coloured cell, how far in
+// front, whether the scanner could sample it):
+//   - fisheye/rotating 5 of 615: 3 behind the far edge of the table top, which the scanner
+//     sees as a strip at a grazing angle and the camera, higher, sees extend further (see
+//     StripFillForTheFisheye below), 2 behind the table's front edge, 5 cm in front of its leg;
+//   - omni/rotating 11 of 435, equirect/rotating 21 of 953: all but 1 and 3 are hidden by a
+//     surface less than 15 cm in front (book spines, a door handle, a table edge over its
+//     leg, a monitor stand on the desk). A step of a few beam spacings is one surface for the
+//     continuity rule (ContinuityOptions: at 2.5 m with 0.5 deg beams, steps under ~8 cm) and
+//     such gaps are within the depth tolerance, so the z-buffer cannot tell them apart;
+//   - equirect/lidar 26 of 800: 6 are hidden by the top of the bookshelf above the lidar's
+//     field of view (+2 deg), 20 by close surfaces as above;
+//   - omni/lidar 250 of 952: 232 are hidden by parts of the table, the chessboard and the table
+//     box below the lidar's field of view (-24.8 deg; the camera is 14 cm lower than the lidar
+//     and sees the near part of the table top, which no ring reaches). Occluders the scan does
+//     not contain cannot occlude; with the occluder inside the scanner's field of view the
+//     rate is 18 of 687.
+INSTANTIATE_TEST_SUITE_P(Presets, SimColour,
+                         ::testing::Values(Case{"pinhole", "rotating", 0.005, 0.005, 100},
+                                           Case{"pinhole", "lidar", 0.005, 0.005, 0},
+                                           Case{"fisheye", "rotating", 0.01, 0.01, 300},
+                                           Case{"omni", "rotating", 0.03, 0.03, 300},
+                                           Case{"equirect", "rotating", 0.025, 0.025, 500},
+                                           Case{"equirect", "lidar", 0.035, 0.028, 500},
+                                           Case{"omni", "lidar", 0.27, 0.029, 500}),
+                         [](const ::testing::TestParamInfo<Case>& i) {
+                           return std::string(i.param.camera) + "_" + i.param.scanner;
+                         });
+
+// ColourOptions::strip_fill = 2 extends the splats across strips of surface one sample wide:
+// for the fisheye preset it meets the issue's 0.5 % (2 of 615), the visible cells staying within
+// 1 percentage point of the ideal. (Not the default: see colourise.h for what it costs on a
+// lidar's far ground rings.)
+TEST(SimColour, StripFillForTheFisheye) {
+  const sim::Simulation s = sim::Simulate(OfficeScene(), Options("fisheye", "rotating"));
+  const ColourView view = ViewOf(s);
+  ColourOptions o;
+  o.strip_fill = 2.0;
+  const ColouredScan ours = Colourise(s.scan, {view}, o);
+  ColourOptions off;
+  off.occlusion = false;
+  const ColouredScan no_z = Colourise(s.scan, {view}, off);
+  const Eval e = Evaluate(s, ours, no_z);
+  std::printf("fisheye, strip_fill 2: visible ideal %.4f ours %.4f | hidden %zu coloured %zu\n",
+              e.ideal_rate(), e.ours_rate(), e.hidden, e.hidden_coloured);
+  ASSERT_GT(e.hidden, 300u);
+  EXPECT_LE(e.hidden_rate(), 0.005);
+  EXPECT_GE(e.ours_rate(), e.ideal_rate() - 0.01);
+}
 
 // A camera on a rotating mount: the same scan, two shots 180 deg apart (fisheye). Each cell
 // seen by a shot takes its colour from the shot that sees it best; the result is as good as
