@@ -856,8 +856,10 @@ void SampleRow(const float* u, const float* v, const PointState* state, int cols
       if (c + 40 < cols) {
         // The image lines of the cells 32 ahead (two rows; the hardware prefetcher does not
         // follow the two interleaved streams well).
-        const float pu = std::clamp(u[c + 32], 0.f, float(w - 1)),
-                    pv = std::clamp(v[c + 32], 0.f, float(h - 1));
+        // max(0, x) first: a cell without a projection has NaN u, v, which std::clamp would
+        // pass through (and a NaN index is undefined behaviour).
+        const float pu = std::min(float(w - 1), std::max(0.f, u[c + 32])),
+                    pv = std::min(float(h - 1), std::max(0.f, v[c + 32]));
         const std::uint8_t* q = data + static_cast<std::size_t>(pv) * step + 3 * std::size_t(pu);
         _mm_prefetch(reinterpret_cast<const char*>(q), _MM_HINT_T0);
         _mm_prefetch(reinterpret_cast<const char*>(q + step), _MM_HINT_T0);
