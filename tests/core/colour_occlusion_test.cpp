@@ -31,6 +31,21 @@ struct Hit {
   bool pole;
 };
 
+// The checkered wall x = 6 m (|y| < 5, |z| < 4) when it is nearer than `best` along the ray.
+std::optional<Hit> NearerWall(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                              std::optional<Hit> best) {
+  if (d.x() > 1e-12) {
+    const double t = (6.0 - o.x()) / d.x();
+    const Eigen::Vector3d p = o + t * d;
+    if (std::abs(p.y()) < 5 && std::abs(p.z()) < 4 && (!best || t < best->t)) {
+      const int cy = static_cast<int>(std::floor(p.y() / 0.5)),
+                cz = static_cast<int>(std::floor(p.z() / 0.5));
+      best = Hit{t, ((cy + cz) & 1) ? kBlue : kYellow, false};
+    }
+  }
+  return best;
+}
+
 std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
   std::optional<Hit> best;
   // pole: slab test on x and y, unbounded in z
@@ -50,16 +65,7 @@ std::optional<Hit> Cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
     }
     if (!miss && t0 <= t1 && t0 > 1e-9) best = Hit{t0, kRed, true};
   }
-  if (d.x() > 1e-12) {
-    const double t = (6.0 - o.x()) / d.x();
-    const Eigen::Vector3d p = o + t * d;
-    if (std::abs(p.y()) < 5 && std::abs(p.z()) < 4 && (!best || t < best->t)) {
-      const int cy = static_cast<int>(std::floor(p.y() / 0.5)),
-                cz = static_cast<int>(std::floor(p.z() / 0.5));
-      best = Hit{t, ((cy + cz) & 1) ? kBlue : kYellow, false};
-    }
-  }
-  return best;
+  return NearerWall(o, d, best);
 }
 
 // The second scene: the same wall and a red table top (z = -0.5 m, x in [2.5, 3], |y| < 1) the
@@ -72,16 +78,7 @@ std::optional<Hit> CastTable(const Eigen::Vector3d& o, const Eigen::Vector3d& d)
     if (t > 1e-9 && p.x() >= 2.5 && p.x() <= 3.0 && std::abs(p.y()) < 1.0)
       best = Hit{t, kRed, true};
   }
-  if (d.x() > 1e-12) {
-    const double t = (6.0 - o.x()) / d.x();
-    const Eigen::Vector3d p = o + t * d;
-    if (std::abs(p.y()) < 5 && std::abs(p.z()) < 4 && (!best || t < best->t)) {
-      const int cy = static_cast<int>(std::floor(p.y() / 0.5)),
-                cz = static_cast<int>(std::floor(p.z() / 0.5));
-      best = Hit{t, ((cy + cz) & 1) ? kBlue : kYellow, false};
-    }
-  }
-  return best;
+  return NearerWall(o, d, best);
 }
 
 using CastFn = std::optional<Hit> (*)(const Eigen::Vector3d&, const Eigen::Vector3d&);
