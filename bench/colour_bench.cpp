@@ -14,6 +14,8 @@
 //   colourise/omp           Colourise() with the defaults (z-buffer, quality), all cores
 //   colourise/1thread       the same on one thread
 //   colourise_no_quality    without the per-point quality (ColourOptions::compute_quality)
+//   colourise_nearest_pixel the depth test at the nearest pixel only, not over the bilinear
+//                           footprint (ColourOptions::footprint_min_weight = 1)
 //   colourise_no_occlusion  Colourise() without the z-buffer (ColourOptions::occlusion)
 //   opencv_baseline         cv::projectPoints of the same points (pinhole, same K and
 //                           distortion) + cv::remap (bilinear) of the image at the projections,
@@ -197,12 +199,13 @@ void Finish(benchmark::State& state, std::pair<double, double> peak, double cpu_
 }
 
 void BM_Colourise(benchmark::State& state, int threads, bool occlusion, bool quality,
-                  const std::string& key) {
+                  double footprint_min_weight, const std::string& key) {
   const Data& d = GetData();
   ThreadScope ts(threads);
   sc::ColourOptions o;
   o.occlusion = occlusion;
   o.compute_quality = quality;
+  o.footprint_min_weight = footprint_min_weight;
   const std::vector<sc::ColourView> views = {d.view};
   std::size_t coloured = 0;
   const auto peak = OneCallPeakMiB([&] {
@@ -258,20 +261,26 @@ class Reporter : public benchmark::ConsoleReporter {
 
 int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
+  const double kFootprint = sc::ColourOptions().footprint_min_weight;
   GetData();  // build the scene before timing
-  benchmark::RegisterBenchmark("colourise/omp", BM_Colourise, 0, true, true, "colourise/omp")
+  benchmark::RegisterBenchmark("colourise/omp", BM_Colourise, 0, true, true, kFootprint,
+                               "colourise/omp")
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
-  benchmark::RegisterBenchmark("colourise/1thread", BM_Colourise, 1, true, true,
+  benchmark::RegisterBenchmark("colourise/1thread", BM_Colourise, 1, true, true, kFootprint,
                                "colourise/1thread")
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
-  benchmark::RegisterBenchmark("colourise_no_quality/omp", BM_Colourise, 0, true, false,
+  benchmark::RegisterBenchmark("colourise_no_quality/omp", BM_Colourise, 0, true, false, kFootprint,
                                "colourise_no_quality/omp")
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
+  benchmark::RegisterBenchmark("colourise_nearest_pixel/omp", BM_Colourise, 0, true, true, 1.0,
+                               "colourise_nearest_pixel/omp")
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
   benchmark::RegisterBenchmark("colourise_no_occlusion/omp", BM_Colourise, 0, false, true,
-                               "colourise_no_occlusion/omp")
+                               kFootprint, "colourise_no_occlusion/omp")
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("opencv_baseline", BM_OpenCv, "opencv_baseline")

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <opencv2/imgproc.hpp>
@@ -227,6 +228,26 @@ TEST_P(PoleOcclusion, HiddenWallKeepsNoColourAndZBufferIsNeeded) {
 }
 
 INSTANTIATE_TEST_SUITE_P(DenseAndSparse, PoleOcclusion, ::testing::Values(0.25, 2.0));
+
+// The depth test over the bilinear footprint (ColourOptions::footprint_min_weight) only ever
+// takes colours away: a cell it colours passes the nearest-pixel test too. Its effect on hidden
+// points is measured on the simulated scenes (colour_sim_test.cpp).
+TEST(Colourise, FootprintOnlyRemoves) {
+  const Eigen::Vector3d centre(0.0, -0.6, 0.0);
+  const OrderedScan scan = MakeScan(0.25);
+  const ColourView view = MakeView(centre);
+  ColourOptions o;
+  ColourOptions nearest = o;
+  nearest.footprint_min_weight = 1.0;
+  const ColouredScan fp = Colourise(scan, {view}, o);
+  const ColouredScan np = Colourise(scan, {view}, nearest);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (fp.state[i] == PointState::kColoured) {
+      ASSERT_EQ(np.state[i], PointState::kColoured) << i;
+    }
+  }
+  EXPECT_LE(fp.coloured, np.coloured);
+}
 
 // A table top that the scanner sees at a grazing angle, as one row of samples, and a camera
 // 40 cm higher that sees it from further above. The strip's splats (virtual neighbours across

@@ -322,6 +322,21 @@ inline I4 LoadDepth(const std::uint16_t* zb, int W, const std::int32_t* px,
     v[k] = zb[static_cast<std::size_t>(py[k]) * static_cast<std::size_t>(W) + px[k]];
   return LoadI(v);
 }
+// The buffer codes at (x, y) and (x + 1, y) (the buffer has one element of padding after
+// its last pixel, so x = W - 1 on the last row is safe).
+inline void LoadDepthPair(const std::uint16_t* zb, int W, I4 x, I4 y, I4* lo, I4* hi) {
+  alignas(16) std::int32_t xs[4], ys[4], l[4], h[4];
+  StoreI(xs, x);
+  StoreI(ys, y);
+  for (int k = 0; k < 4; ++k) {
+    const std::uint16_t* p =
+        zb + static_cast<std::size_t>(ys[k]) * static_cast<std::size_t>(W) + xs[k];
+    l[k] = p[0];
+    h[k] = p[1];
+  }
+  *lo = LoadI(l);
+  *hi = LoadI(h);
+}
 }  // namespace v4
 
 // Nearest integer / floor / ceiling of x for x > -16384 (pixel coordinates), without a
@@ -508,11 +523,13 @@ struct SplatOut {
 // Output of the pass-2 kernel for one row: the depth-test terms (the cell's plane at its pixel
 // centre and the tolerance), the back-face verdict and the quality.
 struct TestOut {
-  std::vector<float> di, tol, q, q_out;
+  std::vector<float> di, tol, gx, gy, q, q_out;
   std::vector<std::int32_t> px, py, back, state;
   explicit TestOut(int cols) {
     const std::size_t n = static_cast<std::size_t>((cols + 7) / 8 * 8);
     di.resize(n);
+    gx.resize(n);
+    gy.resize(n);
     tol.resize(n);
     q.resize(n);
     q_out.resize(n);
@@ -660,14 +677,40 @@ class TileLocks {
 // Parameters and counts of the pass-2 finish (TestFinish, one image).
 struct FinishParams {
   const std::uint16_t* zb = nullptr;
-  int width = 0;
+  int width = 0, height = 0;
   bool occlusion = false, backface = false, quality = false;
+  bool footprint = false;  // the depth test over the bilinear footprint (FootprintVisible)
+  float min_weight = 1.f;
   Eigen::Vector3f rz = Eigen::Vector3f::Zero();  // third row of R and t: camera z of a point
   float tz = 0.f;
 };
 struct FinishCounts {
   std::size_t coloured = 0, occluded = 0, out_of_view = 0, behind = 0, masked = 0;
 };
+
+// The depth test over the bilinear footprint (ColourOptions::footprint_min_weight): the cell
+// at (u, v), tested at its nearest pixel (px, py) with depth di there, passes only when the
+// other pixels its colour sample draws at least min_weight from are not nearer either (its
+// plane di + g . (q - p) at each such pixel q against the buffer). A silhouette that covers
+// one of them would otherwise mix the occluder's colour into the sample. The vector finish
+// (TestFinish in colourise_kernels.inc) does the same operations, nearest pixel included.
+inline bool FootprintVisible(const std::uint16_t* zb, int W, int H, float u, float v, int px,
+                             int py, float di, float gx, float gy, float tol, float min_weight) {
+  const int x0 = FloorPx(u), y0 = FloorPx(v);
+  const float fu = u - static_cast<float>(x0), fv = v - static_cast<float>(y0);
+  for (int dy = 0; dy < 2; ++dy) {
+    if ((dy ? fv : 1.f - fv) < min_weight) continue;
+    const int y = std::min(std::max(y0 + dy, 0), H - 1);
+    for (int dx = 0; dx < 2; ++dx) {
+      if ((dx ? fu : 1.f - fu) < min_weight) continue;
+      const int x = std::min(std::max(x0 + dx, 0), W - 1);
+      const float z = di + gx * static_cast<float>(x - px) + gy * static_cast<float>(y - py);
+      const std::size_t q = static_cast<std::size_t>(y) * static_cast<std::size_t>(W) + x;
+      if (!(z <= DecodeDepth(zb[q]) + tol)) return false;
+    }
+  }
+  return true;
+}
 
 // Bilinear sampling of a BGR image between the four pixel centres around (u, v), OpenCV
 // convention, coordinates clamped to the centres of the border pixels; returns RGB.
@@ -798,6 +841,13 @@ inline I8 LoadDepth(const std::uint16_t* zb, int W, const std::int32_t* px,
   const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y, _mm256_set1_epi32(W)), x);
   const __m256i w = _mm256_i32gather_epi32(reinterpret_cast<const int*>(zb), idx, 2);
   return {_mm256_and_si256(w, _mm256_set1_epi32(0xFFFF))};
+}
+// Two neighbouring pixels with one 32-bit gather (see v4::LoadDepthPair).
+inline void LoadDepthPair(const std::uint16_t* zb, int W, I8 x, I8 y, I8* lo, I8* hi) {
+  const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(y.v, _mm256_set1_epi32(W)), x.v);
+  const __m256i w = _mm256_i32gather_epi32(reinterpret_cast<const int*>(zb), idx, 2);
+  *lo = {_mm256_and_si256(w, _mm256_set1_epi32(0xFFFF))};
+  *hi = {_mm256_srli_epi32(w, 16)};
 }
 inline I8 MinI(I8 a, I8 b) { return {_mm256_min_epi32(a.v, b.v)}; }
 inline I8 MaxI(I8 a, I8 b) { return {_mm256_max_epi32(a.v, b.v)}; }
@@ -1446,7 +1496,10 @@ void TestPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, bool sample,
   ColouredScan& out = *job.out;
   const int W = vc.width;
   const std::uint16_t* zb = job.zbuf->data();
+  const int H = vc.height;
   const bool occlusion = options.occlusion;
+  const bool footprint = occlusion && options.footprint_min_weight <= 0.5;
+  const float min_weight = static_cast<float>(options.footprint_min_weight);
   KernelParams kp_z = kp;
   kp_z.zbuf = occlusion ? zb : nullptr;
   const bool use_backface = options.backface_margin_deg >= 0.0 && occlusion;
@@ -1459,6 +1512,9 @@ void TestPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, bool sample,
   FinishParams fp;
   fp.zb = zb;
   fp.width = W;
+  fp.height = H;
+  fp.footprint = footprint;
+  fp.min_weight = min_weight;
   fp.occlusion = occlusion;
   fp.backface = use_backface;
   fp.quality = keep_quality;
@@ -1514,6 +1570,9 @@ void TestPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, bool sample,
               const float zmin = DecodeDepth(zb[static_cast<std::size_t>(to.py[c]) * W + to.px[c]]);
               visible = to.di[c] <= zmin + to.tol[c];
               if (visible && use_backface && to.back[c]) visible = false;
+              if (visible && footprint)
+                visible = FootprintVisible(zb, W, H, row.u[c], row.v[c], to.px[c], to.py[c],
+                                           to.di[c], to.gx[c], to.gy[c], to.tol[c], min_weight);
             }
             if (!visible) {
               ++n_occ;

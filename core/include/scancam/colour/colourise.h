@@ -43,9 +43,12 @@
 //        tol_i = min(depth_tolerance_m + depth_tolerance_fraction * d_i
 //                    + slope_tolerance_px * |g_i|,  max_tolerance_fraction * d_i):
 //      range noise, a part growing with range, and a part growing with the grazing angle of
-//      the camera's view (|g_i| is the surface's depth change per pixel). Otherwise the cell
-//      is behind a nearer surface: kOccluded, and it keeps no colour instead of taking the
-//      occluder's.
+//      the camera's view (|g_i| is the surface's depth change per pixel). The same test is
+//      made at the other pixels of the bilinear footprint (step 4) from which the sample
+//      draws at least footprint_min_weight along each axis (the cell's plane at each such
+//      pixel's centre): a nearer surface covering one of them would mix its colour into the
+//      sample. Otherwise the cell is behind a nearer surface: kOccluded, and it keeps no
+//      colour instead of taking the occluder's.
 //   4. Colour: bilinear interpolation of the image (BGR 8-bit) at (u, v) between the four
 //      pixel centres around it (coordinates clamped at the border), rounded to 8 bits,
 //      stored as RGB.
@@ -211,6 +214,12 @@ struct ColourOptions {
   /// marks 7 % more of the points in view occluded), hence the default 1.
   double strip_fill = 1.0;
   double max_splat_px = 64.0;  ///< half-size limit of a splat box, pixels
+  /// The depth test covers the bilinear footprint: besides the cell's nearest pixel, every
+  /// other pixel of the four its colour is interpolated from with a bilinear weight of at
+  /// least this must pass too (the cell's plane at that pixel's centre against the buffer). A
+  /// nearer surface covering one of them would mix its colour into the sample. Above 0.5: the
+  /// nearest pixel alone.
+  double footprint_min_weight = 0.25;
   /// Compute the per-point quality (step 5). With one image it can be skipped to save time
   /// and 4 bytes per cell (ColouredScan::quality is then empty); with several images it is
   /// always computed (the blend needs it).
