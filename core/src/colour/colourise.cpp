@@ -1567,12 +1567,15 @@ void TestPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, bool sample,
           } else {
             bool visible = true;
             if (occlusion) {
-              const float zmin = DecodeDepth(zb[static_cast<std::size_t>(to.py[c]) * W + to.px[c]]);
-              visible = to.di[c] <= zmin + to.tol[c];
-              if (visible && use_backface && to.back[c]) visible = false;
-              if (visible && footprint)
+              // As the vector finish: the footprint test includes the nearest pixel.
+              if (footprint) {
                 visible = FootprintVisible(zb, W, H, row.u[c], row.v[c], to.px[c], to.py[c],
                                            to.di[c], to.gx[c], to.gy[c], to.tol[c], min_weight);
+              } else {
+                const std::size_t p = static_cast<std::size_t>(to.py[c]) * W + to.px[c];
+                visible = to.di[c] <= DecodeDepth(zb[p]) + to.tol[c];
+              }
+              if (visible && use_backface && to.back[c]) visible = false;
             }
             if (!visible) {
               ++n_occ;
