@@ -153,11 +153,8 @@ int main(int argc, char** argv) {
       " in FOV: hidden | coloured | rate |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& p : presets) {
     const auto slash = p.find('/');
-    sim::SimulateOptions so;
-    so.camera = p.substr(0, slash);
-    so.scanner = slash == std::string::npos ? "rotating" : p.substr(slash + 1);
-    so.supersample = 2;
-    so.pairs = 4;
+    sim::SimulateOptions so = sim::ColourStudySimulation(
+        p.substr(0, slash), slash == std::string::npos ? "rotating" : p.substr(slash + 1));
     so.seed = seed;
     const sim::Simulation s = sim::Simulate(scene, so);
     const colour::ColouredScan ours = colour::Colourise(s.scan, {sim::ColourViewOf(s)}, o);

@@ -21,25 +21,14 @@ namespace {
 using namespace scancam;
 using namespace scancam::colour;
 
-constexpr int kTol = 10;
+// Colours within this many grey levels per channel are right (sim::ColourTruthOptions).
+constexpr int kTol = sim::ColourTruthOptions().tolerance;
 
-bool Close(const Rgb8& a, const Eigen::Vector3f& t) {
-  return std::abs(a.r - t.x()) <= kTol && std::abs(a.g - t.y()) <= kTol &&
-         std::abs(a.b - t.z()) <= kTol;
-}
+bool Close(const Rgb8& a, const Eigen::Vector3f& t) { return sim::TakesTrueColour(a, t, kTol); }
 
 const sim::Scene& OfficeScene() {
   static const sim::Scene scene = sim::BuildOfficeScene();
   return scene;
-}
-
-sim::SimulateOptions Options(const std::string& camera, const std::string& scanner) {
-  sim::SimulateOptions o;
-  o.camera = camera;
-  o.scanner = scanner;
-  o.supersample = 2;  // enough for the comparison (ours and the ideal sample the same image)
-  o.pairs = 4;
-  return o;
 }
 
 // The shared evaluation, plus the colouring without z-buffer as a comparison.
@@ -69,7 +58,8 @@ class SimColour : public ::testing::TestWithParam<Case> {};
 
 TEST_P(SimColour, AsGoodAsIdealAndHiddenPointsKeepNoColour) {
   const Case c = GetParam();
-  const sim::Simulation s = sim::Simulate(OfficeScene(), Options(c.camera, c.scanner));
+  const sim::Simulation s =
+      sim::Simulate(OfficeScene(), sim::ColourStudySimulation(c.camera, c.scanner));
   const ColourView view = sim::ColourViewOf(s);
   const ColouredScan ours = Colourise(s.scan, {view});
   ColourOptions off;
@@ -139,7 +129,8 @@ INSTANTIATE_TEST_SUITE_P(Presets, SimColour,
 // 1 percentage point of the ideal. (Not the default: see colourise.h for what it costs on a
 // lidar's far ground rings.)
 TEST(SimColour, StripFillForTheFisheye) {
-  const sim::Simulation s = sim::Simulate(OfficeScene(), Options("fisheye", "rotating"));
+  const sim::Simulation s =
+      sim::Simulate(OfficeScene(), sim::ColourStudySimulation("fisheye", "rotating"));
   const ColourView view = sim::ColourViewOf(s);
   ColourOptions o;
   o.strip_fill = 2.0;
@@ -162,7 +153,8 @@ TEST(SimColour, StripFillForTheFisheye) {
 // percentage points. The vector path (one image) and the scalar one (several) agree.
 TEST(SimColour, FootprintTestHidesMore) {
   for (const char* camera : {"omni", "equirect"}) {
-    const sim::Simulation s = sim::Simulate(OfficeScene(), Options(camera, "rotating"));
+    const sim::Simulation s =
+        sim::Simulate(OfficeScene(), sim::ColourStudySimulation(camera, "rotating"));
     const ColourView view = sim::ColourViewOf(s);
     ColourOptions nearest;
     nearest.footprint_min_weight = 1.0;
@@ -195,7 +187,7 @@ TEST(SimColourMulti, TwoShotsOnARotatingMount) {
   std::vector<sim::Simulation> shots;
   std::vector<ColourView> views;
   for (double yaw : {0.0, 180.0}) {
-    sim::SimulateOptions o = Options("fisheye", "rotating");
+    sim::SimulateOptions o = sim::ColourStudySimulation("fisheye", "rotating");
     Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
     turn.linear() =
         Eigen::AngleAxisd(-yaw * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();

@@ -6,14 +6,19 @@
 #include "scancam/sim/render.h"
 
 namespace scancam::sim {
-namespace {
-
-bool Close(const colour::Rgb8& a, const Eigen::Vector3f& t, int tol) {
+bool TakesTrueColour(const colour::Rgb8& a, const Eigen::Vector3f& t, int tol) {
   return std::abs(a.r - t.x()) <= tol && std::abs(a.g - t.y()) <= tol &&
          std::abs(a.b - t.z()) <= tol;
 }
 
-}  // namespace
+SimulateOptions ColourStudySimulation(const std::string& camera, const std::string& scanner) {
+  SimulateOptions o;
+  o.camera = camera;
+  o.scanner = scanner;
+  o.supersample = 2;
+  o.pairs = 4;
+  return o;
+}
 
 colour::ColourView ColourViewOf(const Simulation& s) {
   colour::ColourView v;
@@ -41,10 +46,11 @@ ColourTruthEval EvaluateColouring(const Scene& scene, const Simulation& s,
       ++e.visible;
       // The ideal: the same sampling at the projection of the same measured point.
       const auto uv = s.camera.Project(s.T_cam_scan * s.scan.point_m[i].cast<double>());
-      const bool ideal = uv && Close(colour::SampleBilinear(s.image, static_cast<float>(uv->x()),
-                                                            static_cast<float>(uv->y())),
-                                     tr.colour[i], options.tolerance);
-      const bool right = coloured && Close(ours.rgb[i], tr.colour[i], options.tolerance);
+      const bool ideal =
+          uv && TakesTrueColour(colour::SampleBilinear(s.image, static_cast<float>(uv->x()),
+                                                       static_cast<float>(uv->y())),
+                                tr.colour[i], options.tolerance);
+      const bool right = coloured && TakesTrueColour(ours.rgb[i], tr.colour[i], options.tolerance);
       e.ideal_right += ideal;
       e.ours_right += right;
       if (ideal && !right) {

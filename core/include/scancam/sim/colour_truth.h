@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "scancam/colour/colourise.h"
@@ -60,6 +61,15 @@ struct ColourTruthEval {
   double hidden_in_fov_rate() const { return Ratio(hidden_in_fov_coloured, hidden_in_fov); }
   static double Ratio(std::size_t a, std::size_t b) { return b ? double(a) / double(b) : 0.0; }
 };
+
+/// The simulation the colouring figures come from: the office scene with a camera and scanner
+/// preset ("omni", "rotating", ...), supersample 2 (enough for the comparison: ours and the
+/// ideal sample the same image), 4 pairs (unused here, fewer corners to place).
+SimulateOptions ColourStudySimulation(const std::string& camera, const std::string& scanner);
+
+/// True when `rgb` is within `tolerance` grey levels of the true colour in every channel ("takes
+/// its true colour").
+bool TakesTrueColour(const colour::Rgb8& rgb, const Eigen::Vector3f& truth, int tolerance);
 
 /// The simulated image as a view to colour from: camera, image, true T_cam_scan and, for the
 /// presets with one, the mask.
