@@ -199,10 +199,11 @@ void Finish(benchmark::State& state, std::pair<double, double> peak, double cpu_
 }
 
 void BM_Colourise(benchmark::State& state, int threads, bool occlusion, bool quality,
-                  double footprint_min_weight, const std::string& key) {
+                  double footprint_min_weight, const std::string& key, bool ground) {
   const Data& d = GetData();
   ThreadScope ts(threads);
   sc::ColourOptions o;
+  o.ground.enabled = ground;
   o.occlusion = occlusion;
   o.compute_quality = quality;
   o.footprint_min_weight = footprint_min_weight;
@@ -264,23 +265,27 @@ int main(int argc, char** argv) {
   const double kFootprint = sc::ColourOptions().footprint_min_weight;
   GetData();  // build the scene before timing
   benchmark::RegisterBenchmark("colourise/omp", BM_Colourise, 0, true, true, kFootprint,
-                               "colourise/omp")
+                               "colourise/omp", true)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("colourise/1thread", BM_Colourise, 1, true, true, kFootprint,
-                               "colourise/1thread")
+                               "colourise/1thread", true)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("colourise_no_quality/omp", BM_Colourise, 0, true, false, kFootprint,
-                               "colourise_no_quality/omp")
+                               "colourise_no_quality/omp", true)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("colourise_nearest_pixel/omp", BM_Colourise, 0, true, true, 1.0,
-                               "colourise_nearest_pixel/omp")
+                               "colourise_nearest_pixel/omp", true)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
+  benchmark::RegisterBenchmark("colourise_no_ground/omp", BM_Colourise, 0, true, true, kFootprint,
+                               "colourise_no_ground/omp", false)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("colourise_no_occlusion/omp", BM_Colourise, 0, false, true,
-                               kFootprint, "colourise_no_occlusion/omp")
+                               kFootprint, "colourise_no_occlusion/omp", true)
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("opencv_baseline", BM_OpenCv, "opencv_baseline")

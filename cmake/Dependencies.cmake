@@ -13,7 +13,7 @@ find_package(mrpt-serialization REQUIRED)
 find_package(mrpt-maps REQUIRED)
 
 # PCL's config is slow and noisy; ask only for what is used and wrap it in one target.
-find_package(PCL 1.13 REQUIRED COMPONENTS common io surface)
+find_package(PCL 1.13 REQUIRED COMPONENTS common io surface sample_consensus)
 add_library(scancam_pcl INTERFACE)
 target_include_directories(scancam_pcl SYSTEM INTERFACE ${PCL_INCLUDE_DIRS})
 target_link_libraries(scancam_pcl INTERFACE ${PCL_LIBRARIES})

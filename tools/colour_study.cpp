@@ -11,6 +11,8 @@
 //                     [--min-ba DEG] [--edge-fill F] [--isolated-fill F] [--strip-fill F]
 //                     [--depth-tol-m M] [--depth-tol-fraction F] [--slope-tol-px P]
 //                     [--planar-tol F] [--range-noise-m M] [--backface-deg D] [--footprint W]
+//                     [--no-ground] [--ground-tol-m M] [--ground-tol-fraction F]
+//                     [--ground-slope-deg D]
 // Without --preset: all seven presets of tests/core/colour_sim_test.cpp.
 #include <cstdio>
 #include <iostream>
@@ -75,6 +77,10 @@ void RoadStudy(const std::string& dir, const colour::ColourOptions& o) {
     col[b] += res.state[i] == colour::PointState::kColoured;
     occ[b] += res.state[i] == colour::PointState::kOccluded;
   }
+  if (res.ground)
+    std::printf("ground: %.2f m below, tilt %.2f deg, %.0f %% on it\n",
+                res.ground->height_m(scan.origin_m), res.ground->tilt_deg(),
+                100.0 * res.ground->inlier_fraction);
   std::printf("| %s | in view %zu | occluded %.4f |", dir.c_str(), res.coloured + res.occluded,
               double(res.occluded) / double(res.coloured + res.occluded));
   for (int b = 0; b < 5; ++b)
@@ -94,6 +100,10 @@ int main(int argc, char** argv) {
   colour::ColourOptions o;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
+    if (k == "--no-ground") {
+      o.ground.enabled = false;
+      continue;
+    }
     if (k == "--list" || k == "--dump") {
       list = true;
       dump = dump || k == "--dump";
@@ -132,6 +142,12 @@ int main(int argc, char** argv) {
       o.slope_tolerance_px = std::stod(v);
     else if (k == "--backface-deg")
       o.backface_margin_deg = std::stod(v);
+    else if (k == "--ground-tol-m")
+      o.continuity.ground_tolerance_m = std::stod(v);
+    else if (k == "--ground-slope-deg")
+      o.continuity.ground_max_slope_deg = std::stod(v);
+    else if (k == "--ground-tol-fraction")
+      o.continuity.ground_tolerance_fraction = std::stod(v);
     else if (k == "--footprint")
       o.footprint_min_weight = std::stod(v);
     else {

@@ -66,6 +66,15 @@ Rgb8 ParseRgb(const std::string& text) {
               static_cast<std::uint8_t>(b)};
 }
 
+Eigen::Vector3d ParseVector3(const std::string& text, const std::string& option) {
+  double x, y, z;
+  char tail;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &x, &y, &z, &tail) != 3 ||
+      !Eigen::Vector3d(x, y, z).allFinite() || Eigen::Vector3d(x, y, z).norm() == 0.0)
+    throw Error("option " + option + ": '" + text + "' is not a non-zero vector X,Y,Z");
+  return {x, y, z};
+}
+
 std::string Pct(std::size_t a, std::size_t b) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f %%", b ? 100.0 * double(a) / double(b) : 0.0);
@@ -169,6 +178,8 @@ int RunColorize(const Args& args) {
     co.blend = BlendMode::kWeighted;
   else
     throw Error("option --blend: '" + blend + "' is not best or weighted");
+  co.ground.enabled = !args.has("--no-ground");
+  if (args.has("--up")) co.ground.up = ParseVector3(args.get("--up"), "--up");
   if (!(co.edge_fill >= 0.0)) throw Error("option --edge-fill: must be >= 0");
   if (!(co.depth_tolerance_m >= 0.0)) throw Error("option --depth-tolerance-m: must be >= 0");
   if (!(co.continuity.min_bearing_angle_deg >= 0.0 && co.continuity.min_bearing_angle_deg < 90.0))
@@ -205,6 +216,7 @@ int RunColorize(const Args& args) {
   }
 
   const ColouredScan coloured = Colourise(scan, views, co, progress);
+  mo.continuity.ground = coloured.ground;  // the mesh joins what the colouring joined
   std::vector<std::string> written;
   if (!out_ply.empty()) {
     WriteColouredPly(out_ply, scan, coloured, eo);
@@ -267,6 +279,17 @@ int RunColorize(const Args& args) {
       if (!views[k].mask.empty()) o << ", outside the mask " << s.outside_mask;
       o << ")\n";
       if (!edge_cells.empty()) PrintAlignment(o, scan, views[k], coloured, k, edge_cells);
+    }
+    if (coloured.ground) {
+      const GroundPlane& g = *coloured.ground;
+      char buf[160];
+      std::snprintf(buf, sizeof buf,
+                    "ground: plane %.2f m below the scanner, tilted %.1f deg from the up axis, "
+                    "%.0f %% of the points on it (prior for the continuity test; --no-ground)\n",
+                    g.height_m(scan.origin_m), g.tilt_deg(co.ground.up), 100.0 * g.inlier_fraction);
+      o << buf;
+    } else if (co.ground.enabled) {
+      o << "ground: none found below the scanner (no ground prior)\n";
     }
     o << "total: coloured " << coloured.coloured << " (" << Pct(coloured.coloured, coloured.valid)
       << "), occluded " << coloured.occluded << ", out of view " << coloured.out_of_view
@@ -357,6 +380,11 @@ Command MakeColorizeCommand() {
           {"--no-occlusion", "",
            "No depth buffer: every projected point takes a colour (for comparison only)."},
           {"--blend", "MODE", "Several images: best (default) or weighted."},
+          {"--no-ground", "",
+           "No ground prior: far lidar rings on the ground are then separate surfaces (splats, "
+           "mesh)."},
+          {"--up", "X,Y,Z",
+           "The scan frame's up direction for the ground plane. Default 0,0,1 (z up)."},
           {"--edge-fill", "F",
            "How far splats reach past silhouettes, in half grid spacings. Default 2."},
           {"--depth-tolerance-m", "M", "Absolute part of the depth tolerance. Default 0.03."},

@@ -1129,8 +1129,10 @@ bool CalibrationWindow::exportModel(const QString& path) {
         summary = tr("%1 points, %2 coloured").arg(coloured.valid).arg(coloured.coloured);
         return;
       }
+      colour::MeshOptions mo;
+      mo.continuity.ground = coloured.ground;  // the mesh joins what the colouring joined
       const colour::TexturedMesh mesh =
-          colour::BuildTexturedMesh(*scan_, views, coloured, {}, progress);
+          colour::BuildTexturedMesh(*scan_, views, coloured, mo, progress);
       if (ext == "glb")
         colour::WriteGlb(path.toStdString(), mesh);
       else

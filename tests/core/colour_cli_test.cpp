@@ -258,6 +258,21 @@ TEST(CliColorize, RoadDataset) {
   EXPECT_GT(c, 5000u) << out;
   EXPECT_LT(c, 20000u) << out;
   EXPECT_TRUE(fs::exists(dir + "/road.glb"));
+  // The ground prior: the plane is reported (2.06 m below the lidar), and turning it off
+  // colours fewer points (far ground rings hide each other again).
+  EXPECT_NE(out.find("ground: plane 2.0"), std::string::npos) << out;
+  const std::string base = "--scan " + d + "/scan.pcd --camera " + d +
+                           "/camera-intrinsic.json --image " + d + "/image.png --calib " + d +
+                           "/reference-extrinsic.json --out " + dir + "/road2.ply";
+  ASSERT_EQ(RunCli(dir, base + " --no-ground"), 0) << test::ReadFile(dir + "/stderr.txt");
+  const std::string off = test::ReadFile(dir + "/stdout.txt");
+  EXPECT_EQ(off.find("ground:"), std::string::npos) << off;
+  EXPECT_LT(PrintedCount(off, "coloured"), c) << off;
+  // A scan frame with another up axis is given with --up; a zero vector is an error.
+  EXPECT_NE(RunCli(dir, base + " --up 0,0,0"), 0);
+  EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("--up"), std::string::npos);
+  ASSERT_EQ(RunCli(dir, base + " --up 1,0,0"), 0) << test::ReadFile(dir + "/stderr.txt");
+  EXPECT_NE(test::ReadFile(dir + "/stdout.txt").find("ground: none found"), std::string::npos);
 }
 
 // Fig. 8 as numbers: BA edge points projected with the reference pose lie within about a pixel

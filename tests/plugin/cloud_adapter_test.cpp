@@ -80,7 +80,7 @@ scancam::colour::ColouredScan Pattern(const scancam::OrderedScan& scan, int offs
   c.cols = scan.cols;
   c.rgb.resize(scan.size());
   c.state.resize(scan.size(), PointState::kNoReturn);
-  c.quality.assign(scan.size(), 0.f);
+  c.quality.assign(scan.size(), cv::float16_t());
   for (std::size_t k = 0; k < scan.size(); ++k) {
     if (!scan.valid(k)) continue;
     c.state[k] = k % 3 == 0 ? PointState::kColoured
@@ -88,7 +88,7 @@ scancam::colour::ColouredScan Pattern(const scancam::OrderedScan& scan, int offs
     if (c.state[k] == PointState::kColoured) {
       c.rgb[k] = {static_cast<std::uint8_t>(k + offset), static_cast<std::uint8_t>(2 * k),
                   static_cast<std::uint8_t>(3 * k)};
-      c.quality[k] = 100.f;
+      c.quality[k] = cv::float16_t(100.f);
     }
   }
   return c;

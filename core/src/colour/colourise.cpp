@@ -351,6 +351,10 @@ struct ContParams {
   float noise = 0.f;
   bool planar = true;
   float planar_tol = 0.5f;
+  bool ground = false;  // test 3: height = gn . P + goff
+  float gn[3] = {0.f, 0.f, 1.f};
+  float goff = 0.f, gtol_m = 0.f, gtol_frac = 0.f;
+  float gslope = 0.f;  // tan(ground_max_slope_deg)
 };
 
 ContParams MakeContParams(const ContinuityOptions& o) {
@@ -360,6 +364,14 @@ ContParams MakeContParams(const ContinuityOptions& o) {
   p.noise = static_cast<float>(o.range_noise_m);
   p.planar = o.planar_extrapolation;
   p.planar_tol = static_cast<float>(o.planar_tolerance);
+  if (o.ground) {
+    p.ground = true;
+    for (int k = 0; k < 3; ++k) p.gn[k] = static_cast<float>(o.ground->normal[k]);
+    p.goff = static_cast<float>(o.ground->offset_m);
+    p.gtol_m = static_cast<float>(o.ground_tolerance_m);
+    p.gtol_frac = static_cast<float>(o.ground_tolerance_fraction);
+    p.gslope = static_cast<float>(std::tan(o.ground_max_slope_deg * kDegToRad));
+  }
   return p;
 }
 
@@ -393,6 +405,18 @@ inline bool PlanarPredicts(const OrderedScan& s, int rk, int ck, std::size_t a, 
   return std::abs(ib - pred) <= p.planar_tol * std::abs(ib - ia) + p.noise * ia * ib;
 }
 
+// Test 3: cells i and j (ranges ri, rj) both lie in the ground band and the segment between
+// them is no steeper than the slope limit.
+inline bool GroundContinuous(const OrderedScan& s, std::size_t i, float ri, std::size_t j, float rj,
+                             const ContParams& p) {
+  const Eigen::Vector3f &Pi = s.point_m[i], &Pj = s.point_m[j];
+  const float hi = p.gn[0] * Pi.x() + p.gn[1] * Pi.y() + p.gn[2] * Pi.z() + p.goff;
+  const float hj = p.gn[0] * Pj.x() + p.gn[1] * Pj.y() + p.gn[2] * Pj.z() + p.goff;
+  return std::abs(hi) <= p.gtol_m + p.gtol_frac * ri &&
+         std::abs(hj) <= p.gtol_m + p.gtol_frac * rj &&
+         std::abs(hi - hj) <= p.gslope * (Pi - Pj).norm();
+}
+
 // Cells (r, c) and (r + dr, c + dc), both inside the grid.
 inline bool ContinuousCells(const OrderedScan& s, int r, int c, int dr, int dc,
                             const ContParams& p) {
@@ -400,6 +424,7 @@ inline bool ContinuousCells(const OrderedScan& s, int r, int c, int dr, int dc,
   const float ri = s.range_m[i], rj = s.range_m[j];
   if (!(ri > 0.f) || !(rj > 0.f)) return false;  // NaN compares false
   if (BearingAngleContinuous(ri, rj, s.beam_dir[i], s.beam_dir[j], p)) return true;
+  if (p.ground && GroundContinuous(s, i, ri, j, rj, p)) return true;
   if (!p.planar) return false;
   return PlanarPredicts(s, r - dr, c - dc, i, j, p) ||
          PlanarPredicts(s, r + 2 * dr, c + 2 * dc, j, i, p);
@@ -1115,6 +1140,14 @@ void AssignLarge(std::vector<T>* v, std::size_t n, const T& value) {
 
 // ---- per-row kernels ------------------------------------------------------------------------
 
+// The stored quality: a half float (ColouredScan::quality), clamped to the largest finite one.
+inline cv::float16_t QualityHalf(float q) { return cv::float16_t(std::min(q, 65504.f)); }
+
+// A row of qualities to half floats (OpenCV's conversion: round to nearest even, as F16C).
+void ToHalf(const float* q, int n, cv::float16_t* out) {
+  for (int c = 0; c < n; ++c) out[c] = QualityHalf(q[c]);
+}
+
 // The scalar path of pass 1 for one cell whose neighbourhood is not all real: the neighbour
 // offsets (virtual neighbours where a neighbour is not continuous), the depth gradient and
 // the splat box.
@@ -1538,8 +1571,7 @@ void TestPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, bool sample,
           }
           PointState* st = out.state.data() + base;
           for (int c = 0; c < scan.cols; ++c) st[c] = static_cast<PointState>(to.state[c]);
-          if (keep_quality)
-            std::memcpy(out.quality.data() + base, to.q_out.data(), sizeof(float) * scan.cols);
+          if (keep_quality) ToHalf(to.q_out.data(), scan.cols, out.quality.data() + base);
           if (sample) {
             for (int c = 0; c < scan.cols; ++c)
               if (to.state[c] == static_cast<std::int32_t>(PointState::kColoured))
@@ -1586,13 +1618,16 @@ void TestPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, bool sample,
               const float q = keep_quality ? to.q[c] : 0.f;
               if (!multi) {
                 if (sample) out.rgb[i] = sampler(row.u[c], row.v[c]);
-                if (keep_quality) out.quality[i] = q;
+                if (keep_quality) out.quality[i] = QualityHalf(q);
               } else {
                 const Rgb8 col = sampler(row.u[c], row.v[c]);
                 out.seen_by[i] |= std::uint64_t{1} << k;
-                if (out.state[i] != PointState::kColoured || q > out.quality[i]) {
+                // Compared as stored (half floats), so that a tie keeps the earlier image.
+                const cv::float16_t qh = QualityHalf(q);
+                if (out.state[i] != PointState::kColoured ||
+                    static_cast<float>(qh) > static_cast<float>(out.quality[i])) {
                   out.rgb[i] = col;
-                  out.quality[i] = q;
+                  out.quality[i] = qh;
                   out.source[i] = static_cast<std::uint8_t>(k);
                 }
                 if (weighted) {
@@ -1728,7 +1763,7 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
   if (!deferred_colour) AssignLarge(&out.rgb, n, Rgb8{});
   AssignLarge(&out.state, n, PointState::kNoReturn);
   const bool keep_quality = options.compute_quality || multi;
-  if (keep_quality) AssignLarge(&out.quality, n, 0.f);
+  if (keep_quality) AssignLarge(&out.quality, n, cv::float16_t());
   if (multi) {
     out.source.assign(n, 255);
     out.seen_by.assign(n, 0);
@@ -1738,7 +1773,12 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
 
   ScanCtx sc;
   sc.scan = &scan;
-  sc.cont = MakeContParams(options.continuity);
+  {
+    ContinuityOptions cont = options.continuity;
+    if (!cont.ground && options.ground.enabled) cont.ground = EstimateGround(scan, options.ground);
+    out.ground = cont.ground;
+    sc.cont = MakeContParams(cont);
+  }
   sc.max_offset_px = 2.f * static_cast<float>(options.max_splat_px);
 
   DepthBuffer zbuf;

@@ -84,6 +84,13 @@
 // behind their samples up to the next beam (edge_fill). tests/core/colour_sim_test.cpp measures
 // these effects per camera preset.
 //
+// The ground. A lidar's far rings on the ground are one-sample strips for the range-only
+// continuity tests, splatted as walls up to the next ring, which a camera lower than the lidar
+// looks at through them. Unless ColourOptions::ground.enabled is false, the ground plane is
+// estimated (colour/ground.h) and cells on it join (ContinuityOptions test 3); the plane used
+// is in ColouredScan::ground. tests/core/colour_ground_test.cpp measures it on the real road
+// scan; an unlevelled scanner whose frame is not z-up needs GroundOptions::up.
+//
 // Speed and memory: per image, rows in parallel chunks (OpenMP), each thread with three
 // rolling rows of projections, points and continuity flags (no allocation per point); the
 // arithmetic of a row runs 8 cells at a time with AVX2 where the processor has it, else 4
@@ -92,7 +99,7 @@
 // (plain loads and stores inside); (2) depth test, back faces, state and quality; with one
 // image, (3) the colours, after the depth buffer is freed. Every pass projects the rows it
 // needs again (nothing is kept per cell between passes). The per-cell checks of CheckScan run
-// inside the first pass. Memory: the result (8 bytes per cell: rgb 3, state 1, quality 4 (0
+// inside the first pass. Memory: the result (6 bytes per cell: rgb 3, state 1, quality 2 (0
 // without compute_quality); plus 9 bytes per cell with several images, 16 more with
 // BlendMode::kWeighted) and one 2-byte depth buffer per image pixel (depths as truncated half
 // floats, 0.1 % steps; its own memory mapping, released at once), reused per image. With one
@@ -105,10 +112,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "scancam/camera/camera_model.h"
+#include "scancam/colour/ground.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
@@ -156,12 +165,27 @@ struct Rgb8 {
 ///    from i's side or, symmetrically, from j's side (the cell after j predicting i). A grazing
 ///    surface continues the plane of its neighbours and passes; at a real discontinuity (a pole
 ///    in front of a wall) the near surface predicts a range near its own and fails.
-/// The test is symmetric in i and j and uses only ranges and beam directions, as BA images do.
+/// 3. Ground (when `ground` is set, colour/ground.h): both cells lie within
+///      ground_tolerance_m + ground_tolerance_fraction * rho
+///    of the ground plane (|height_m(P)|, each with its own range rho), and the segment
+///    between them rises by at most tan(ground_max_slope_deg) |P_i - P_j| (a box's bottom edge
+///    and the floor behind it are not one surface, two far rings of a road are). A lidar sees the
+///    ground at a grazing angle: far rings are metres apart along the beam and centimetres of
+///    height noise are metres of range, so tests 1 and 2 fail there (real road scan, rings beyond
+///    30 m) although the cells are one surface. Objects standing on the ground join it only
+///    with their cells inside the band (a kerb, the bottom 10-30 cm of a wall).
+/// Tests 1 and 2 are symmetric in i and j and use only ranges and beam directions, as BA
+/// images do; test 3 uses the points.
 struct ContinuityOptions {
   double min_bearing_angle_deg = 15.0;
   double range_noise_m = 0.03;
   bool planar_extrapolation = true;
   double planar_tolerance = 0.5;
+  std::optional<GroundPlane>
+      ground;  ///< none: no test 3 (Colourise fills it, ColourOptions::ground)
+  double ground_tolerance_m = 0.1;
+  double ground_tolerance_fraction = 0.004;
+  double ground_max_slope_deg = 8.0;
 };
 
 /// True when cell (r, c) and its grid neighbour (r + dr, c + dc) are continuous (see
@@ -184,6 +208,11 @@ enum class BlendMode { kBestView, kWeighted };
 
 struct ColourOptions {
   ContinuityOptions continuity;
+  /// The ground prior of the continuity test (test 3): when continuity.ground is unset and
+  /// ground.enabled, Colourise estimates the plane (EstimateGround) and reports it in
+  /// ColouredScan::ground. Callers that also build a mesh pass that plane on
+  /// (MeshOptions::continuity.ground), so that both join the same cells.
+  GroundOptions ground;
   bool occlusion = true;  ///< false: no z-buffer (every projected point takes a colour;
                           ///< only for comparisons: occluded points take the occluder's colour)
   // Depth test (see the file comment, step 3).
@@ -221,7 +250,7 @@ struct ColourOptions {
   /// nearest pixel alone.
   double footprint_min_weight = 0.25;
   /// Compute the per-point quality (step 5). With one image it can be skipped to save time
-  /// and 4 bytes per cell (ColouredScan::quality is then empty); with several images it is
+  /// and 2 bytes per cell (ColouredScan::quality is then empty); with several images it is
   /// always computed (the blend needs it).
   bool compute_quality = true;
   // Several images.
@@ -244,8 +273,10 @@ struct ColouredScan {
   int rows = 0, cols = 0;
   std::vector<Rgb8> rgb;          ///< colour where kColoured, (0, 0, 0) elsewhere
   std::vector<PointState> state;  ///< see PointState
-  std::vector<float> quality;     ///< pixels per metre of surface (step 5) where kColoured,
-                                  ///< 0 elsewhere (and 0 where unknown)
+  /// Pixels per metre of surface (step 5) where kColoured, 0 elsewhere (and 0 where unknown),
+  /// as half floats (2 bytes: 11 significant bits, 0.05 % steps; at most 65504 px/m, larger
+  /// values are clamped); they convert to float implicitly: float q = quality[i].
+  std::vector<cv::float16_t> quality;
   /// With several images only (else empty: image 0 for every coloured cell): the image the
   /// colour came from (kBestView; with kWeighted the best one), 255 where not coloured...
   std::vector<std::uint8_t> source;
@@ -254,6 +285,8 @@ struct ColouredScan {
   // Totals over the grid.
   std::size_t cells = 0, valid = 0, coloured = 0, occluded = 0, out_of_view = 0;
   std::vector<ViewStats> views;
+  /// The ground plane the continuity test used (given or estimated), if any.
+  std::optional<GroundPlane> ground;
   /// Problems worth telling the user, e.g. an image that (nearly) no point projects into,
   /// with the likely cause (an inverted or wrong T_cam_scan).
   std::vector<std::string> warnings;

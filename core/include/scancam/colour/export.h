@@ -77,7 +77,8 @@ void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
                       const ColouredScan& coloured, const ExportOptions& options = {});
 
 struct MeshOptions {
-  ContinuityOptions continuity;  ///< which neighbours may share a triangle
+  ContinuityOptions continuity;  ///< which neighbours may share a triangle (set its ground
+                                 ///< to ColouredScan::ground to join far ground rings)
   bool keep_untextured = true;   ///< keep faces no image sees completely (grey material)
   /// Close single-cell holes (one missing return, e.g. a dropout) whose four direct
   /// neighbours are valid and continuous around it, with two triangles.
