@@ -270,6 +270,45 @@ TEST(TexturedMesh, ClosesSingleDropoutsOnly) {
   EXPECT_EQ(holes2, holes - 8) << "a horizontal two-cell hole removes eight triangles";
 }
 
+// A grid that closes a full turn: a 360-deg lidar inside a round room (columns wrap), and the
+// same grid transposed as a rotating scanner's planes (rows wrap). The seam's quads are meshed
+// (two triangles per row, or per column, more) and the wall's grid is then closed; the scene's
+// bounded wall (30 deg either way) wraps on neither axis.
+TEST(TexturedMesh, ClosesTheSeamOfAFullTurn) {
+  const int rows = 9, cols = 360;
+  OrderedScan lidar = OrderedScan::Empty(rows, cols), rotating = OrderedScan::Empty(cols, rows);
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const double e = (4.0 - r) * kDeg, a = (180.0 - c) * kDeg;
+      const Eigen::Vector3f b(static_cast<float>(std::cos(e) * std::cos(a)),
+                              static_cast<float>(std::cos(e) * std::sin(a)),
+                              static_cast<float>(std::sin(e)));
+      const Eigen::Vector3f p = (4.0f / std::cos(static_cast<float>(e))) * b;  // radius 4 m
+      lidar.beam_dir[lidar.index(r, c)] = b;
+      lidar.set_point(r, c, p);
+      rotating.beam_dir[rotating.index(c, r)] = b;
+      rotating.set_point(c, r, p);
+    }
+  }
+  const GridWrap wl = DetectGridWrap(lidar), wr = DetectGridWrap(rotating);
+  EXPECT_TRUE(wl.cols);
+  EXPECT_FALSE(wl.rows);
+  EXPECT_TRUE(wr.rows);
+  EXPECT_FALSE(wr.cols);
+  const GridWrap wall = DetectGridWrap(GetScene().scan);
+  EXPECT_FALSE(wall.rows || wall.cols);
+  MeshOptions open;
+  open.close_wrap = false;
+  for (const OrderedScan* s : {&lidar, &rotating}) {
+    ColourView v = GetScene().views[0];  // it sees part of the room; faces stay untextured
+    const ColouredScan col = Colourise(*s, {v});
+    const std::size_t closed = BuildTexturedMesh(*s, {v}, col).face_count();
+    const std::size_t slit = BuildTexturedMesh(*s, {v}, col, open).face_count();
+    EXPECT_EQ(slit, 2u * (rows - 1) * (cols - 1));
+    EXPECT_EQ(closed, slit + 2u * (rows - 1)) << "the seam's quads";
+  }
+}
+
 TEST(TexturedMesh, ObjThroughPcl) {
   const Scene& s = GetScene();
   const TexturedMesh mesh = BuildTexturedMesh(s.scan, s.views, s.coloured);

@@ -355,6 +355,7 @@ struct ContParams {
   float gn[3] = {0.f, 0.f, 1.f};
   float goff = 0.f, gtol_m = 0.f, gtol_frac = 0.f;
   float gslope = 0.f;  // tan(ground_max_slope_deg)
+  bool wrap_rows = false, wrap_cols = false;
 };
 
 ContParams MakeContParams(const ContinuityOptions& o) {
@@ -364,6 +365,8 @@ ContParams MakeContParams(const ContinuityOptions& o) {
   p.noise = static_cast<float>(o.range_noise_m);
   p.planar = o.planar_extrapolation;
   p.planar_tol = static_cast<float>(o.planar_tolerance);
+  p.wrap_rows = o.wrap_rows;
+  p.wrap_cols = o.wrap_cols;
   if (o.ground) {
     p.ground = true;
     for (int k = 0; k < 3; ++k) p.gn[k] = static_cast<float>(o.ground->normal[k]);
@@ -390,11 +393,21 @@ inline bool BearingAngleContinuous(float ri, float rj, const Eigen::Vector3f& bi
   return ci * ci <= lim && cj * cj <= lim;
 }
 
+// Grid cell (r, c) with the grid's wrap applied (ContinuityOptions::wrap_rows / wrap_cols):
+// its index, false when it lies outside the grid.
+inline bool WrappedCell(const OrderedScan& s, const ContParams& p, int r, int c, std::size_t* i) {
+  if (p.wrap_rows) r = (r % s.rows + s.rows) % s.rows;
+  if (p.wrap_cols) c = (c % s.cols + s.cols) % s.cols;
+  if (!s.inside(r, c)) return false;
+  *i = s.index(r, c);
+  return true;
+}
+
 // Test 2 from one side: cell k (before a on the grid line k -> a -> b) and a predict b.
 inline bool PlanarPredicts(const OrderedScan& s, int rk, int ck, std::size_t a, std::size_t b,
                            const ContParams& p) {
-  if (!s.inside(rk, ck)) return false;
-  const std::size_t k = s.index(rk, ck);
+  std::size_t k;
+  if (!WrappedCell(s, p, rk, ck, &k)) return false;
   const float rk_m = s.range_m[k];
   if (!(rk_m > 0.f)) return false;  // no return (NaN compares false)
   const float ia = 1.f / s.range_m[a], ib = 1.f / s.range_m[b], ik = 1.f / rk_m;
@@ -417,10 +430,12 @@ inline bool GroundContinuous(const OrderedScan& s, std::size_t i, float ri, std:
          std::abs(hi - hj) <= p.gslope * (Pi - Pj).norm();
 }
 
-// Cells (r, c) and (r + dr, c + dc), both inside the grid.
+// Cells (r, c) and (r + dr, c + dc), both inside the grid (after the wrap).
 inline bool ContinuousCells(const OrderedScan& s, int r, int c, int dr, int dc,
                             const ContParams& p) {
-  const std::size_t i = s.index(r, c), j = s.index(r + dr, c + dc);
+  std::size_t i = 0, j = 0;
+  WrappedCell(s, p, r, c, &i);
+  WrappedCell(s, p, r + dr, c + dc, &j);
   const float ri = s.range_m[i], rj = s.range_m[j];
   if (!(ri > 0.f) || !(rj > 0.f)) return false;  // NaN compares false
   if (BearingAngleContinuous(ri, rj, s.beam_dir[i], s.beam_dir[j], p)) return true;
@@ -1143,9 +1158,27 @@ void AssignLarge(std::vector<T>* v, std::size_t n, const T& value) {
 // The stored quality: a half float (ColouredScan::quality), clamped to the largest finite one.
 inline cv::float16_t QualityHalf(float q) { return cv::float16_t(std::min(q, 65504.f)); }
 
-// A row of qualities to half floats (OpenCV's conversion: round to nearest even, as F16C).
+// A row of qualities to half floats: F16C, 8 at a time, where the processor has it, else
+// OpenCV's conversion; both round to nearest even, so the stored bits are the same.
+#if SCANCAM_COLOUR_AVX2
+__attribute__((target("avx2,f16c"))) int ToHalfF16c(const float* q, int n, cv::float16_t* out) {
+  const __m256 lim = _mm256_set1_ps(65504.f);
+  int c = 0;
+  for (; c + 8 <= n; c += 8) {
+    const __m256 v = _mm256_min_ps(_mm256_loadu_ps(q + c), lim);  // as std::min(q, 65504)
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + c),
+                     _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT));
+  }
+  return c;
+}
+#endif
 void ToHalf(const float* q, int n, cv::float16_t* out) {
-  for (int c = 0; c < n; ++c) out[c] = QualityHalf(q[c]);
+  int c = 0;
+#if SCANCAM_COLOUR_AVX2
+  static const bool f16c = __builtin_cpu_supports("f16c");
+  if (f16c) c = ToHalfF16c(q, n, out);
+#endif
+  for (; c < n; ++c) out[c] = QualityHalf(q[c]);
 }
 
 // The scalar path of pass 1 for one cell whose neighbourhood is not all real: the neighbour
@@ -1696,10 +1729,46 @@ const char* PointStateName(PointState state) {
   return "?";
 }
 
+namespace {
+// Median over the grid lines of (angle between the beams of the line's last and first cells) /
+// (angle between its first two cells); lines without known beams there are skipped.
+double WrapRatio(const OrderedScan& s, bool rows) {
+  std::vector<double> ratios;
+  const int lines = rows ? s.cols : s.rows, n = rows ? s.rows : s.cols;
+  if (n < 3) return 0.0;
+  auto beam = [&](int line, int k) -> const Eigen::Vector3f& {
+    return rows ? s.beam_dir[s.index(k, line)] : s.beam_dir[s.index(line, k)];
+  };
+  for (int l = 0; l < lines; ++l) {
+    const Eigen::Vector3f &b0 = beam(l, 0), &b1 = beam(l, 1), &bl = beam(l, n - 1);
+    if (!b0.allFinite() || !b1.allFinite() || !bl.allFinite()) continue;
+    const double step = std::acos(std::clamp(double(b0.dot(b1)), -1.0, 1.0));
+    const double gap = std::acos(std::clamp(double(bl.dot(b0)), -1.0, 1.0));
+    if (step > 1e-6) ratios.push_back(gap / step);
+  }
+  if (ratios.empty()) return 0.0;
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  return ratios[ratios.size() / 2];
+}
+}  // namespace
+
+GridWrap DetectGridWrap(const OrderedScan& scan) {
+  GridWrap w;
+  if (scan.rows <= 0 || scan.cols <= 0 || scan.beam_dir.size() != scan.size()) return w;
+  const double rr = WrapRatio(scan, true), rc = WrapRatio(scan, false);
+  w.rows = rr > 0.5 && rr < 1.5;
+  w.cols = rc > 0.5 && rc < 1.5;
+  return w;
+}
+
 bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
                           const ContinuityOptions& options) {
-  if ((dr == 0 && dc == 0) || !scan.inside(r, c) || !scan.inside(r + dr, c + dc)) return false;
-  return ContinuousCells(scan, r, c, dr, dc, MakeContParams(options));
+  const ContParams p = MakeContParams(options);
+  std::size_t i, j;
+  if ((dr == 0 && dc == 0) || !WrappedCell(scan, p, r, c, &i) ||
+      !WrappedCell(scan, p, r + dr, c + dc, &j))
+    return false;
+  return ContinuousCells(scan, r, c, dr, dc, p);
 }
 
 Rgb8 SampleBilinear(const cv::Mat& bgr, float u, float v) {

@@ -176,8 +176,18 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
   std::vector<std::vector<std::int32_t>> vid(static_cast<std::size_t>(nv) + 1);
 
   const Eigen::Vector3f origin = scan.origin_m.cast<float>();
+  ContinuityOptions co = options.continuity;
+  if (options.close_wrap) {
+    // A grid that closes a full turn gets the quads across its seam too (without them a
+    // rotating scanner's last plane and its first, or a lidar's azimuth seam, leave a slit).
+    const GridWrap w = DetectGridWrap(scan);
+    co.wrap_rows = co.wrap_rows || w.rows;
+    co.wrap_cols = co.wrap_cols || w.cols;
+  }
+  co.wrap_rows = co.wrap_rows && scan.rows > 2;
+  co.wrap_cols = co.wrap_cols && scan.cols > 2;
   auto cont = [&](int r, int c, int dr, int dc) {
-    return ContinuousNeighbours(scan, r, c, dr, dc, options.continuity);
+    return ContinuousNeighbours(scan, r, c, dr, dc, co);
   };
   auto vertex = [&](int part, std::size_t cell) -> std::uint32_t {
     auto& ids = vid[part];
@@ -223,11 +233,15 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
     parts[part].faces.push_back({ia, ib, ic});
   };
 
-  for (int r = 0; r + 1 < scan.rows; ++r) {
+  const int quad_rows = co.wrap_rows ? scan.rows : scan.rows - 1;
+  const int quad_cols = co.wrap_cols ? scan.cols : scan.cols - 1;
+  for (int r = 0; r < quad_rows; ++r) {
     if ((r & 63) == 0) progress(double(r) / double(scan.rows), "meshing");
-    for (int c = 0; c + 1 < scan.cols; ++c) {
-      const std::size_t p00 = scan.index(r, c), p01 = scan.index(r, c + 1),
-                        p10 = scan.index(r + 1, c), p11 = scan.index(r + 1, c + 1);
+    const int r1 = (r + 1) % scan.rows;
+    for (int c = 0; c < quad_cols; ++c) {
+      const int c1 = (c + 1) % scan.cols;
+      const std::size_t p00 = scan.index(r, c), p01 = scan.index(r, c1), p10 = scan.index(r1, c),
+                        p11 = scan.index(r1, c1);
       const bool e_top = cont(r, c, 0, 1), e_bottom = cont(r + 1, c, 0, 1),
                  e_left = cont(r, c, 1, 0), e_right = cont(r, c + 1, 1, 0);
       const bool d_main = cont(r, c, 1, 1), d_anti = cont(r, c + 1, 1, -1);

@@ -186,11 +186,26 @@ struct ContinuityOptions {
   double ground_tolerance_m = 0.1;
   double ground_tolerance_fraction = 0.004;
   double ground_max_slope_deg = 8.0;
+  /// The grid closes on itself (DetectGridWrap): the last row (column) is the first one's
+  /// neighbour. Off by default; meshes turn it on where the grid wraps.
+  bool wrap_rows = false;
+  bool wrap_cols = false;
 };
 
+/// Which grid axes close a full turn: the last row is the first one's neighbour (a rotating 2D
+/// scanner's planes over 360 deg) or the last column the first one's (a spinning lidar's
+/// azimuth, a 360-deg terrestrial scan). Judged from the beam directions: the median, over the
+/// grid lines, of the angle from the last cell's beam to the first one's, divided by the
+/// angle between the first two, lies in (0.5, 1.5).
+struct GridWrap {
+  bool rows = false, cols = false;
+};
+GridWrap DetectGridWrap(const OrderedScan& scan);
+
 /// True when cell (r, c) and its grid neighbour (r + dr, c + dc) are continuous (see
-/// ContinuityOptions; dr, dc in {-1, 0, 1}, not both 0). False when either is outside the grid,
-/// invalid or has an unknown beam direction.
+/// ContinuityOptions; dr, dc in {-1, 0, 1}, not both 0). False when either is outside the grid
+/// (indices wrap along the axes ContinuityOptions::wrap_rows / wrap_cols name), invalid or has
+/// an unknown beam direction.
 bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
                           const ContinuityOptions& options = {});
 

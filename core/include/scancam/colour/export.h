@@ -25,6 +25,8 @@
 //     near 0 or pi marks a depth discontinuity or a grazing surface, plus the range-noise
 //     allowance), so no triangle spans a depth jump; the quad is split along the diagonal
 //     that is continuous and shorter in 3D;
+//   - where the grid closes a full turn (MeshOptions::close_wrap, DetectGridWrap), the quads
+//     across the seam (last row/column to the first) are meshed by the same rules;
 //   - a single missing return (a dropout) whose four direct neighbours are valid and
 //     continuous with each other (diagonal neighbours) is closed by two triangles over the
 //     diamond they form (MeshOptions::fill_dropouts), instead of leaving a hole;
@@ -83,6 +85,10 @@ struct MeshOptions {
   /// Close single-cell holes (one missing return, e.g. a dropout) whose four direct
   /// neighbours are valid and continuous around it, with two triangles.
   bool fill_dropouts = true;
+  /// Where the grid closes a full turn (DetectGridWrap: a rotating 2D scanner's planes over
+  /// 360 deg, a spinning lidar's azimuth), also mesh the quads between the last row (column)
+  /// and the first, so the model has no slit along the seam.
+  bool close_wrap = true;
   int jpeg_quality = 0;  ///< 0: textures as PNG (lossless); 1..100: JPEG (smaller)
   bool glb_z_up = true;  ///< .glb: rotate the scan's +z to glTF's +y (a node rotation
                          ///< of -90 deg about x); false: no rotation
