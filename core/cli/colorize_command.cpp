@@ -390,7 +390,7 @@ Command MakeColorizeCommand() {
           {"--depth-tolerance-m", "M", "Absolute part of the depth tolerance. Default 0.03."},
           {"--min-ba-deg", "DEG",
            "Neighbours with a bearing angle within DEG of 0 or 180 deg are not one surface "
-           "(splats, mesh). Default 15."},
+           "(splats, mesh). Default 30."},
           {"--range-noise-m", "M",
            "Range jumps up to M between neighbours are always one surface. Default 0.03."},
           {"--uncoloured-rgb", "R,G,B",
