@@ -281,13 +281,8 @@ int RunColorize(const Args& args) {
       if (!edge_cells.empty()) PrintAlignment(o, scan, views[k], coloured, k, edge_cells);
     }
     if (coloured.ground) {
-      const GroundPlane& g = *coloured.ground;
-      char buf[160];
-      std::snprintf(buf, sizeof buf,
-                    "ground: plane %.2f m below the scanner, tilted %.1f deg from the up axis, "
-                    "%.0f %% of the points on it (prior for the continuity test; --no-ground)\n",
-                    g.height_m(scan.origin_m), g.tilt_deg(co.ground.up), 100.0 * g.inlier_fraction);
-      o << buf;
+      o << "ground: " << DescribeGround(*coloured.ground, scan.origin_m, co.ground.up)
+        << " (prior for the continuity test; --no-ground)\n";
     } else if (co.ground.enabled) {
       o << "ground: none found below the scanner (no ground prior)\n";
     }

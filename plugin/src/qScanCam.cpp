@@ -273,6 +273,10 @@ void qScanCam::applyColours() {
   window_->reportInfo(msg + (st.stored_original
                                  ? QString(" (original colours kept: Restore colours)")
                                  : QString()));
+  if (coloured.ground)
+    window_->reportInfo(QString("Ground (joins far rings for the occlusion test): %1")
+                            .arg(QString::fromStdString(scancam::colour::DescribeGround(
+                                *coloured.ground, cloud_scan_.scan->origin_m))));
   for (const std::string& w : coloured.warnings)
     window_->reportInfo(QString::fromStdString(w), scancam::ui::CalibrationWindow::kWarning);
 }

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "scancam/error.h"
 
@@ -17,6 +18,16 @@ namespace scancam::colour {
 double GroundPlane::tilt_deg(const Eigen::Vector3d& up) const {
   const double c = std::clamp(normal.dot(up.normalized()), -1.0, 1.0);
   return std::acos(c) * 180.0 / 3.14159265358979323846;
+}
+
+std::string DescribeGround(const GroundPlane& g, const Eigen::Vector3d& origin_m,
+                           const Eigen::Vector3d& up) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf,
+                "plane %.2f m below the scanner, tilted %.1f deg from the up axis, %.0f %% of the "
+                "points on it",
+                g.height_m(origin_m), g.tilt_deg(up), 100.0 * g.inlier_fraction);
+  return buf;
 }
 
 std::optional<GroundPlane> EstimateGround(const OrderedScan& scan, const GroundOptions& o) {

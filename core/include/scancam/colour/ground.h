@@ -31,6 +31,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <optional>
+#include <string>
 
 #include "scancam/ordered_scan.h"
 
@@ -58,6 +59,11 @@ struct GroundOptions {
   double min_inlier_fraction = 0.05;
   std::size_t max_points = 20000;
 };
+
+/// For messages: "plane 2.05 m below the scanner, tilted 0.5 deg from the up axis, 31 % of the
+/// points on it" (the scanner = origin_m).
+std::string DescribeGround(const GroundPlane& ground, const Eigen::Vector3d& origin_m,
+                           const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ());
 
 /// The ground plane of `scan` (see the file comment), or nullopt when there is none.
 /// Throws scancam::Error when `up` is zero or not finite, or the options are out of range.
