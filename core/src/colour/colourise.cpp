@@ -1155,8 +1155,9 @@ void AssignLarge(std::vector<T>* v, std::size_t n, const T& value) {
 
 // ---- per-row kernels ------------------------------------------------------------------------
 
-// The stored quality: a half float (ColouredScan::quality), clamped to the largest finite one.
-inline cv::float16_t QualityHalf(float q) { return cv::float16_t(std::min(q, 65504.f)); }
+// The stored quality: a half float (ColouredScan::quality), clamped to the largest finite one
+// (q < limit ? q : limit, as _mm256_min_ps(q, limit) in ToHalfF16c, NaN included).
+inline cv::float16_t QualityHalf(float q) { return cv::float16_t(q < 65504.f ? q : 65504.f); }
 
 // A row of qualities to half floats: F16C, 8 at a time, where the processor has it, else
 // OpenCV's conversion; both round to nearest even, so the stored bits are the same.
@@ -1165,7 +1166,7 @@ __attribute__((target("avx2,f16c"))) int ToHalfF16c(const float* q, int n, cv::f
   const __m256 lim = _mm256_set1_ps(65504.f);
   int c = 0;
   for (; c + 8 <= n; c += 8) {
-    const __m256 v = _mm256_min_ps(_mm256_loadu_ps(q + c), lim);  // as std::min(q, 65504)
+    const __m256 v = _mm256_min_ps(_mm256_loadu_ps(q + c), lim);  // q < lim ? q : lim
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + c),
                      _mm256_cvtps_ph(v, _MM_FROUND_TO_NEAREST_INT));
   }

@@ -192,7 +192,9 @@ struct ContinuityOptions {
   double ground_tolerance_fraction = 0.004;
   double ground_max_slope_deg = 8.0;
   /// The grid closes on itself (DetectGridWrap): the last row (column) is the first one's
-  /// neighbour. Off by default; meshes turn it on where the grid wraps.
+  /// neighbour. Off by default; meshes turn it on where the grid wraps (MeshOptions::
+  /// close_wrap). Colourise does not use it: its splats do not cross the seam (a neighbour
+  /// more than 2 max_splat_px away in the image is not used).
   bool wrap_rows = false;
   bool wrap_cols = false;
 };
