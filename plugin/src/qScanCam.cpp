@@ -261,6 +261,12 @@ void qScanCam::applyColours() {
   m_app->updateUI();
   window_->setRestoreAvailable(true);
   if (restore_action_) restore_action_->setEnabled(true);
+  // The ground first: the window's status line keeps the last message, which should be the
+  // colouring summary.
+  if (coloured.ground)
+    window_->reportInfo(QString("Ground (joins far rings for the occlusion test): %1")
+                            .arg(QString::fromStdString(scancam::colour::DescribeGround(
+                                *coloured.ground, cloud_scan_.scan->origin_m))));
   const QString msg =
       QString("Coloured %1: %2 points from the image, %3 occluded, %4 out of view%5")
           .arg(cloud->getName())
@@ -273,10 +279,6 @@ void qScanCam::applyColours() {
   window_->reportInfo(msg + (st.stored_original
                                  ? QString(" (original colours kept: Restore colours)")
                                  : QString()));
-  if (coloured.ground)
-    window_->reportInfo(QString("Ground (joins far rings for the occlusion test): %1")
-                            .arg(QString::fromStdString(scancam::colour::DescribeGround(
-                                *coloured.ground, cloud_scan_.scan->origin_m))));
   for (const std::string& w : coloured.warnings)
     window_->reportInfo(QString::fromStdString(w), scancam::ui::CalibrationWindow::kWarning);
 }
