@@ -78,9 +78,7 @@ void RoadStudy(const std::string& dir, const colour::ColourOptions& o) {
     occ[b] += res.state[i] == colour::PointState::kOccluded;
   }
   if (res.ground)
-    std::printf("ground: %.2f m below, tilt %.2f deg, %.0f %% on it\n",
-                res.ground->height_m(scan.origin_m), res.ground->tilt_deg(),
-                100.0 * res.ground->inlier_fraction);
+    std::printf("ground: %s\n", colour::DescribeGround(*res.ground, scan.origin_m).c_str());
   std::printf("| %s | in view %zu | occluded %.4f |", dir.c_str(), res.coloured + res.occluded,
               double(res.occluded) / double(res.coloured + res.occluded));
   for (int b = 0; b < 5; ++b)

@@ -66,15 +66,6 @@ Rgb8 ParseRgb(const std::string& text) {
               static_cast<std::uint8_t>(b)};
 }
 
-Eigen::Vector3d ParseVector3(const std::string& text, const std::string& option) {
-  double x, y, z;
-  char tail;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf%c", &x, &y, &z, &tail) != 3 ||
-      !Eigen::Vector3d(x, y, z).allFinite() || Eigen::Vector3d(x, y, z).norm() == 0.0)
-    throw Error("option " + option + ": '" + text + "' is not a non-zero vector X,Y,Z");
-  return {x, y, z};
-}
-
 std::string Pct(std::size_t a, std::size_t b) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f %%", b ? 100.0 * double(a) / double(b) : 0.0);
@@ -179,7 +170,11 @@ int RunColorize(const Args& args) {
   else
     throw Error("option --blend: '" + blend + "' is not best or weighted");
   co.ground.enabled = !args.has("--no-ground");
-  if (args.has("--up")) co.ground.up = ParseVector3(args.get("--up"), "--up");
+  if (args.has("--up")) {
+    co.ground.up = args.get_vector3("--up");
+    if (co.ground.up.norm() == 0.0)
+      throw Error("option --up: '" + args.get("--up") + "' is the zero vector (give X,Y,Z)");
+  }
   if (!(co.edge_fill >= 0.0)) throw Error("option --edge-fill: must be >= 0");
   if (!(co.depth_tolerance_m >= 0.0)) throw Error("option --depth-tolerance-m: must be >= 0");
   if (!(co.continuity.min_bearing_angle_deg >= 0.0 && co.continuity.min_bearing_angle_deg < 90.0))

@@ -5,6 +5,7 @@
 // core's options structs and call the core.
 #pragma once
 
+#include <Eigen/Core>
 #include <functional>
 #include <map>
 #include <optional>
@@ -34,6 +35,8 @@ class Args {
   std::string required(const std::string& name) const;
   double get_double(const std::string& name, double fallback) const;
   int get_int(const std::string& name, int fallback) const;
+  /// Three finite numbers "X,Y,Z"; throws scancam::Error naming the option otherwise.
+  Eigen::Vector3d get_vector3(const std::string& name) const;
   const std::vector<std::string>& positional() const { return positional_; }
 
  private:

@@ -1,8 +1,10 @@
 // scancam: the command-line front end of the ScanCam core library.
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <sstream>
+#include <vector>
 
 #include "command.h"
 #include "scancam/error.h"
@@ -76,6 +78,26 @@ double Args::get_double(const std::string& name, double fallback) const {
   } catch (const std::exception&) {
     throw Error("option " + name + ": '" + v + "' is not a number");
   }
+}
+Eigen::Vector3d Args::get_vector3(const std::string& name) const {
+  const std::string text = get(name);
+  std::stringstream ss(text);
+  std::string item;
+  std::vector<double> v;
+  while (std::getline(ss, item, ',')) {
+    try {
+      std::size_t used = 0;
+      v.push_back(std::stod(item, &used));
+      if (used != item.size()) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      v.clear();
+      break;
+    }
+  }
+  if (v.size() != 3 || !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
+    throw Error("option " + name + ": '" + text + "' is not three numbers X,Y,Z");
+  }
+  return {v[0], v[1], v[2]};
 }
 int Args::get_int(const std::string& name, int fallback) const {
   if (!has(name)) return fallback;

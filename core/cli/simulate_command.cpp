@@ -14,27 +14,6 @@
 namespace scancam::cli {
 namespace {
 
-Eigen::Vector3d ParseVec3(const Args& args, const std::string& name) {
-  const std::string text = args.get(name);
-  std::stringstream ss(text);
-  std::string item;
-  std::vector<double> v;
-  while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
-    } catch (const std::exception&) {
-      v.clear();
-      break;
-    }
-  }
-  if (v.size() != 3 || !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
-    throw Error("option " + name + ": '" + text + "' is not three numbers X,Y,Z");
-  }
-  return {v[0], v[1], v[2]};
-}
-
 int RunSimulate(const Args& args) {
   if (!args.positional().empty()) {
     throw Error("unexpected argument '" + args.positional()[0] + "' (see --help)");
@@ -75,14 +54,14 @@ int RunSimulate(const Args& args) {
   o.supersample = args.get_int("--supersample", o.supersample);
   o.image_noise_sigma = args.get_double("--image-noise", o.image_noise_sigma);
   if (args.has("--scanner-position-m"))
-    o.scanner_position_m = ParseVec3(args, "--scanner-position-m");
+    o.scanner_position_m = args.get_vector3("--scanner-position-m");
   o.scanner_yaw_deg = args.get_double("--scanner-yaw-deg", o.scanner_yaw_deg);
   if (args.has("--rotation-rpy-deg") || args.has("--translation-m")) {
     Eigen::Isometry3d T = sim::PresetTCamScan(o.camera);
     if (args.has("--rotation-rpy-deg")) {
-      T.linear() = RpyDegToRotation(ParseVec3(args, "--rotation-rpy-deg"));
+      T.linear() = RpyDegToRotation(args.get_vector3("--rotation-rpy-deg"));
     }
-    if (args.has("--translation-m")) T.translation() = ParseVec3(args, "--translation-m");
+    if (args.has("--translation-m")) T.translation() = args.get_vector3("--translation-m");
     o.T_cam_scan = T;
   }
 
