@@ -22,12 +22,11 @@ Eigen::Isometry3d TruePose() {
   return T;
 }
 
-// Orthonormal tangent basis at b.
+// The tangent basis at b (TangentBasis, refine.h) as two vectors.
 void Tangent(const Eigen::Vector3d& b, Eigen::Vector3d* e1, Eigen::Vector3d* e2) {
-  const Eigen::Vector3d h =
-      std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  *e1 = b.cross(h).normalized();
-  *e2 = b.cross(*e1);
+  const Eigen::Matrix<double, 3, 2> E = TangentBasis(b);
+  *e1 = E.col(0);
+  *e2 = E.col(1);
 }
 
 struct Problem {
@@ -248,3 +247,21 @@ TEST(PickSuggestions, PredictWhatAnExtraPairThereGives) {
 
 }  // namespace
 }  // namespace scancam
+
+TEST(TangentBasis, OrthonormalAndPerpendicularToTheBearing) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g(0, 1);
+  std::vector<Eigen::Vector3d> bearings = {Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitX(),
+                                           Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(),
+                                           Eigen::Vector3d(0.9, 0.1, 0.0).normalized()};
+  for (int k = 0; k < 50; ++k)
+    bearings.push_back(Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized());
+  for (const Eigen::Vector3d& b : bearings) {
+    const Eigen::Matrix<double, 3, 2> E = scancam::TangentBasis(b);
+    EXPECT_NEAR((E.transpose() * E - Eigen::Matrix2d::Identity()).norm(), 0.0, 1e-12)
+        << b.transpose();
+    EXPECT_NEAR((E.transpose() * b).norm(), 0.0, 1e-12) << b.transpose();
+    // Right-handed: e1 x e2 = b.
+    EXPECT_NEAR((E.col(0).cross(E.col(1)) - b).norm(), 0.0, 1e-12) << b.transpose();
+  }
+}

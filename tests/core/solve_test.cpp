@@ -44,10 +44,8 @@ Scene MakeScene(int n, const Eigen::Isometry3d& T, std::uint32_t seed) {
 // Rotates a bearing by a random small angle with the given standard deviation.
 Eigen::Vector3d Perturb(const Eigen::Vector3d& b, double sigma_rad, std::mt19937& rng) {
   std::normal_distribution<double> g(0, sigma_rad);
-  const Eigen::Vector3d h =
-      std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d e1 = b.cross(h).normalized(), e2 = b.cross(e1);
-  return (b + g(rng) * e1 + g(rng) * e2).normalized();
+  const Eigen::Matrix<double, 3, 2> E = TangentBasis(b);
+  return (b + g(rng) * E.col(0) + g(rng) * E.col(1)).normalized();
 }
 
 double RotErrDeg(const Eigen::Isometry3d& A, const Eigen::Isometry3d& B) {

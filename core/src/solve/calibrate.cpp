@@ -153,11 +153,7 @@ Eigen::Matrix<double, 6, 6> PairInformation(const Eigen::Isometry3d& T, const Ei
   const Eigen::Vector3d Xc = Rp + T.translation();
   const double d = Xc.norm();
   const Eigen::Vector3d f = Xc / d;
-  const Eigen::Vector3d h =
-      std::abs(f.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  Eigen::Matrix<double, 3, 2> E;
-  E.col(0) = f.cross(h).normalized();
-  E.col(1) = f.cross(E.col(0));
+  const Eigen::Matrix<double, 3, 2> E = TangentBasis(f);
   // d f = (I - f f^T) / d * dXc; dXc = -[Rp]x ddelta + dt (X = exp(delta) R p + t).
   Eigen::Matrix<double, 3, 6> J;
   Eigen::Matrix3d skew;

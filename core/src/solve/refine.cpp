@@ -21,14 +21,10 @@ struct GeodesicResidual {
                    const Eigen::Matrix3d* cov)
       : b(bearing), p(p) {
     b.normalize();
-    // Any orthonormal basis of the tangent plane at b.
-    const Eigen::Vector3d helper =
-        std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    e1 = b.cross(helper).normalized();
-    e2 = b.cross(e1);
+    const Eigen::Matrix<double, 3, 2> E = TangentBasis(b);
+    e1 = E.col(0);
+    e2 = E.col(1);
     if (cov) {
-      Eigen::Matrix<double, 3, 2> E;
-      E << e1, e2;
       const Eigen::Matrix2d S = E.transpose() * (*cov) * E;
       const Eigen::LLT<Eigen::Matrix2d> llt(0.5 * (S + S.transpose()));
       if (llt.info() != Eigen::Success || !(S.determinant() > 0)) {
@@ -71,6 +67,15 @@ struct GeodesicResidual {
 // by 2|d| about d, applied on the left (camera frame): rotation vector = 2 d.
 
 }  // namespace
+
+Eigen::Matrix<double, 3, 2> TangentBasis(const Eigen::Vector3d& b) {
+  const Eigen::Vector3d helper =
+      std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  Eigen::Matrix<double, 3, 2> E;
+  E.col(0) = b.cross(helper).normalized();
+  E.col(1) = b.cross(E.col(0));
+  return E;
+}
 
 Eigen::Matrix3d RpyJacobianDegPerRad(const Eigen::Matrix3d& R_hat) {
   Eigen::Matrix3d J;

@@ -61,6 +61,11 @@ struct RefineResult {
   std::string message;  ///< Ceres' summary line or why the covariance failed
 };
 
+/// An orthonormal basis (e1, e2) of the tangent plane at the unit bearing b (columns; e1 ⟂ b,
+/// e2 = b x e1): the basis of the residual above and of the bearing covariances. Any fixed
+/// choice serves; this one is smooth except where b crosses |b.x| = 0.9.
+Eigen::Matrix<double, 3, 2> TangentBasis(const Eigen::Vector3d& b);
+
 /// d(roll, pitch, yaw) [deg] / d(delta) [rad] of R = exp(delta) R_hat at delta = 0 (delta a
 /// rotation vector in the camera frame; rotation_rpy.h convention; central differences).
 Eigen::Matrix3d RpyJacobianDegPerRad(const Eigen::Matrix3d& R_hat);
