@@ -430,12 +430,11 @@ inline bool GroundContinuous(const OrderedScan& s, std::size_t i, float ri, std:
          std::abs(hi - hj) <= p.gslope * (Pi - Pj).norm();
 }
 
-// Cells (r, c) and (r + dr, c + dc), both inside the grid (after the wrap).
+// Cells (r, c) and (r + dr, c + dc); false when either lies outside the grid (after the wrap).
 inline bool ContinuousCells(const OrderedScan& s, int r, int c, int dr, int dc,
                             const ContParams& p) {
   std::size_t i = 0, j = 0;
-  WrappedCell(s, p, r, c, &i);
-  WrappedCell(s, p, r + dr, c + dc, &j);
+  if (!WrappedCell(s, p, r, c, &i) || !WrappedCell(s, p, r + dr, c + dc, &j)) return false;
   const float ri = s.range_m[i], rj = s.range_m[j];
   if (!(ri > 0.f) || !(rj > 0.f)) return false;  // NaN compares false
   if (BearingAngleContinuous(ri, rj, s.beam_dir[i], s.beam_dir[j], p)) return true;
@@ -1762,14 +1761,21 @@ GridWrap DetectGridWrap(const OrderedScan& scan) {
   return w;
 }
 
+struct ContinuityTest::Params {
+  ContParams p;
+};
+
+ContinuityTest::ContinuityTest(const ContinuityOptions& options)
+    : p_(std::make_shared<const Params>(Params{MakeContParams(options)})) {}
+
+bool ContinuityTest::operator()(const OrderedScan& scan, int r, int c, int dr, int dc) const {
+  if (dr == 0 && dc == 0) return false;
+  return ContinuousCells(scan, r, c, dr, dc, p_->p);
+}
+
 bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
                           const ContinuityOptions& options) {
-  const ContParams p = MakeContParams(options);
-  std::size_t i, j;
-  if ((dr == 0 && dc == 0) || !WrappedCell(scan, p, r, c, &i) ||
-      !WrappedCell(scan, p, r + dr, c + dc, &j))
-    return false;
-  return ContinuousCells(scan, r, c, dr, dc, p);
+  return ContinuityTest(options)(scan, r, c, dr, dc);
 }
 
 Rgb8 SampleBilinear(const cv::Mat& bgr, float u, float v) {

@@ -186,9 +186,8 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
   }
   co.wrap_rows = co.wrap_rows && scan.rows > 2;
   co.wrap_cols = co.wrap_cols && scan.cols > 2;
-  auto cont = [&](int r, int c, int dr, int dc) {
-    return ContinuousNeighbours(scan, r, c, dr, dc, co);
-  };
+  const ContinuityTest continuous(co);
+  auto cont = [&](int r, int c, int dr, int dc) { return continuous(scan, r, c, dr, dc); };
   auto vertex = [&](int part, std::size_t cell) -> std::uint32_t {
     auto& ids = vid[part];
     if (ids.empty()) ids.assign(scan.size(), -1);

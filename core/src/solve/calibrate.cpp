@@ -204,14 +204,14 @@ void SuggestPicks(const CameraModel& camera, const OrderedScan& scan,
   // with a grid neighbour that is farther and not continuous with it, colour/colourise.h: an
   // object's outline, where its corners are), about 1000 of them spread over the grid, that
   // the camera sees.
+  const colour::ContinuityTest continuous;
   auto feature = [&](int r, int c) {
     if (!scan.valid(r, c)) return false;
     const float range = scan.range_m[scan.index(r, c)];
     for (const auto& [dr, dc] :
          {std::pair{0, 1}, std::pair{1, 0}, std::pair{0, -1}, std::pair{-1, 0}}) {
       if (!scan.valid(r + dr, c + dc)) continue;
-      if (scan.range_m[scan.index(r + dr, c + dc)] > range &&
-          !colour::ContinuousNeighbours(scan, r, c, dr, dc))
+      if (scan.range_m[scan.index(r + dr, c + dc)] > range && !continuous(scan, r, c, dr, dc))
         return true;
     }
     return false;

@@ -111,6 +111,7 @@
 #include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -215,6 +216,19 @@ GridWrap DetectGridWrap(const OrderedScan& scan);
 /// an unknown beam direction.
 bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
                           const ContinuityOptions& options = {});
+
+/// ContinuousNeighbours for many calls with the same options: what the options imply (the
+/// cosine of the bearing-angle limit, the ground band, the slope) is worked out once, at
+/// construction. Copies share it.
+class ContinuityTest {
+ public:
+  explicit ContinuityTest(const ContinuityOptions& options = {});
+  bool operator()(const OrderedScan& scan, int r, int c, int dr, int dc) const;
+
+ private:
+  struct Params;
+  std::shared_ptr<const Params> p_;
+};
 
 /// One image to colour from.
 struct ColourView {
