@@ -10,8 +10,10 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 
 #include "scancam/colour/colourise.h"
+#include "scancam/colour/export.h"
 #include "scancam/sim/colour_truth.h"
 #include "scancam/sim/office_scene.h"
 #include "scancam/sim/simulate.h"
@@ -233,6 +235,58 @@ TEST(SimColourMulti, TwoShotsOnARotatingMount) {
   EXPECT_GE(double(ours) / double(visible), double(ideal) / double(visible) - 0.01);
   // Together the shots colour much more than either alone.
   EXPECT_GT(res.coloured, res.views[0].coloured + res.views[1].coloured / 2);
+}
+
+// The rotating scanner's poles: every plane's first (last) beam points along the rotation axis
+// from origins on a circle around it, so these cells ring a hole on the wall the axis meets
+// (about 20 cm wide in the office). With MeshOptions::cap_poles a fan closes it: the ring's
+// edges, which the grid quads use once, are used twice. A lidar (one origin, rings that do not
+// converge) gets no cap.
+TEST(SimMesh, CapsTheRotatingScannersPoles) {
+  const sim::Simulation s =
+      sim::Simulate(OfficeScene(), sim::ColourStudySimulation("omni", "rotating"));
+  const ColourView view = sim::ColourViewOf(s);
+  const ColouredScan coloured = Colourise(s.scan, {view});
+  MeshOptions open;
+  open.cap_poles = false;
+  const TexturedMesh capped = BuildTexturedMesh(s.scan, {view}, coloured);
+  const TexturedMesh uncapped = BuildTexturedMesh(s.scan, {view}, coloured, open);
+  const int rows = s.scan.rows, cols = s.scan.cols;
+  // Per end column: how many ring edges (k, col) - (k + 1, col) the mesh uses once and twice.
+  auto ring_uses = [&](const TexturedMesh& m, int col) {
+    std::map<std::pair<int, int>, int> uses;
+    for (const MeshPart& p : m.parts)
+      for (const auto& f : p.faces)
+        for (int e = 0; e < 3; ++e) {
+          const std::uint32_t a = p.cells[f[e]], b = p.cells[f[(e + 1) % 3]];
+          const int ra = static_cast<int>(a) / cols, ca = static_cast<int>(a) % cols;
+          const int rb = static_cast<int>(b) / cols, cb = static_cast<int>(b) % cols;
+          if (ca != col || cb != col) continue;
+          const int lo = std::min(ra, rb), hi = std::max(ra, rb);
+          if (hi - lo == 1 || (lo == 0 && hi == rows - 1)) ++uses[{lo, hi}];
+        }
+    std::pair<int, int> once_twice{0, 0};
+    for (const auto& [edge, n] : uses) (n == 1 ? once_twice.first : once_twice.second) += n >= 1;
+    return once_twice;
+  };
+  for (const int col : {0, cols - 1}) {
+    const auto open_uses = ring_uses(uncapped, col), cap_uses = ring_uses(capped, col);
+    std::printf("pole column %d: ring edges used once / twice: %d / %d open, %d / %d capped\n", col,
+                open_uses.first, open_uses.second, cap_uses.first, cap_uses.second);
+    EXPECT_EQ(open_uses.second, 0) << col;
+    EXPECT_GT(open_uses.first, rows * 8 / 10) << col;
+    EXPECT_GE(cap_uses.second, open_uses.first * 9 / 10) << col;
+  }
+  const std::size_t added = capped.face_count() - uncapped.face_count();
+  EXPECT_GT(added, static_cast<std::size_t>(2 * (rows * 9 / 10 - 2)));
+  EXPECT_LE(added, static_cast<std::size_t>(2 * (rows - 2)));
+
+  const sim::Simulation l =
+      sim::Simulate(OfficeScene(), sim::ColourStudySimulation("equirect", "lidar"));
+  const ColourView lv = sim::ColourViewOf(l);
+  const ColouredScan lc = Colourise(l.scan, {lv});
+  EXPECT_EQ(BuildTexturedMesh(l.scan, {lv}, lc).face_count(),
+            BuildTexturedMesh(l.scan, {lv}, lc, open).face_count());
 }
 
 }  // namespace

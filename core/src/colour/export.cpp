@@ -7,6 +7,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -257,6 +258,83 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
         if (e_top && e_left) triangle(p00, p10, p01);
         if (e_right && e_bottom) triangle(p01, p10, p11);
       }
+    }
+  }
+  if (options.cap_poles) {
+    // A rotating 2D scanner's poles: where the grid closes a full turn along one axis, the
+    // end beam of every line along it points along the rotation axis, from origins on a
+    // circle around the axis (the mirror's offset), so the end cells form a small ring on
+    // the surface the axis meets, which no quad covers (a hole of the offset's size).
+    auto cap = [&](bool ring_along_rows, int end, int inner) {
+      const int n = ring_along_rows ? scan.rows : scan.cols;
+      if (n < 3) return;
+      auto at = [&](int k, int line) {
+        return ring_along_rows ? scan.index(k, line) : scan.index(line, k);
+      };
+      const int dr = ring_along_rows ? 0 : inner - end, dc = ring_along_rows ? inner - end : 0;
+      auto angle = [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+        return std::acos(std::clamp(double(a.dot(b)), -1.0, 1.0));
+      };
+      std::vector<std::size_t> ring;
+      std::vector<double> spacing, step;
+      double max_turn = 0.0;
+      int missing = 0;
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero(), origin_centre = Eigen::Vector3d::Zero();
+      for (int k = 0; k < n; ++k) {
+        const std::size_t i = at(k, end), j = at(k, inner);
+        const int r = ring_along_rows ? k : end, c = ring_along_rows ? end : k;
+        const Eigen::Vector3f& b0 = scan.beam_dir[i];
+        const Eigen::Vector3f& b1 = scan.beam_dir[at((k + 1) % n, end)];
+        if (b0.allFinite() && b1.allFinite()) max_turn = std::max(max_turn, angle(b0, b1));
+        // Left out: missing returns (dropouts) and cells not continuous with their inward
+        // neighbour (e.g. on the edge of a poster proud of the wall); a few of them leave the
+        // ring convex, the flatness test below catches a ring that is not one surface.
+        if (!scan.valid(i) || !cont(r, c, dr, dc)) {
+          ++missing;
+          continue;
+        }
+        ring.push_back(i);
+        spacing.push_back(angle(b0, scan.beam_dir[j]));
+        step.push_back((scan.point_m[i] - scan.point_m[j]).cast<double>().norm());
+        centre += scan.point_m[i].cast<double>();
+        origin_centre += (scan.point_m[i] - scan.range_m[i] * b0).cast<double>();
+      }
+      const std::size_t m = ring.size();
+      if (10 * missing > n || m < 3) return;
+      // The end beams converge: from one ring cell to the next they turn far less than
+      // towards the inner line.
+      std::nth_element(spacing.begin(), spacing.begin() + m / 2, spacing.end());
+      std::nth_element(step.begin(), step.begin() + m / 2, step.end());
+      if (!(max_turn < 0.25 * spacing[m / 2])) return;
+      // One small flat patch: as wide as the circle of the beams' origins (twice that on a
+      // surface at 60 deg to the axis) plus a grid step, and flat within the range noise and
+      // a fifth of its radius.
+      centre /= double(m);
+      origin_centre /= double(m);
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      double radius = 0.0, origin_radius = 0.0;
+      for (const std::size_t i : ring) {
+        const Eigen::Vector3d d = scan.point_m[i].cast<double>() - centre;
+        cov += d * d.transpose();
+        radius = std::max(radius, d.norm());
+        const Eigen::Vector3d o =
+            (scan.point_m[i] - scan.range_m[i] * scan.beam_dir[i]).cast<double>();
+        origin_radius = std::max(origin_radius, (o - origin_centre).norm());
+      }
+      if (!(radius <= 2.0 * origin_radius + step[m / 2])) return;
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov / double(m));
+      const double rms_off_plane = std::sqrt(std::max(0.0, es.eigenvalues()[0]));
+      if (!(rms_off_plane <= 0.2 * radius + co.range_noise_m)) return;
+      // The ring is convex (a circle seen on a plane): a fan from its first cell.
+      for (std::size_t k = 1; k + 1 < m; ++k) triangle(ring[0], ring[k], ring[k + 1]);
+    };
+    if (co.wrap_rows && scan.cols >= 2) {
+      cap(true, 0, 1);
+      cap(true, scan.cols - 1, scan.cols - 2);
+    }
+    if (co.wrap_cols && scan.rows >= 2) {
+      cap(false, 0, 1);
+      cap(false, scan.rows - 1, scan.rows - 2);
     }
   }
   if (options.fill_dropouts) {

@@ -27,6 +27,16 @@
 //     that is continuous and shorter in 3D;
 //   - where the grid closes a full turn (MeshOptions::close_wrap, DetectGridWrap), the quads
 //     across the seam (last row/column to the first) are meshed by the same rules;
+//   - a rotating 2D scanner's poles (MeshOptions::cap_poles): where the grid wraps along one
+//     axis and its end cells (the first / last beam of every plane) converge, i.e. from one to
+//     the next their beams turn less than a quarter of the angle to the next cells inward,
+//     the end cells ring the point where the rotation axis meets a surface (their origins lie
+//     on a circle around the axis: the mirror's offset), a hole no quad covers. It is closed
+//     by a fan of triangles from the ring's first cell when at most a tenth of the ring is
+//     missing (no return, or not continuous with its inward neighbour: a poster's edge) and
+//     the rest is one small flat patch: radius at most twice the origins' circle plus the
+//     median distance to the inward cells, off its best plane by at most a fifth of its
+//     radius plus ContinuityOptions::range_noise_m (rms); otherwise it stays open;
 //   - a single missing return (a dropout) whose four direct neighbours are valid and
 //     continuous with each other (diagonal neighbours) is closed by two triangles over the
 //     diamond they form (MeshOptions::fill_dropouts), instead of leaving a hole;
@@ -89,6 +99,12 @@ struct MeshOptions {
   /// 360 deg, a spinning lidar's azimuth), also mesh the quads between the last row (column)
   /// and the first, so the model has no slit along the seam.
   bool close_wrap = true;
+  /// Where the grid closes a full turn along one axis and the end beams of its lines converge
+  /// (a rotating 2D scanner's first and last beam of every plane point along the rotation
+  /// axis), close the small ring those end cells form on a surface with a fan of triangles,
+  /// when the ring is (nearly) complete, continuous with the grid inside it and a small flat
+  /// patch (see the file comment).
+  bool cap_poles = true;
   int jpeg_quality = 0;  ///< 0: textures as PNG (lossless); 1..100: JPEG (smaller)
   bool glb_z_up = true;  ///< .glb: rotate the scan's +z to glTF's +y (a node rotation
                          ///< of -90 deg about x); false: no rotation
