@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "peak_memory.h"
 #include "scancam/ba_image.h"
 
@@ -48,21 +49,11 @@ using scancam::OrderedScan;
 constexpr int kRows = 720, kCols = 1440;
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-double Sphere(const Eigen::Vector3d& b, const Eigen::Vector3d& c, double radius) {
-  const double bc = b.dot(c), disc = bc * bc - c.squaredNorm() + radius * radius;
-  if (disc < 0) return INFINITY;
-  const double t = bc - std::sqrt(disc);
-  return t > 0 ? t : INFINITY;
-}
+using scancam::bench::RaySphere;
 
 // Distance to the room and the objects along the unit beam b from the origin.
 double CastRay(const Eigen::Vector3d& b) {
-  double t = INFINITY;
-  const double lo[3] = {-5, -4, -1.6}, hi[3] = {7, 6, 2.4};
-  for (int k = 0; k < 3; ++k) {
-    if (b[k] > 1e-12) t = std::min(t, hi[k] / b[k]);
-    if (b[k] < -1e-12) t = std::min(t, lo[k] / b[k]);
-  }
+  double t = scancam::bench::RayInsideBox(b, {-5, -4, -1.6}, {7, 6, 2.4});
   // window in the wall y = 6: no return (glass)
   if (b.y() > 1e-12) {
     const double tw = 6.0 / b.y();
@@ -70,19 +61,9 @@ double CastRay(const Eigen::Vector3d& b) {
     if (tw <= t + 1e-9 && p.x() > 0 && p.x() < 2.5 && p.z() > 0.2 && p.z() < 1.6) t = NAN;
   }
   if (std::isnan(t)) return t;
-  t = std::min(t, Sphere(b, {3.0, 1.0, -0.6}, 1.0));
-  t = std::min(t, Sphere(b, {-2.0, -2.5, 0.5}, 0.6));
-  // vertical pole: cylinder x^2 + (y - 2)^2 = 0.1^2 around (1.5, 2)
-  {
-    const double ox = -1.5, oy = -2.0;  // origin relative to the axis
-    const double a = b.x() * b.x() + b.y() * b.y(), bb = 2 * (ox * b.x() + oy * b.y()),
-                 c = ox * ox + oy * oy - 0.01;
-    const double disc = bb * bb - 4 * a * c;
-    if (a > 1e-12 && disc > 0) {
-      const double tc = (-bb - std::sqrt(disc)) / (2 * a);
-      if (tc > 0) t = std::min(t, tc);
-    }
-  }
+  t = std::min(t, RaySphere(b, {3.0, 1.0, -0.6}, 1.0));
+  t = std::min(t, RaySphere(b, {-2.0, -2.5, 0.5}, 0.6));
+  t = std::min(t, scancam::bench::RayVerticalCylinder(b, 1.5, 2.0, 0.1));  // a pole
   // slab (table top) z = -0.8, 3 < x < 5, -3 < y < -1
   if (b.z() < -1e-12) {
     const double ts = -0.8 / b.z();

@@ -48,7 +48,9 @@
 #include <string>
 #include <vector>
 
+#include "bench_util.h"
 #include "peak_memory.h"
+#include "room_scene.h"
 #include "scancam/colour/colourise.h"
 
 namespace {
@@ -57,100 +59,11 @@ using scancam::OrderedScan;
 namespace sc = scancam::colour;
 
 constexpr int kRows = 2500, kCols = 4000;
-constexpr int kW = 4000, kH = 3000;
-constexpr double kFocal = 2800.0;
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-double Sphere(const Eigen::Vector3d& b, const Eigen::Vector3d& c, double radius) {
-  const double bc = b.dot(c), disc = bc * bc - c.squaredNorm() + radius * radius;
-  if (disc < 0) return INFINITY;
-  const double t = bc - std::sqrt(disc);
-  return t > 0 ? t : INFINITY;
-}
-
-// Scanner frame: x forward, y left, z up. Distance to the first surface along unit beam b.
-double CastRay(const Eigen::Vector3d& b) {
-  double t = INFINITY;
-  const double lo[3] = {-10, -4, -1.5}, hi[3] = {8, 4, 2.0};
-  for (int k = 0; k < 3; ++k) {
-    if (b[k] > 1e-12) t = std::min(t, hi[k] / b[k]);
-    if (b[k] < -1e-12) t = std::min(t, lo[k] / b[k]);
-  }
-  t = std::min(t, Sphere(b, {4.0, -1.2, -0.3}, 0.6));
-  // vertical pole, radius 0.15 m, axis through (3, 0.6)
-  {
-    const double ox = -3.0, oy = -0.6;
-    const double a = b.x() * b.x() + b.y() * b.y(), bb = 2 * (ox * b.x() + oy * b.y()),
-                 c = ox * ox + oy * oy - 0.15 * 0.15;
-    const double disc = bb * bb - 4 * a * c;
-    if (a > 1e-12 && disc > 0) {
-      const double tc = (-bb - std::sqrt(disc)) / (2 * a);
-      if (tc > 0) t = std::min(t, tc);
-    }
-  }
-  // box (front face x = 5, 1.2 < y < 2.2, -1.5 < z < -0.3)
-  if (b.x() > 1e-12) {
-    const double tb = 5.0 / b.x();
-    const Eigen::Vector3d p = tb * b;
-    if (p.y() > 1.2 && p.y() < 2.2 && p.z() > -1.5 && p.z() < -0.3) t = std::min(t, tb);
-  }
-  return t;
-}
-
-struct Data {
-  OrderedScan scan;
-  sc::ColourView view;
-  cv::Mat K, dist, rvec, tvec;
-  double input_mib = 0.0;
-};
+using Data = scancam::bench::RoomScene;
 
 const Data& GetData() {
-  static const Data data = [] {
-    Data d;
-    d.scan = OrderedScan::Empty(kRows, kCols);
-    d.scan.source = "synthetic room (colour bench)";
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<double> u(0, 1);
-    std::vector<float> drop(static_cast<std::size_t>(kRows) * kCols);
-    for (auto& v : drop) v = static_cast<float>(u(rng));
-#pragma omp parallel for schedule(dynamic, 16)
-    for (int r = 0; r < kRows; ++r) {
-      for (int c = 0; c < kCols; ++c) {
-        const double e = (32.0 - 64.0 * r / (kRows - 1)) * kDeg;
-        const double a = (40.0 - 80.0 * c / (kCols - 1)) * kDeg;
-        const Eigen::Vector3d b(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
-        const std::size_t i = d.scan.index(r, c);
-        d.scan.beam_dir[i] = b.cast<float>();
-        if (drop[i] < 0.01f) continue;
-        const double t = CastRay(b);
-        d.scan.range_m[i] = static_cast<float>(t);
-        d.scan.point_m[i] = (t * b).cast<float>();
-      }
-    }
-    // Camera: x_cam = -y_scan, y_cam = -z_scan, z_cam = x_scan; centre at (0, -0.1, -0.05).
-    Eigen::Matrix3d R;
-    R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
-    const Eigen::Vector3d centre(0.0, -0.1, -0.05);
-    d.view.T_cam_scan.setIdentity();
-    d.view.T_cam_scan.linear() = R;
-    d.view.T_cam_scan.translation() = -R * centre;
-    d.view.camera = scancam::CameraModel::Pinhole(kFocal, kFocal, (kW - 1) / 2.0, (kH - 1) / 2.0,
-                                                  {-0.1, 0.05, 0.0, 0.0, 0.0}, kW, kH, "bench");
-    d.view.image.create(kH, kW, CV_8UC3);
-    cv::randu(d.view.image, cv::Scalar::all(0), cv::Scalar::all(255));
-    d.view.name = "bench image";
-    d.K = (cv::Mat_<double>(3, 3) << kFocal, 0, (kW - 1) / 2.0, 0, kFocal, (kH - 1) / 2.0, 0, 0, 1);
-    d.dist = (cv::Mat_<double>(1, 5) << -0.1, 0.05, 0.0, 0.0, 0.0);
-    cv::Mat Rm(3, 3, CV_64F);
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) Rm.at<double>(i, j) = R(i, j);
-    cv::Rodrigues(Rm, d.rvec);
-    const Eigen::Vector3d t = d.view.T_cam_scan.translation();
-    d.tvec = (cv::Mat_<double>(3, 1) << t.x(), t.y(), t.z());
-    const double n = double(kRows) * kCols;
-    d.input_mib = (n * (4 + 12 + 12) + double(kW) * kH * 3) / (1024.0 * 1024.0);
-    return d;
-  }();
+  static const Data data = scancam::bench::MakeRoomScene(kRows, kCols);
   return data;
 }
 
@@ -162,7 +75,7 @@ struct ThreadScope {
   ~ThreadScope() { omp_set_num_threads(saved); }
 };
 
-std::map<std::string, double> g_points_per_s, g_peak_mib, g_cpu_ns;
+std::map<std::string, double> g_peak_mib, g_cpu_ns;
 
 // Process CPU time (all threads), seconds.
 double ProcessCpuSeconds() {
@@ -172,16 +85,7 @@ double ProcessCpuSeconds() {
          1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-// Peak memory of one call of `run` (see the file comment): {peak, peak - resident before}.
-template <typename Run>
-std::pair<double, double> OneCallPeakMiB(Run run) {
-  malloc_trim(0);
-  scancam::bench::ResetPeakRss();
-  const double before = scancam::bench::CurrentRssMiB();
-  run();
-  const double peak = scancam::bench::PeakRssMiB();
-  return {peak, peak - before};
-}
+using scancam::bench::OneCallPeakMiB;
 
 void Finish(benchmark::State& state, std::pair<double, double> peak, double cpu_start,
             const std::string& key) {
@@ -242,22 +146,6 @@ void BM_OpenCv(benchmark::State& state, const std::string& key) {
   Finish(state, peak, cpu, key);
 }
 
-class Reporter : public benchmark::ConsoleReporter {
- public:
-  void ReportRuns(const std::vector<Run>& runs) override {
-    for (const Run& r : runs) {
-      if (r.run_type != Run::RT_Iteration || r.error_occurred) continue;
-      auto it = r.counters.find("items_per_second");
-      std::string key = r.benchmark_name();
-      if (key.rfind("/real_time") != std::string::npos)
-        key = key.substr(0, key.rfind("/real_time"));
-      if (it != r.counters.end())
-        g_points_per_s[key] = std::max(g_points_per_s[key], double(it->second));
-    }
-    ConsoleReporter::ReportRuns(runs);
-  }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -291,15 +179,14 @@ int main(int argc, char** argv) {
   benchmark::RegisterBenchmark("opencv_baseline", BM_OpenCv, "opencv_baseline")
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
-  Reporter reporter;
+  scancam::bench::BestRateReporter reporter;
   benchmark::RunSpecifiedBenchmarks(&reporter);
 
-  const auto bit = g_points_per_s.find("opencv_baseline");
-  const double base = bit == g_points_per_s.end() ? 0.0 : bit->second;
+  const double base = reporter.Rate("opencv_baseline");
   const double input = GetData().input_mib;
   std::printf("\n%-28s %10s %9s %12s %15s %9s %7s\n", "benchmark", "Mpoints/s", "x OpenCV",
               "CPU ns/point", "idle est. Mp/s", "peak MiB", "/input");
-  for (const auto& [key, pps] : g_points_per_s) {
+  for (const auto& [key, pps] : reporter.best) {
     const double peak = g_peak_mib[key];
     const double cpu_ns = g_cpu_ns[key];
     const int threads = key.find("1thread") != std::string::npos ? 1 : omp_get_max_threads();
