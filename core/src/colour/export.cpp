@@ -198,18 +198,15 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
     ids[cell] = static_cast<std::int32_t>(id);
     mp.positions.push_back(scan.point_m[cell]);
     mp.cells.push_back(static_cast<std::uint32_t>(cell));
-    if (part < nv) {
-      const ColourView& v = views[part];
-      const auto uv = v.camera.ProjectUnbounded(v.T_cam_scan * scan.point_m[cell].cast<double>());
-      Eigen::Vector2f t(0.f, 0.f);
-      if (uv)
-        t = Eigen::Vector2f(static_cast<float>((uv->x() + 0.5) / v.camera.width()),
-                            static_cast<float>((uv->y() + 0.5) / v.camera.height()));
-      mp.uv.push_back(t);
-    }
     return id;
   };
-  auto triangle = [&](std::size_t a, std::size_t b, std::size_t c) {
+  // A triangle over three cells: the part (image) that textures it and its corners counter-
+  // clockwise; false when no image sees it all and untextured faces are not kept.
+  struct Tri {
+    std::uint32_t a, b, c;
+    std::int32_t part;
+  };
+  auto classify = [&](std::size_t a, std::size_t b, std::size_t c, Tri* t) {
     // Which image textures it: sees all three corners; most corners as colour source.
     int best = -1, best_votes = -1;
     for (int k = 0; k < nv; ++k) {
@@ -223,43 +220,70 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
         best_votes = votes;
       }
     }
-    if (best < 0 && !options.keep_untextured) return;
-    const int part = best >= 0 ? best : nv;
+    if (best < 0 && !options.keep_untextured) return false;
     // Counter-clockwise seen from the scanner: the normal points towards the origin.
     const Eigen::Vector3f& pa = scan.point_m[a];
     const Eigen::Vector3f nrm = (scan.point_m[b] - pa).cross(scan.point_m[c] - pa);
     if (nrm.dot(origin - pa) < 0.f) std::swap(b, c);
-    const std::uint32_t ia = vertex(part, a), ib = vertex(part, b), ic = vertex(part, c);
-    parts[part].faces.push_back({ia, ib, ic});
+    *t = {static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b),
+          static_cast<std::uint32_t>(c), best >= 0 ? best : nv};
+    return true;
+  };
+  auto emit = [&](const Tri& t) {
+    const std::uint32_t ia = vertex(t.part, t.a), ib = vertex(t.part, t.b),
+                        ic = vertex(t.part, t.c);
+    parts[t.part].faces.push_back({ia, ib, ic});
+  };
+  auto triangle = [&](std::size_t a, std::size_t b, std::size_t c) {
+    Tri t;
+    if (classify(a, b, c, &t)) emit(t);
   };
 
   const int quad_rows = co.wrap_rows ? scan.rows : scan.rows - 1;
   const int quad_cols = co.wrap_cols ? scan.cols : scan.cols - 1;
-  for (int r = 0; r < quad_rows; ++r) {
-    if ((r & 63) == 0) progress(double(r) / double(scan.rows), "meshing");
-    const int r1 = (r + 1) % scan.rows;
-    for (int c = 0; c < quad_cols; ++c) {
-      const int c1 = (c + 1) % scan.cols;
-      const std::size_t p00 = scan.index(r, c), p01 = scan.index(r, c1), p10 = scan.index(r1, c),
-                        p11 = scan.index(r1, c1);
-      const bool e_top = cont(r, c, 0, 1), e_bottom = cont(r + 1, c, 0, 1),
-                 e_left = cont(r, c, 1, 0), e_right = cont(r, c + 1, 1, 0);
-      const bool d_main = cont(r, c, 1, 1), d_anti = cont(r, c + 1, 1, -1);
-      // Prefer the continuous diagonal that is shorter in 3D.
-      bool use_main = d_main;
-      if (d_main && d_anti) {
-        use_main = (scan.point_m[p00] - scan.point_m[p11]).squaredNorm() <=
-                   (scan.point_m[p01] - scan.point_m[p10]).squaredNorm();
-      }
-      if (use_main) {
-        if (e_left && e_bottom) triangle(p00, p10, p11);
-        if (e_top && e_right) triangle(p00, p11, p01);
-      } else if (d_anti) {
-        if (e_top && e_left) triangle(p00, p10, p01);
-        if (e_right && e_bottom) triangle(p01, p10, p11);
+  // The quads' triangles are decided row by row in parallel (the continuity tests are most of
+  // the work), a block of rows at a time, then added in row order: the same mesh as one
+  // thread makes, with the block's triangles as the only extra memory.
+  constexpr int kBlock = 128;
+  std::vector<std::vector<Tri>> row_tris(kBlock);
+  for (int r0 = 0; r0 < quad_rows; r0 += kBlock) {
+    progress(0.9 * double(r0) / double(quad_rows), "meshing");
+    const int r1_end = std::min(quad_rows, r0 + kBlock);
+#pragma omp parallel for schedule(dynamic, 4)
+    for (int r = r0; r < r1_end; ++r) {
+      std::vector<Tri>& out = row_tris[static_cast<std::size_t>(r - r0)];
+      out.clear();
+      auto add = [&](std::size_t a, std::size_t b, std::size_t c) {
+        Tri t;
+        if (classify(a, b, c, &t)) out.push_back(t);
+      };
+      const int r1 = (r + 1) % scan.rows;
+      for (int c = 0; c < quad_cols; ++c) {
+        const int c1 = (c + 1) % scan.cols;
+        const std::size_t p00 = scan.index(r, c), p01 = scan.index(r, c1), p10 = scan.index(r1, c),
+                          p11 = scan.index(r1, c1);
+        const bool e_top = cont(r, c, 0, 1), e_bottom = cont(r + 1, c, 0, 1),
+                   e_left = cont(r, c, 1, 0), e_right = cont(r, c + 1, 1, 0);
+        const bool d_main = cont(r, c, 1, 1), d_anti = cont(r, c + 1, 1, -1);
+        // Prefer the continuous diagonal that is shorter in 3D.
+        bool use_main = d_main;
+        if (d_main && d_anti) {
+          use_main = (scan.point_m[p00] - scan.point_m[p11]).squaredNorm() <=
+                     (scan.point_m[p01] - scan.point_m[p10]).squaredNorm();
+        }
+        if (use_main) {
+          if (e_left && e_bottom) add(p00, p10, p11);
+          if (e_top && e_right) add(p00, p11, p01);
+        } else if (d_anti) {
+          if (e_top && e_left) add(p00, p10, p01);
+          if (e_right && e_bottom) add(p01, p10, p11);
+        }
       }
     }
+    for (int r = r0; r < r1_end; ++r)
+      for (const Tri& t : row_tris[static_cast<std::size_t>(r - r0)]) emit(t);
   }
+  row_tris.clear();
   if (options.cap_poles) {
     // A rotating 2D scanner's poles: where the grid closes a full turn along one axis, the
     // end beam of every line along it points along the rotation axis, from origins on a
@@ -356,6 +380,20 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
         triangle(up, left, right);
         triangle(down, right, left);
       }
+    }
+  }
+  // Texture coordinates: each textured vertex's projection (in parallel).
+  for (int k = 0; k < nv; ++k) {
+    MeshPart& mp = parts[k];
+    const ColourView& v = views[k];
+    mp.uv.assign(mp.positions.size(), Eigen::Vector2f::Zero());
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(mp.cells.size()); ++i) {
+      const auto uv =
+          v.camera.ProjectUnbounded(v.T_cam_scan * scan.point_m[mp.cells[i]].cast<double>());
+      if (uv)
+        mp.uv[i] = Eigen::Vector2f(static_cast<float>((uv->x() + 0.5) / v.camera.width()),
+                                   static_cast<float>((uv->y() + 0.5) / v.camera.height()));
     }
   }
   for (auto& p : parts)
