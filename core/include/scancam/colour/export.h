@@ -128,7 +128,10 @@ struct TexturedMesh {
 };
 
 /// Builds the mesh (see the file comment). `coloured` must come from Colourise(scan, views).
-/// Throws scancam::Error when the sizes do not match.
+/// Throws scancam::Error when the sizes do not match. The quads' triangles are decided by all
+/// OpenMP threads (128 grid rows at a time) and added in row order, so the mesh is the same
+/// whatever the thread count; the extra memory is one block's triangles. `progress` is called
+/// from the calling thread only.
 TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<ColourView>& views,
                                const ColouredScan& coloured, const MeshOptions& options = {},
                                const Progress& progress = {});
