@@ -32,7 +32,6 @@
 // result, which is not the colouring's.)
 // After the runs a table gives points/s, the ratio to the OpenCV baseline and peak memory.
 #include <benchmark/benchmark.h>
-#include <malloc.h>
 #include <omp.h>
 #include <sys/resource.h>
 
@@ -44,7 +43,6 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
-#include <random>
 #include <string>
 #include <vector>
 

@@ -18,7 +18,6 @@
 #include <pcl/surface/organized_fast_mesh.h>
 
 #include <cstdio>
-#include <functional>
 #include <limits>
 #include <map>
 #include <string>
@@ -68,10 +67,6 @@ const Data& GetData() {
 
 std::map<std::string, double> g_peak_mib, g_faces;
 
-double OneCallPeak(const std::function<void()>& run) {
-  return scancam::bench::OneCallPeakMiB(run).first;
-}
-
 void Finish(benchmark::State& state, double peak, std::size_t faces, const std::string& key) {
   state.counters["faces"] = static_cast<double>(faces);
   state.counters["peak_MiB"] = peak;
@@ -85,8 +80,9 @@ void BM_ScanCam(benchmark::State& state, const std::string& key) {
   const Data& d = GetData();
   const std::vector<sc::ColourView> views = {d.room.view};
   std::size_t faces = 0;
-  const double peak = OneCallPeak(
-      [&] { faces = sc::BuildTexturedMesh(d.room.scan, views, d.coloured).face_count(); });
+  const double peak = scancam::bench::OneCallPeakMiB([&] {
+                        faces = sc::BuildTexturedMesh(d.room.scan, views, d.coloured).face_count();
+                      }).first;
   for (auto _ : state) {
     const sc::TexturedMesh mesh = sc::BuildTexturedMesh(d.room.scan, views, d.coloured);
     benchmark::DoNotOptimize(mesh.parts.data());
@@ -106,7 +102,7 @@ void BM_Pcl(benchmark::State& state, const std::string& key) {
     return polygons.size();
   };
   std::size_t faces = 0;
-  const double peak = OneCallPeak([&] { faces = run(); });
+  const double peak = scancam::bench::OneCallPeakMiB([&] { faces = run(); }).first;
   for (auto _ : state) benchmark::DoNotOptimize(run());
   Finish(state, peak, faces, key);
 }
