@@ -15,7 +15,7 @@ PKGS=(
   libopencv-dev libopencv-contrib-dev
   libpcl-dev libvtk9-dev
   qtbase5-dev libqt5opengl5-dev qttools5-dev-tools libqt5svg5-dev
-  libmrpt-dev libopengv-dev
+  libmrpt-dev libopengv-dev zlib1g-dev
   cloudcompare
   libtiff-dev nlohmann-json3-dev libtinygltf-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -12,6 +12,7 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/scan_io.h"
+#include "scancam/output_file.h"
 
 namespace scancam::cli {
 namespace {
@@ -113,6 +114,27 @@ int RunBa(const Args& args) {
     throw FileError(
         out.dir.string(), "",
         "cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
+  {
+    // Before any work: none of the files this run writes may be the scan.
+    std::vector<std::string> names;
+    for (std::size_t t = 0; t < 4; ++t) names.push_back("ba_" + TraceName(kAllBaTraces[t]));
+    for (const GridStep& s : extra)
+      names.push_back("ba_step_" + std::to_string(s.drow) + "_" + std::to_string(s.dcol));
+    std::vector<NamedPath> outs;
+    auto image = [&](const std::string& name) {
+      for (const char* suffix : {".tiff", ".png", "_jet.png"})
+        outs.push_back({"--out", (out.dir / (name + suffix)).string()});
+    };
+    for (const std::string& name : names) {
+      image(name);
+      if (edges) {
+        image(name + "_edges");
+        outs.push_back({"--out", (out.dir / (name + "_edgemask.png")).string()});
+      }
+    }
+    image("range");
+    CheckOutputs(outs, {{"SCAN", path}});
+  }
 
   const Progress progress(StderrProgress(quiet));
   const OrderedScan scan = LoadScan(path, load, progress);

@@ -10,8 +10,10 @@
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/error.h"
+#include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/output_file.h"
 #include "scancam/solve/calibrate.h"
 
 namespace scancam::cli {
@@ -54,6 +56,14 @@ int RunCalibrate(const Args& args) {
   const std::string pairs_path = args.required("--pairs");
   const std::string out_path = args.required("--out");
   const bool quiet = args.has("--quiet");
+  // Before any work: no output may overwrite an input (or another output).
+  CheckOutputs({{"--out", out_path}, {"--plot", args.get("--plot")}},
+               {{"--camera", camera_path},
+                {"--pairs", pairs_path},
+                {"--scan", args.get("--scan")},
+                {"--image", args.get("--image")},
+                {"--mask", args.get("--mask")},
+                {"--truth", args.get("--truth")}});
 
   const CameraModel camera = LoadCamera(camera_path);
   cv::Mat image;
@@ -142,8 +152,7 @@ int RunCalibrate(const Args& args) {
   WriteJsonFile(out_path, out);
   if (args.has("--plot")) {
     const std::string plot_path = args.get("--plot");
-    if (!cv::imwrite(plot_path, PlotPairs(image, cal)))
-      throw Error(plot_path + ": cannot write the image");
+    WritePng(plot_path, PlotPairs(image, cal));
     if (!quiet) std::cout << "wrote " << plot_path << "\n";
   }
   if (!quiet) std::cout << FormatCalibrationSummary(cal) << "wrote " << out_path << "\n";

@@ -17,6 +17,7 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/scan_io.h"
+#include "scancam/output_file.h"
 
 namespace scancam::cli {
 namespace {
@@ -154,6 +155,37 @@ int RunColorize(const Args& args) {
   for (const auto& m : meshes)
     if (Ext(m) != ".glb" && Ext(m) != ".obj")
       throw Error("option --mesh: '" + m + "' must end in .glb or .obj");
+
+  // Before any work: no output (nor the .mtl and textures beside an OBJ) may overwrite an
+  // input or another output.
+  {
+    std::vector<NamedPath> outs = {
+        {"--out", out_ply}, {"--pcd", out_pcd}, {"--grid-image", grid_image}};
+    const int jpeg = args.get_int("--jpeg-quality", 0);
+    for (const auto& m : meshes) {
+      outs.push_back({"--mesh", m});
+      if (Ext(m) != ".obj") continue;
+      const std::filesystem::path obj(m);
+      const std::string stem = (obj.parent_path() / obj.stem()).string();
+      outs.push_back({"--mesh's material file", stem + ".mtl"});
+      for (std::size_t k = 0; k < n; ++k) {
+        outs.push_back(
+            {"--mesh's texture", stem + "_tex" + std::to_string(k) + (jpeg > 0 ? ".jpg" : ".png")});
+      }
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      if (!overlay.empty()) outs.push_back({"--overlay", PerImage(overlay, k, n)});
+      if (!edge_overlay.empty()) outs.push_back({"--edge-overlay", PerImage(edge_overlay, k, n)});
+    }
+    std::vector<NamedPath> ins = {{"--scan", scan_path}};
+    for (std::size_t k = 0; k < n; ++k) {
+      ins.push_back({"--image", images[k]});
+      ins.push_back({"--camera", cameras[k]});
+      ins.push_back({"--calib", calibs[k]});
+      ins.push_back({"--mask", masks[k]});
+    }
+    CheckOutputs(outs, ins);
+  }
 
   ColourOptions co;
   co.occlusion = !args.has("--no-occlusion");

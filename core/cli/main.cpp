@@ -8,6 +8,7 @@
 
 #include "command.h"
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 #include "scancam/progress.h"
 #include "scancam/version.h"
 
@@ -189,7 +190,13 @@ int main(int argc, char** argv) {
   }
   try {
     scancam::cli::Args parsed(rest, cmd.options);
-    return cmd.run(parsed);
+    // Every output of the run is staged and only replaces its file when the run succeeds: a
+    // run that fails leaves no output and the previous run's files as they were
+    // (scancam/output_file.h).
+    scancam::OutputBatch outputs;
+    const int rc = cmd.run(parsed);
+    if (rc == 0) outputs.Commit();
+    return rc;
   } catch (const scancam::Cancelled& e) {
     std::cerr << "scancam " << cmd.name << ": " << e.what() << "\n";
     return 130;

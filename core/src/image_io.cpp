@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 namespace {
@@ -57,7 +58,10 @@ void WriteFloatTiff(const std::string& path, const cv::Mat& image) {
   std::string why;
   try {
     // OpenCV writes CV_32F TIFFs as SAMPLEFORMAT_IEEEFP with lossless compression.
-    ok = cv::imwrite(path, image);
+    WriteFileAtomically(path, [&](const std::string& tmp) {
+      if (!cv::imwrite(tmp, image)) throw FileError(path, "", "cannot write the float TIFF");
+    });
+    ok = true;
   } catch (const cv::Exception& e) {
     why = e.what();
   }
@@ -145,7 +149,10 @@ void WritePng(const std::string& path, const cv::Mat& image) {
   bool ok = false;
   std::string why;
   try {
-    ok = cv::imwrite(path, image);
+    WriteFileAtomically(path, [&](const std::string& tmp) {
+      if (!cv::imwrite(tmp, image)) throw FileError(path, "", "cannot write the PNG");
+    });
+    ok = true;
   } catch (const cv::Exception& e) {
     why = e.what();
   }

@@ -257,7 +257,9 @@ TEST(Ptx, BadInputsNameFileLineAndProblem) {
   test::WriteFile(two, h + "1 0 0 0.1\n2 0 0 0.2\n0 0 0 0.3\n0 4 0 0.4\n0 5 0 0.5\n0 6 1 0.6\n" +
                            "2\n3\n0 0 0\n");
   ExpectError([&] { CountPtxScans(two); }, {"two.ptx:20", "truncated"});
-  EXPECT_NO_THROW(LoadPtx(two, 0, false));
+  // Reading the first scan checks the rest of the file too (issue 13: a header that counts
+  // fewer points than its data, or lines appended, must not pass unnoticed).
+  ExpectError([&] { LoadPtx(two, 0, false); }, {"two.ptx:20", "truncated"});
   ExpectError([&] { LoadPtx(two, 1, false); }, {"two.ptx:20", "truncated"});
 }
 

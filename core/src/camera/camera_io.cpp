@@ -14,6 +14,7 @@
 #include <tuple>
 
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 namespace {
@@ -1224,10 +1225,7 @@ void SaveCamera(const CameraModel& camera, const std::string& path, CameraFileFo
     default:
       break;
   }
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw FileError(path, "", "cannot open for writing");
-  f << out.str();
-  if (!f) throw FileError(path, "", "write failed");
+  WriteFileAtomically(path, out.str());
 }
 
 void CheckImageSize(const CameraModel& camera, int width, int height,

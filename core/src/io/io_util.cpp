@@ -4,6 +4,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "scancam/output_file.h"
+
 namespace scancam::io_detail {
 
 std::string ReadWholeFile(const std::string& path) {
@@ -170,11 +172,7 @@ void AppendNumber(std::string& out, float v) { AppendImpl(out, v); }
 void AppendNumber(std::string& out, long long v) { AppendImpl(out, v); }
 
 void WriteWholeFile(const std::string& path, const std::string& content) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (!out) throw FileError(path, "", "cannot open the file for writing");
-  out.write(content.data(), static_cast<std::streamsize>(content.size()));
-  out.close();
-  if (!out) throw FileError(path, "", "write error");
+  WriteFileAtomically(path, content);
 }
 
 std::string Quote(std::string_view token) {

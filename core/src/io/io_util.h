@@ -85,7 +85,8 @@ void AppendNumber(std::string& out, double v);
 void AppendNumber(std::string& out, float v);
 void AppendNumber(std::string& out, long long v);
 
-/// Writes `content` to `path` (binary), throwing FileError on failure.
+/// Writes `content` to `path` (binary, atomically: scancam/output_file.h), throwing FileError
+/// on failure.
 void WriteWholeFile(const std::string& path, const std::string& content);
 
 /// "line N" for FileError's `where`.

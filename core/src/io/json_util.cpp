@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 
@@ -106,10 +107,16 @@ nlohmann::json ReadJsonFile(const std::string& path) {
 }
 
 void WriteJsonFile(const std::string& path, const nlohmann::json& j) {
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw FileError(path, "", "cannot open for writing");
-  f << j.dump(2) << "\n";
-  if (!f) throw FileError(path, "", "write failed");
+  std::string text;
+  try {
+    text = j.dump(2) + "\n";
+  } catch (const std::exception& e) {
+    // nlohmann refuses strings that are not UTF-8; nothing is written then.
+    std::string msg = e.what();
+    if (auto p = msg.find("] "); p != std::string::npos) msg = msg.substr(p + 2);
+    throw FileError(path, "", "not written: " + msg);
+  }
+  WriteFileAtomically(path, text);
 }
 
 const nlohmann::json& JsonField(const nlohmann::json& j, const std::string& key,

@@ -1,7 +1,7 @@
 #include "scancam/io/mrpt_rawlog.h"
 
-#include <mrpt/io/CFileGZInputStream.h>
 #include <mrpt/io/CFileGZOutputStream.h>
+#include <mrpt/io/CMemoryStream.h>
 #include <mrpt/obs/CObservation.h>
 #include <mrpt/obs/CObservation2DRangeScan.h>
 #include <mrpt/obs/CObservation3DRangeScan.h>
@@ -12,15 +12,27 @@
 #include <mrpt/opengl/CPointCloud.h>
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/serialization/CArchive.h>
+#include <signal.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <zlib.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <new>
+#include <type_traits>
 
+#include "io_util.h"
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 
@@ -46,12 +58,116 @@ std::string MrptMessage(const std::exception& e) {
     line = s.substr(0, s.find('\n'));
   }
   while (!line.empty() && (line.back() == ' ' || line.back() == '\r')) line.pop_back();
-  return line.empty() ? std::string("unknown MRPT error") : line;
+  if (line.empty()) return "unknown MRPT error";
+  // A damaged stream puts raw bytes into MRPT's messages (class names): never print them.
+  std::string clean;
+  for (char ch : line) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    clean += (c >= 0x20 && c < 0x7f) ? ch : '?';
+  }
+  if (clean.size() > 300) clean = clean.substr(0, 300) + "...";
+  return clean;
 }
 
 std::string ObjectWhere(int object_index, std::size_t offset) {
   return "object " + std::to_string(object_index) + " (byte " + std::to_string(offset) +
          " of the uncompressed stream)";
+}
+
+// The whole uncompressed MRPT stream of a rawlog file.
+struct RawlogBytes {
+  std::string data;
+  bool gzip = false;
+  bool complete = true;  // false: a gzip stream that ends without its trailer
+  std::size_t file_size = 0;
+};
+
+std::string ZlibProblem(const char* msg) {
+  const std::string m = msg ? msg : "";
+  if (m == "incorrect data check") {
+    return "its CRC-32 does not match the data (bytes changed, inserted or removed)";
+  }
+  if (m == "incorrect length check") {
+    return "the length in its trailer does not match the data (bytes inserted or removed)";
+  }
+  return "the compressed data is invalid (zlib: " + (m.empty() ? std::string("error") : m) + ")";
+}
+
+// Reads the file and, when it is gzip (as MRPT writes rawlogs), inflates it whole with zlib,
+// checking every member's CRC-32 and length before MRPT sees a byte: a damaged compressed
+// stream ends here with a plain message. Not gzip: the bytes as they are (MRPT reads plain
+// rawlogs too).
+RawlogBytes ReadRawlogBytes(const std::string& path) {
+  if (!std::filesystem::is_regular_file(path)) {
+    throw FileError(path, "", "cannot open the file for reading (missing or not a file)");
+  }
+  RawlogBytes b;
+  std::string file = io_detail::ReadWholeFile(path);
+  b.file_size = file.size();
+  if (file.empty()) throw FileError(path, "", "empty file (no object)");
+  if (file.size() < 2 || static_cast<unsigned char>(file[0]) != 0x1f ||
+      static_cast<unsigned char>(file[1]) != 0x8b) {
+    b.data = std::move(file);
+    return b;
+  }
+  b.gzip = true;
+  z_stream zs{};
+  if (inflateInit2(&zs, 16 + MAX_WBITS) != Z_OK) {
+    throw FileError(path, "", "zlib cannot start inflating");
+  }
+  struct End {
+    z_stream* z;
+    ~End() { inflateEnd(z); }
+  } end{&zs};
+  zs.next_in = reinterpret_cast<Bytef*>(file.data());
+  std::size_t in_left = file.size();
+  std::size_t produced = 0;
+  b.data.resize(std::max<std::size_t>(file.size() * 4, 1 << 16));
+  constexpr std::size_t kChunk = 1u << 30;  // z_stream counts in 32 bits
+  for (;;) {
+    if (produced == b.data.size()) b.data.resize(b.data.size() * 2);
+    const std::size_t in_now = std::min(in_left, kChunk);
+    const std::size_t out_now = std::min(b.data.size() - produced, kChunk);
+    zs.avail_in = static_cast<uInt>(in_now);
+    zs.next_out = reinterpret_cast<Bytef*>(&b.data[produced]);
+    zs.avail_out = static_cast<uInt>(out_now);
+    const int rc = inflate(&zs, Z_NO_FLUSH);
+    in_left -= in_now - zs.avail_in;
+    produced += out_now - zs.avail_out;
+    const std::size_t at = file.size() - in_left;  // file offset reached
+    if (rc == Z_STREAM_END) {
+      if (in_left == 0) break;
+      // Another gzip member may follow (gzip allows concatenation); anything else is not gzip.
+      const unsigned char* p = zs.next_in;
+      if (in_left >= 2 && p[0] == 0x1f && p[1] == 0x8b) {
+        inflateReset(&zs);
+        continue;
+      }
+      throw FileError(path, io_detail::ByteWhere(at),
+                      std::to_string(in_left) +
+                          " bytes after the end of the gzip stream (the file was appended to "
+                          "or is damaged)");
+    }
+    if (rc == Z_OK) continue;
+    if (rc == Z_BUF_ERROR && in_left == 0) {
+      b.complete = false;  // the data ends before the stream does
+      break;
+    }
+    if (rc == Z_BUF_ERROR) continue;  // needs more output space
+    if (rc == Z_MEM_ERROR) throw FileError(path, io_detail::ByteWhere(at), "out of memory");
+    throw FileError(path, io_detail::ByteWhere(at),
+                    "the gzip data is damaged: " + ZlibProblem(zs.msg));
+  }
+  b.data.resize(produced);
+  b.data.shrink_to_fit();
+  if (b.data.empty()) {
+    if (!b.complete) {
+      throw FileError(path, io_detail::ByteWhere(b.file_size),
+                      "truncated: the gzip stream ends before any data");
+    }
+    throw FileError(path, "", "empty rawlog (the gzip stream holds no object)");
+  }
+  return b;
 }
 
 struct ObsRecord {
@@ -60,32 +176,38 @@ struct ObsRecord {
   CObservation::Ptr obs;
 };
 
-std::vector<ObsRecord> ReadObservations(const std::string& path, int* object_count) {
-  // CFileGZInputStream reads plain (uncompressed) files too, as MRPT does.
-  if (!std::filesystem::is_regular_file(path)) {
-    throw FileError(path, "", "cannot open the file for reading (missing or not a file)");
-  }
-  if (std::filesystem::file_size(path) == 0) throw FileError(path, "", "empty file (no object)");
-  mrpt::io::CFileGZInputStream in;
-  if (!in.open(path)) throw FileError(path, "", "cannot open the file for reading");
+// Where the decoding child process is, for the message when MRPT crashes it (a shared page).
+struct DecodeWhere {
+  int stage = 0;  // 0 reading objects, 1 converting
+  int object_index = 0;
+  std::uint64_t offset = 0;
+};
+DecodeWhere* g_where = nullptr;  // set only in the child
+
+std::vector<ObsRecord> ReadObservations(const std::string& path, const RawlogBytes& bytes,
+                                        int* object_count) {
+  mrpt::io::CMemoryStream in;
+  in.assignMemoryNotOwn(bytes.data.data(), bytes.data.size());
   auto ar = mrpt::serialization::archiveFrom(in);
   std::vector<ObsRecord> out;
+  const std::size_t size = bytes.data.size();
   int k = 0;
   for (;; ++k) {
     const std::size_t start = static_cast<std::size_t>(in.getPosition());
+    if (start >= size) break;  // clean end
+    if (g_where) *g_where = {0, k, start};
     mrpt::serialization::CSerializable::Ptr obj;
     try {
       obj = ar.ReadObject();
-    } catch (const mrpt::serialization::CExceptionEOF& e) {
-      if (static_cast<std::size_t>(in.getPosition()) == start) break;  // clean end
-      throw FileError(path, ObjectWhere(k, start),
-                      "truncated: the file ends inside this object (" + MrptMessage(e) + ")");
+    } catch (const std::bad_alloc&) {
+      throw;
     } catch (const std::exception& e) {
-      if (in.checkEOF()) {
+      const std::size_t at = static_cast<std::size_t>(in.getPosition());
+      if (at >= size || dynamic_cast<const mrpt::serialization::CExceptionEOF*>(&e)) {
         throw FileError(path, ObjectWhere(k, start),
-                        "truncated: the data ends at byte " +
-                            std::to_string(static_cast<std::size_t>(in.getPosition())) +
-                            " inside this object (" + MrptMessage(e) + ")");
+                        std::string("truncated: the ") +
+                            (bytes.gzip ? "uncompressed data" : "file") + " ends (byte " +
+                            std::to_string(size) + ") inside this object (" + MrptMessage(e) + ")");
       }
       throw FileError(path, ObjectWhere(k, start), "not a readable MRPT object: " + MrptMessage(e));
     }
@@ -99,27 +221,13 @@ std::vector<ObsRecord> ReadObservations(const std::string& path, int* object_cou
     }
     // Actions (odometry between frames) and any other object: not scans.
   }
-  // A gzip stream cut exactly where an object ends would read as a shorter rawlog: check the
-  // gzip trailer's ISIZE (uncompressed size mod 2^32, the file's last 4 bytes), which a cut
-  // stream lacks.
-  {
-    std::ifstream raw(path, std::ios::binary);
-    unsigned char head[3] = {0, 0, 0}, tail[4] = {0, 0, 0, 0};
-    raw.read(reinterpret_cast<char*>(head), 3);
-    const std::uintmax_t size = std::filesystem::file_size(path);
-    if (raw && head[0] == 0x1f && head[1] == 0x8b && head[2] == 8 && size >= 18) {
-      raw.seekg(static_cast<std::streamoff>(size - 4));
-      raw.read(reinterpret_cast<char*>(tail), 4);
-      const std::uint32_t isize = std::uint32_t(tail[0]) | (std::uint32_t(tail[1]) << 8) |
-                                  (std::uint32_t(tail[2]) << 16) | (std::uint32_t(tail[3]) << 24);
-      const std::uint64_t read = static_cast<std::uint64_t>(in.getPosition());
-      if (raw && isize != static_cast<std::uint32_t>(read & 0xffffffffu)) {
-        throw FileError(path, "byte " + std::to_string(size),
-                        "truncated: the gzip stream ends without its trailer after " +
-                            std::to_string(read) + " uncompressed bytes (" + std::to_string(k) +
-                            " complete objects)");
-      }
-    }
+  if (!bytes.complete) {
+    // A gzip stream cut exactly where an object ends reads as a shorter rawlog: its missing
+    // trailer (CRC-32 and length) tells.
+    throw FileError(path, "byte " + std::to_string(bytes.file_size),
+                    "truncated: the gzip stream ends without its trailer after " +
+                        std::to_string(size) + " uncompressed bytes (" + std::to_string(k) +
+                        " complete objects)");
   }
   if (object_count) *object_count = k;
   return out;
@@ -545,92 +653,345 @@ struct Loaded {
   int objects = 0;
 };
 
-Loaded LoadEntries(const std::string& path) {
+Loaded LoadEntries(const std::string& path, const RawlogBytes& bytes) {
   Loaded l;
-  l.obs = ReadObservations(path, &l.objects);
+  l.obs = ReadObservations(path, bytes, &l.objects);
+  if (g_where) g_where->stage = 1;
   l.entries = BuildEntries(path, l.obs);
   return l;
+}
+
+// ---------------------------------------------------------------- decoding in a child process
+
+// MRPT trusts the sizes it reads from the stream: a damaged rawlog can make it allocate many
+// GB or crash (SIGSEGV in CObservation3DRangeScan::rangeImage_setSize, found by mutating
+// real rawlogs). So MRPT decodes in a forked child process, with its address space limited to
+// what it had plus a budget from the uncompressed size, and hands back plain data through a
+// pipe; a crash, a blown budget or an exception there becomes a FileError here.
+
+// Byte (de)serialisation of what the child hands back.
+class Packer {
+ public:
+  template <typename T>
+  void Pod(const T& v) {
+    static_assert(std::is_standard_layout<T>::value, "plain data only");
+    out.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  void Str(const std::string& v) {
+    Pod<std::uint64_t>(v.size());
+    out += v;
+  }
+  template <typename T>
+  void Vec(const std::vector<T>& v) {
+    Pod<std::uint64_t>(v.size());
+    if (!v.empty()) out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  std::string out;
+};
+
+class Unpacker {
+ public:
+  explicit Unpacker(const std::string& in) : in_(in) {}
+  template <typename T>
+  T Pod() {
+    T v;
+    Take(&v, sizeof(T));
+    return v;
+  }
+  std::string Str() {
+    const auto n = Pod<std::uint64_t>();
+    std::string v(Check(n, 1), '\0');
+    Take(v.data(), v.size());
+    return v;
+  }
+  template <typename T>
+  std::vector<T> Vec() {
+    const auto n = Pod<std::uint64_t>();
+    std::vector<T> v(Check(n, sizeof(T)));
+    if (!v.empty()) Take(v.data(), v.size() * sizeof(T));
+    return v;
+  }
+
+ private:
+  std::size_t Check(std::uint64_t n, std::size_t each) const {
+    if (n > (in_.size() - pos_) / each) throw Error("internal: short reply from the MRPT decoder");
+    return static_cast<std::size_t>(n);
+  }
+  void Take(void* dst, std::size_t n) {
+    if (n > in_.size() - pos_) throw Error("internal: short reply from the MRPT decoder");
+    std::memcpy(dst, in_.data() + pos_, n);
+    pos_ += n;
+  }
+  const std::string& in_;
+  std::size_t pos_ = 0;
+};
+
+void PackScan(Packer& p, const OrderedScan& s) {
+  p.Pod(s.rows);
+  p.Pod(s.cols);
+  p.Vec(s.range_m);
+  p.Vec(s.point_m);
+  p.Vec(s.beam_dir);
+  p.Vec(s.intensity);
+  p.Pod(s.origin_m);
+  p.Str(s.row_axis);
+  p.Str(s.col_axis);
+}
+
+OrderedScan UnpackScan(Unpacker& u) {
+  OrderedScan s;
+  s.rows = u.Pod<int>();
+  s.cols = u.Pod<int>();
+  s.range_m = u.Vec<float>();
+  s.point_m = u.Vec<Eigen::Vector3f>();
+  s.beam_dir = u.Vec<Eigen::Vector3f>();
+  s.intensity = u.Vec<float>();
+  s.origin_m = u.Pod<Eigen::Vector3d>();
+  s.row_axis = u.Str();
+  s.col_axis = u.Str();
+  return s;
+}
+
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(memory_sanitizer) || \
+    __has_feature(thread_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
+std::size_t VirtualMemoryBytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::size_t pages = 0;
+  statm >> pages;
+  return pages * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+void WriteAll(int fd, const std::string& s) {
+  std::size_t done = 0;
+  while (done < s.size()) {
+    const ssize_t w = ::write(fd, s.data() + done, s.size() - done);
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) return;
+    done += static_cast<std::size_t>(w);
+  }
+}
+
+// Runs `decode` (which returns a Packer's bytes) in a child process and returns its bytes;
+// rethrows its error message; a crash or a blown memory / CPU budget becomes a FileError
+// naming the object being decoded.
+template <typename Decode>
+std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
+                           const Decode& decode) {
+  const std::size_t budget = (std::size_t{512} << 20) + 16 * bytes.data.size();
+  void* page =
+      mmap(nullptr, sizeof(DecodeWhere), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  if (page == MAP_FAILED) throw FileError(path, "", "cannot map memory for the MRPT decoder");
+  struct Unmap {
+    void* p;
+    ~Unmap() { munmap(p, sizeof(DecodeWhere)); }
+  } unmap{page};
+  DecodeWhere* where = new (page) DecodeWhere();
+  int fds[2];
+  if (pipe(fds) != 0) throw FileError(path, "", "cannot create a pipe for the MRPT decoder");
+  const std::size_t vm = VirtualMemoryBytes();
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    throw FileError(path, "", "cannot start the MRPT decoder process");
+  }
+  if (pid == 0) {
+    // Child: decode, write 'O' + data or 'E' + message, leave without running any atexit
+    // handler or destructor of the parent's objects.
+    close(fds[0]);
+    if (!kSanitized) {  // sanitizers reserve terabytes of address space up front
+      const rlimit as{vm + budget, vm + budget};
+      setrlimit(RLIMIT_AS, &as);
+    }
+    const rlim_t cpu_s = 60 + static_cast<rlim_t>(bytes.data.size() >> 20);
+    const rlimit cpu{cpu_s, cpu_s + 5};
+    setrlimit(RLIMIT_CPU, &cpu);
+    g_where = where;
+    std::string reply;
+    try {
+      reply = "O" + decode();
+    } catch (const std::bad_alloc&) {
+      const DecodeWhere w = *where;
+      reply = std::string("E") +
+              FileError(path, ObjectWhere(w.object_index, static_cast<std::size_t>(w.offset)),
+                        "MRPT asked for more memory than this rawlog can hold (over " +
+                            std::to_string(budget >> 20) +
+                            " MiB while decoding it): the file is damaged")
+                  .what();
+    } catch (const std::exception& e) {
+      reply = std::string("E") + e.what();
+    } catch (...) {
+      reply = "E" + path + ": unknown error while decoding the rawlog";
+    }
+    WriteAll(fds[1], reply);
+    close(fds[1]);
+    _exit(0);
+  }
+  close(fds[1]);
+  std::string reply;
+  char buf[1 << 16];
+  for (;;) {
+    const ssize_t r = ::read(fds[0], buf, sizeof buf);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) break;
+    reply.append(buf, static_cast<std::size_t>(r));
+  }
+  close(fds[0]);
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  const DecodeWhere w = *where;
+  const std::string at = ObjectWhere(w.object_index, static_cast<std::size_t>(w.offset));
+  const std::string doing =
+      w.stage == 0 ? "decoding this object" : "converting the observations read";
+  if (WIFSIGNALED(status) || !WIFEXITED(status) || WEXITSTATUS(status) != 0 || reply.empty()) {
+    const int sig = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+    if (sig == SIGXCPU || sig == SIGKILL) {
+      throw FileError(path, at, "MRPT took too long " + doing + ": the file is damaged");
+    }
+    std::string name = sig ? strsignal(sig) : "no reply";
+    throw FileError(
+        path, at, "MRPT failed (" + name + ") " + doing + ": the file is damaged or not a rawlog");
+  }
+  if (reply[0] == 'E') throw Error(reply.substr(1));
+  return reply.substr(1);
 }
 
 }  // namespace
 
 std::vector<RawlogScanEntry> ListRawlogScans(const std::string& path) {
-  const Loaded l = LoadEntries(path);
-  std::vector<RawlogScanEntry> out;
-  for (const Entry& e : l.entries) out.push_back(e.info);
+  const RawlogBytes bytes = ReadRawlogBytes(path);
+  const std::string reply = DecodeIsolated(path, bytes, [&] {
+    const Loaded l = LoadEntries(path, bytes);
+    Packer p;
+    p.Pod<std::uint64_t>(l.entries.size());
+    for (const Entry& e : l.entries) {
+      p.Pod(e.info.index);
+      p.Pod(e.info.first_object);
+      p.Str(e.info.class_name);
+      p.Str(e.info.sensor_label);
+      p.Pod(e.info.mrpt_rows);
+      p.Pod(e.info.mrpt_cols);
+      p.Str(e.info.lidar_model);
+      p.Pod(e.info.mrpt_points);
+    }
+    return p.out;
+  });
+  Unpacker u(reply);
+  std::vector<RawlogScanEntry> out(static_cast<std::size_t>(u.Pod<std::uint64_t>()));
+  for (RawlogScanEntry& e : out) {
+    e.index = u.Pod<int>();
+    e.first_object = u.Pod<int>();
+    e.class_name = u.Str();
+    e.sensor_label = u.Str();
+    e.mrpt_rows = u.Pod<int>();
+    e.mrpt_cols = u.Pod<int>();
+    e.lidar_model = u.Str();
+    e.mrpt_points = u.Pod<int>();
+  }
   return out;
 }
 
+std::string RawlogUncompressedBytes(const std::string& path) { return ReadRawlogBytes(path).data; }
+
 OrderedScan LoadMrptRawlog(const std::string& path, int rawlog_index, const Progress& progress) {
   progress(0.0, "reading rawlog");
-  Loaded l = LoadEntries(path);
-  const Entry& e = PickEntry(path, l.entries, l.objects, l.obs.size(), rawlog_index);
-  progress(0.6, "reading rawlog");
-  const ObsRecord& rec = l.obs[e.records[0]];
-  const std::string where = ObjectWhere(rec.object_index, rec.offset);
-  OrderedScan scan;
-  switch (e.kind) {
-    case Kind::kRotating: {
-      const auto& rot = dynamic_cast<const CObservationRotatingScan&>(*rec.obs);
-      scan = RotatingToScan(path, where, rot, nullptr).scan;
-      break;
+  const RawlogBytes bytes = ReadRawlogBytes(path);
+  progress(0.2, "reading rawlog");
+  const std::string reply = DecodeIsolated(path, bytes, [&] {
+    Loaded l = LoadEntries(path, bytes);
+    const Entry& e = PickEntry(path, l.entries, l.objects, l.obs.size(), rawlog_index);
+    const ObsRecord& rec = l.obs[e.records[0]];
+    if (g_where) *g_where = {1, rec.object_index, rec.offset};
+    const std::string where = ObjectWhere(rec.object_index, rec.offset);
+    OrderedScan scan;
+    switch (e.kind) {
+      case Kind::kRotating: {
+        const auto& rot = dynamic_cast<const CObservationRotatingScan&>(*rec.obs);
+        scan = RotatingToScan(path, where, rot, nullptr).scan;
+        break;
+      }
+      case Kind::kVelodyne: {
+        auto& v = dynamic_cast<CObservationVelodyneScan&>(*rec.obs);
+        const CObservationRotatingScan rot = FromVelodyne(path, rec, v);
+        RotatingGrid g = RotatingToScan(path, where, rot, &v.calibration);
+        UseMrptVelodynePoints(v, g);
+        scan = std::move(g.scan);
+        break;
+      }
+      case Kind::k3D: {
+        auto& d = dynamic_cast<CObservation3DRangeScan&>(*rec.obs);
+        scan = DepthToScan(path, where, d);
+        break;
+      }
+      case Kind::k2D:
+        scan = StackScans(path, l.obs, e, nullptr);
+        break;
     }
-    case Kind::kVelodyne: {
-      auto& v = dynamic_cast<CObservationVelodyneScan&>(*rec.obs);
-      const CObservationRotatingScan rot = FromVelodyne(path, rec, v);
-      RotatingGrid g = RotatingToScan(path, where, rot, &v.calibration);
-      UseMrptVelodynePoints(v, g);
-      scan = std::move(g.scan);
-      break;
+    if (scan.valid_count() == 0) {
+      throw FileError(path, where, e.info.class_name + " has no valid range (every cell empty)");
     }
-    case Kind::k3D: {
-      auto& d = dynamic_cast<CObservation3DRangeScan&>(*rec.obs);
-      scan = DepthToScan(path, where, d);
-      break;
-    }
-    case Kind::k2D:
-      scan = StackScans(path, l.obs, e, nullptr);
-      break;
-  }
+    Packer p;
+    PackScan(p, scan);
+    return p.out;
+  });
+  Unpacker u(reply);
+  OrderedScan scan = UnpackScan(u);
   scan.source = path;
-  if (scan.valid_count() == 0) {
-    throw FileError(path, where, e.info.class_name + " has no valid range (every cell empty)");
-  }
   progress(1.0, "reading rawlog");
   return scan;
 }
 
 std::vector<Eigen::Vector3f> MrptReferencePoints(const std::string& path, int rawlog_index) {
-  Loaded l = LoadEntries(path);
-  const Entry& e = PickEntry(path, l.entries, l.objects, l.obs.size(), rawlog_index);
-  const ObsRecord& rec = l.obs[e.records[0]];
-  std::vector<Eigen::Vector3f> out;
-  switch (e.kind) {
-    case Kind::kRotating:
-      break;
-    case Kind::kVelodyne: {
-      for (const VeloPoint& p : VelodynePoints(dynamic_cast<CObservationVelodyneScan&>(*rec.obs))) {
-        out.emplace_back(p.x, p.y, p.z);
+  const RawlogBytes bytes = ReadRawlogBytes(path);
+  const std::string reply = DecodeIsolated(path, bytes, [&] {
+    Loaded l = LoadEntries(path, bytes);
+    const Entry& e = PickEntry(path, l.entries, l.objects, l.obs.size(), rawlog_index);
+    const ObsRecord& rec = l.obs[e.records[0]];
+    std::vector<Eigen::Vector3f> out;
+    switch (e.kind) {
+      case Kind::kRotating:
+        break;
+      case Kind::kVelodyne: {
+        for (const VeloPoint& p :
+             VelodynePoints(dynamic_cast<CObservationVelodyneScan&>(*rec.obs))) {
+          out.emplace_back(p.x, p.y, p.z);
+        }
+        break;
       }
-      break;
-    }
-    case Kind::k3D: {
-      auto& d = dynamic_cast<CObservation3DRangeScan&>(*rec.obs);
-      mrpt::opengl::CPointCloud cloud;
-      mrpt::obs::T3DPointsProjectionParams pp;
-      pp.USE_SSE2 = false;
-      d.unprojectInto(cloud, pp);
-      for (std::size_t i = 0; i < cloud.size(); ++i) {
-        const auto& p = cloud.getPoint3Df(i);
-        out.emplace_back(p.x, p.y, p.z);
+      case Kind::k3D: {
+        auto& d = dynamic_cast<CObservation3DRangeScan&>(*rec.obs);
+        mrpt::opengl::CPointCloud cloud;
+        mrpt::obs::T3DPointsProjectionParams pp;
+        pp.USE_SSE2 = false;
+        d.unprojectInto(cloud, pp);
+        for (std::size_t i = 0; i < cloud.size(); ++i) {
+          const auto& q = cloud.getPoint3Df(i);
+          out.emplace_back(q.x, q.y, q.z);
+        }
+        break;
       }
-      break;
+      case Kind::k2D:
+        StackScans(path, l.obs, e, &out);
+        break;
     }
-    case Kind::k2D:
-      StackScans(path, l.obs, e, &out);
-      break;
-  }
-  return out;
+    Packer p;
+    p.Vec(out);
+    return p.out;
+  });
+  Unpacker u(reply);
+  return u.Vec<Eigen::Vector3f>();
 }
 
 void WriteMrpt2DScanRawlog(const std::string& path, const RotatingScanData& data,
@@ -651,42 +1012,45 @@ void WriteMrpt2DScanRawlog(const std::string& path, const RotatingScanData& data
   for (float r : data.range_m) {
     if (std::isfinite(r)) max_range = std::max(max_range, r);
   }
-  mrpt::io::CFileGZOutputStream out;
-  if (!out.open(path)) throw FileError(path, "", "cannot open the file for writing");
-  auto ar = mrpt::serialization::archiveFrom(out);
-  try {
-    for (int i = 0; i < data.planes; ++i) {
-      CObservation2DRangeScan o;
-      o.sensorLabel = sensor_label;
-      o.timestamp = mrpt::Clock::fromDouble(1.0e9 + 0.01 * i);
-      o.aperture = static_cast<float>(aperture);
-      o.rightToLeft = true;
-      o.maxRange = 2.f * max_range;
-      o.resizeScan(static_cast<std::size_t>(m));
-      const bool intensity = !data.intensity.empty();
-      if (intensity) o.setScanHasIntensity(true);
-      for (int j = 0; j < m; ++j) {
-        const float r = data.range(i, j);
-        const bool valid = std::isfinite(r) && r > 0.f;
-        o.setScanRange(static_cast<std::size_t>(j), valid ? r : 0.f);
-        o.setScanRangeValidity(static_cast<std::size_t>(j), valid);
-        if (intensity) {
-          o.setScanIntensity(
-              static_cast<std::size_t>(j),
-              static_cast<int>(std::lround(data.intensity[static_cast<std::size_t>(i) * m + j])));
+  WriteFileAtomically(path, [&](const std::string& tmp) {
+    mrpt::io::CFileGZOutputStream out;
+    if (!out.open(tmp)) throw FileError(path, "", "cannot open the file for writing");
+    auto ar = mrpt::serialization::archiveFrom(out);
+    try {
+      for (int i = 0; i < data.planes; ++i) {
+        CObservation2DRangeScan o;
+        o.sensorLabel = sensor_label;
+        o.timestamp = mrpt::Clock::fromDouble(1.0e9 + 0.01 * i);
+        o.aperture = static_cast<float>(aperture);
+        o.rightToLeft = true;
+        o.maxRange = 2.f * max_range;
+        o.resizeScan(static_cast<std::size_t>(m));
+        const bool intensity = !data.intensity.empty();
+        if (intensity) o.setScanHasIntensity(true);
+        for (int j = 0; j < m; ++j) {
+          const float r = data.range(i, j);
+          const bool valid = std::isfinite(r) && r > 0.f;
+          o.setScanRange(static_cast<std::size_t>(j), valid ? r : 0.f);
+          o.setScanRangeValidity(static_cast<std::size_t>(j), valid);
+          if (intensity) {
+            o.setScanIntensity(
+                static_cast<std::size_t>(j),
+                static_cast<int>(std::lround(data.intensity[static_cast<std::size_t>(i) * m + j])));
+          }
         }
+        // Eq. 3: the plane is the sensor plane pitched by phi_i about y, its centre at
+        // R_y(phi_i) (d_x, 0, d_z).
+        const double phi = data.phi_rad[i];
+        const double c = std::cos(phi), s = std::sin(phi);
+        o.sensorPose = mrpt::poses::CPose3D(c * data.dx_m + s * data.dz_m, 0.0,
+                                            -s * data.dx_m + c * data.dz_m, 0.0, phi, 0.0);
+        ar << o;
       }
-      // Eq. 3: the plane is the sensor plane pitched by phi_i about y, its centre at
-      // R_y(phi_i) (d_x, 0, d_z).
-      const double phi = data.phi_rad[i];
-      const double c = std::cos(phi), s = std::sin(phi);
-      o.sensorPose = mrpt::poses::CPose3D(c * data.dx_m + s * data.dz_m, 0.0,
-                                          -s * data.dx_m + c * data.dz_m, 0.0, phi, 0.0);
-      ar << o;
+    } catch (const std::exception& e) {
+      throw FileError(path, "", "MRPT could not write the rawlog (" + MrptMessage(e) + ")");
     }
-  } catch (const std::exception& e) {
-    throw FileError(path, "", "MRPT could not write the rawlog (" + MrptMessage(e) + ")");
-  }
+    out.close();
+  });
 }
 
 }  // namespace scancam

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 
@@ -267,11 +268,7 @@ std::string FormatPairsCsv(const std::vector<PointPair>& pairs) {
 }
 
 void WritePairsCsv(const std::string& path, const std::vector<PointPair>& pairs) {
-  const std::string text = FormatPairsCsv(pairs);
-  std::ofstream f(path, std::ios::binary);
-  if (!f) throw FileError(path, "", "cannot open for writing");
-  f << text;
-  if (!f) throw FileError(path, "", "write failed");
+  WriteFileAtomically(path, FormatPairsCsv(pairs));
 }
 
 namespace {

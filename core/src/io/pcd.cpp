@@ -1,6 +1,7 @@
 #include "scancam/io/pcd.h"
 
 #include <pcl/PCLPointCloud2.h>
+#include <pcl/io/lzf.h>
 #include <pcl/io/pcd_io.h>
 
 #include <Eigen/Geometry>
@@ -11,6 +12,7 @@
 #include "io_util.h"
 #include "scancam/error.h"
 #include "scancam/io/regrid.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 
@@ -196,6 +198,28 @@ std::uint32_t ReadU32(std::ifstream& in) {
          (std::uint32_t(b[3]) << 24);
 }
 
+// Bytes from `end` to the end of the file: PCL's writers pad binary files with up to a page of
+// zero bytes (they size the file for mmap), which is fine; anything else means bytes were
+// inserted or appended and the records would be misread.
+void CheckNothingAfter(const std::string& path, std::size_t end, std::size_t file_size,
+                       const std::string& data_is) {
+  if (file_size <= end) return;
+  const std::size_t extra = file_size - end;
+  bool zeros = extra < 4096;
+  if (zeros) {
+    std::ifstream in(path, std::ios::binary);
+    in.seekg(static_cast<std::streamoff>(end));
+    std::string tail(extra, '\0');
+    in.read(tail.data(), static_cast<std::streamsize>(extra));
+    zeros = in && tail.find_first_not_of('\0') == std::string::npos;
+  }
+  if (zeros) return;
+  throw FileError(path, io_detail::ByteWhere(end),
+                  "the data should end here (" + data_is + ") but " + std::to_string(extra) +
+                      " more bytes follow that are not zero padding: bytes inserted or "
+                      "appended (the points would be misread)");
+}
+
 // Checks that the data section is complete (and, for ascii, well formed) before PCL reads it.
 void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t file_size) {
   const std::size_t available = file_size > h.data_offset ? file_size - h.data_offset : 0;
@@ -209,6 +233,11 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
                           " points x " + std::to_string(h.point_size()) + " bytes) but has " +
                           std::to_string(available));
     }
+    // Bytes inserted or appended: PCL would read the first POINTS records, misaligned.
+    CheckNothingAfter(path, h.data_offset + expected, file_size,
+                      "the header's " + std::to_string(h.points) + " points x " +
+                          std::to_string(h.point_size()) + " bytes from byte " +
+                          std::to_string(h.data_offset));
   } else if (h.data == "binary_compressed") {
     if (available < 8) {
       throw FileError(path, io_detail::ByteWhere(file_size),
@@ -230,6 +259,33 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
                       "truncated: " + std::to_string(compressed) +
                           " compressed bytes announced at byte " + std::to_string(h.data_offset) +
                           ", only " + std::to_string(available - 8) + " present");
+    }
+    // LZF packs at most ~100:1; a larger ratio is a damaged size word, not data to unpack.
+    if (expected / 200 > compressed) {
+      throw FileError(path, io_detail::ByteWhere(h.data_offset),
+                      "the compressed-size word says " + std::to_string(compressed) +
+                          " bytes, which cannot unpack to the " + std::to_string(expected) +
+                          " bytes the header needs: the file is damaged");
+    }
+    CheckNothingAfter(path, h.data_offset + 8 + compressed, file_size,
+                      "the " + std::to_string(compressed) + " compressed bytes announced at byte " +
+                          std::to_string(h.data_offset));
+    // Unpack once here so that damaged compressed data gets a plain message (PCL's own is a
+    // console line about decompression sizes).
+    std::string packed(compressed, '\0');
+    in.read(packed.data(), static_cast<std::streamsize>(compressed));
+    if (!in) throw FileError(path, io_detail::ByteWhere(h.data_offset + 8), "read error");
+    std::vector<char> unpacked(expected);
+    const unsigned int got = expected == 0
+                                 ? 0
+                                 : pcl::lzfDecompress(packed.data(), compressed, unpacked.data(),
+                                                      static_cast<unsigned int>(expected));
+    if (got != expected) {
+      throw FileError(path, io_detail::ByteWhere(h.data_offset + 8),
+                      "the compressed point data is damaged: it does not unpack to the " +
+                          std::to_string(expected) + " bytes the header's " +
+                          std::to_string(h.points) + " points x " + std::to_string(h.point_size()) +
+                          " bytes need");
     }
   } else {
     // ascii: one line per point with every value, nothing more.
@@ -521,11 +577,15 @@ void WriteOrganisedPcd(const std::string& path, const OrderedScan& scan) {
   pcl::PCDWriter writer;
   int rc = -1;
   try {
-    rc = writer.writeBinary(path, cloud, origin, Eigen::Quaternionf::Identity());
+    WriteFileAtomically(path, [&](const std::string& tmp) {
+      rc = writer.writeBinary(tmp, cloud, origin, Eigen::Quaternionf::Identity());
+      if (rc < 0) throw FileError(path, "", "PCL could not write the file");
+    });
+  } catch (const Error&) {
+    throw;
   } catch (const std::exception& e) {
     throw FileError(path, "", std::string("PCL could not write the file: ") + e.what());
   }
-  if (rc < 0) throw FileError(path, "", "PCL could not write the file");
 }
 
 }  // namespace scancam

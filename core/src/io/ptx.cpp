@@ -7,6 +7,7 @@
 
 #include "io_util.h"
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 
 namespace scancam {
 
@@ -39,8 +40,24 @@ class PtxParser {
       io_detail::SplitWhitespace(line, tok_);
       if (!tok_.empty()) break;
     }
+    if (scan_number > 0 && (tok_.size() == 4 || tok_.size() == 7)) {
+      // A point where a header or the end of the file should be: the previous header counts
+      // fewer points than its data holds (every scan line would shift).
+      Fail(path_, lines_.line_number(),
+           "scan " + std::to_string(scan_number - 1) + "'s header counts " +
+               std::to_string(last_columns_) + " columns x " + std::to_string(last_rows_) +
+               " rows = " + std::to_string(last_columns_ * last_rows_) +
+               " points, but its data goes on: this line holds a point (" +
+               std::to_string(tok_.size()) +
+               " fields) where the next scan's header or the end of the file should be");
+    }
+    if (scan_number > 0) {
+      after_ = "after the " + std::to_string(last_columns_ * last_rows_) + " points scan " +
+               std::to_string(scan_number - 1) + "'s header counts: ";
+    }
     const long long cols = ReadCount("number of columns");
-    if (!lines_.Next(line)) Truncated(scan_number, "its header (number of rows)");
+    after_.clear();
+    if (!lines_.Next(line)) Truncated(scan_number, "header (number of rows)");
     io_detail::SplitWhitespace(line, tok_);
     const long long rows = ReadCount("number of rows");
     if (cols * rows > kMaxCells) {
@@ -51,6 +68,8 @@ class PtxParser {
     }
     scan.columns = static_cast<int>(cols);
     scan.rows = static_cast<int>(rows);
+    last_columns_ = cols;
+    last_rows_ = rows;
     double v[4];
     for (int k = 0; k < 4; ++k) {
       ReadNumbers(scan_number, 3, v, k == 0 ? "scanner position" : "scanner axis");
@@ -141,8 +160,8 @@ class PtxParser {
     long long v = 0;
     if (tok_.size() != 1 || !io_detail::ParseInt64(tok_[0], v) || v <= 0 || v > kMaxCells) {
       Fail(path_, lines_.line_number(),
-           std::string("expected the ") + what +
-               " of a PTX scan header (one positive integer up to " + std::to_string(kMaxCells) +
+           after_ + "expected the " + what + " of a PTX scan header (one positive integer up to " +
+               std::to_string(kMaxCells) +
                "), "
                "found " +
                (tok_.empty() ? std::string("an empty line") : Quote(tok_[0])) +
@@ -154,7 +173,7 @@ class PtxParser {
 
   void ReadNumbers(int scan_number, int count, double* v, const char* what) {
     std::string_view line;
-    if (!lines_.Next(line)) Truncated(scan_number, std::string("its header (") + what + ")");
+    if (!lines_.Next(line)) Truncated(scan_number, std::string("header (") + what + ")");
     io_detail::SplitWhitespace(line, tok_);
     if (static_cast<int>(tok_.size()) != count) {
       Fail(path_, lines_.line_number(),
@@ -178,6 +197,8 @@ class PtxParser {
   std::string path_;
   io_detail::FileLineReader lines_;
   std::vector<std::string_view> tok_;
+  long long last_columns_ = 0, last_rows_ = 0;  // of the last header read
+  std::string after_;  // when reading what follows a scan's points: which scan
 };
 
 // Median of angles near each other, robust to the +-pi wrap: measured relative to the first.
@@ -231,6 +252,12 @@ PtxScan ReadPtxScan(const std::string& path, int scan_index, const Progress& pro
     }
     parser.ReadPoints(scan, k, k == scan_index, progress);
     if (k == scan_index) break;
+  }
+  // The rest of the file must be whole scans too: a header that counts fewer points than its
+  // data, or lines appended, would otherwise go unnoticed.
+  PtxScan rest;
+  for (int k = scan_index + 1; parser.ReadHeader(rest, k); ++k) {
+    parser.ReadPoints(rest, k, false, Progress());
   }
   progress(1.0, "reading PTX");
   return scan;
@@ -352,9 +379,20 @@ PtxScan PtxFromOrderedScan(const OrderedScan& scan, const Eigen::Matrix4d& trans
   return ptx;
 }
 
+namespace {
+void WritePtxTo(const std::string& tmp, const std::string& path, const std::vector<PtxScan>& scans);
+}  // namespace
+
 void WritePtx(const std::string& path, const std::vector<PtxScan>& scans) {
   if (scans.empty()) throw FileError(path, "", "no scan to write");
-  std::FILE* f = std::fopen(path.c_str(), "wb");
+  WriteFileAtomically(path, [&](const std::string& tmp) { WritePtxTo(tmp, path, scans); });
+}
+
+namespace {
+// WritePtx's body: writes `scans` to `tmp`; messages name `path`.
+void WritePtxTo(const std::string& tmp, const std::string& path,
+                const std::vector<PtxScan>& scans) {
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw FileError(path, "", "cannot open the file for writing");
   std::string out;
   bool ok = true;
@@ -423,6 +461,7 @@ void WritePtx(const std::string& path, const std::vector<PtxScan>& scans) {
   ok = (std::fclose(f) == 0) && ok;
   if (!ok) throw FileError(path, "", "write error");
 }
+}  // namespace
 
 OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,
                     const Progress& progress) {

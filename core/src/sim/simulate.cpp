@@ -15,6 +15,7 @@
 #include "scancam/io/json_util.h"
 #include "scancam/io/pcd.h"
 #include "scancam/io/ptx.h"
+#include "scancam/output_file.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/sim/office_scene.h"
 #include "scancam/version.h"
@@ -484,11 +485,7 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
         }
         out += tr.visible[i] ? "1\n" : "0\n";
       }
-    const std::string path = (d / "truth.csv").string();
-    std::ofstream f(path, std::ios::binary);
-    if (!f) throw FileError(path, "", "cannot open for writing");
-    f << out;
-    if (!f) throw FileError(path, "", "write failed");
+    WriteFileAtomically((d / "truth.csv").string(), out);
   }
   progress(0.8, "writing files");
 

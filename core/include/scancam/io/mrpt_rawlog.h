@@ -1,6 +1,16 @@
 // ScanCam: MRPT rawlogs (gzip-compressed MRPT serialisation), read through MRPT's own
 // libraries (mrpt::io::CFileGZInputStream, mrpt::serialization::CArchive).
 //
+// Hostile files: a gzip rawlog is first inflated whole with zlib and its CRC-32 and length
+// checked, so damaged compressed data ends in "byte N: the gzip data is damaged" before MRPT
+// reads a byte; bytes after the gzip stream are an error too. MRPT then decodes the stream in
+// a forked child process (MRPT trusts sizes read from the stream: damaged rawlogs made it
+// crash or allocate 4-8 GB) whose address space is limited to the parent's plus 512 MiB +
+// 16 x the uncompressed size (not under sanitizers, which reserve terabytes) and whose CPU
+// time is limited; a crash, a blown budget or an MRPT exception there is a FileError naming
+// the object being decoded, and the calling process (CLI or CloudCompare) goes on. The child
+// only decodes and converts; the result comes back through a pipe.
+//
 // The file is read object by object; observations are taken both bare and from inside
 // CSensoryFrame objects (actions are skipped). A stream that ends inside an object, or a gzip
 // stream without its trailer (cut exactly between objects), is reported as truncated. The scan-like
@@ -89,6 +99,11 @@ OrderedScan LoadMrptRawlog(const std::string& path, int rawlog_index = -1,
 /// pixels, row-major); 2D scans: each scan's points composed with its sensorPose by MRPT
 /// (row-major over valid beams); RotatingScan: empty (MRPT 2.5 has no point model for it).
 std::vector<Eigen::Vector3f> MrptReferencePoints(const std::string& path, int rawlog_index = -1);
+
+/// The uncompressed MRPT stream of a rawlog (a gzip file inflated and its CRC-32 / length
+/// checked, a plain file as it is), as the decoder sees it; for tests and fuzzing tools.
+/// Throws scancam::Error naming the file and byte offset on damaged gzip data.
+std::string RawlogUncompressedBytes(const std::string& path);
 
 /// Writes a rawlog of CObservation2DRangeScan, one per plane of a rotating 2D scan, each with
 /// the sensorPose of eq. 3 (pitch phi_i about y, position R_y(phi_i) (d_x, 0, d_z)), so that

@@ -1,0 +1,74 @@
+// ScanCam: writing output files without ever losing the user's data.
+//
+// Every file ScanCam writes (CLI and core writers: PLY/PCD/OBJ/GLB exports, PNG/TIFF images,
+// JSON, pairs CSV, camera files, PTX, rotating logs, rawlogs) goes through
+// WriteFileAtomically: the content is written to a temporary file in the output's own
+// directory (".scancam-tmp-<random>-<name>", so extension-driven writers such as
+// cv::imwrite pick the same format), flushed to disk, and renamed over the output in one
+// step. A writer that fails or throws leaves the output as it was (absent, or the previous
+// file) and removes the temporary. A symbolic link as output is followed: its target is
+// replaced, the link stays. An existing output keeps its permission bits.
+//
+// OutputBatch (one per CLI run): while a batch is open, WriteFileAtomically only stages the
+// temporary files; Commit() renames them all at the end of a successful run. A run that fails
+// (the batch is destroyed uncommitted) removes its temporaries, so it leaves no output at all
+// and every output of a previous run stays untouched. If a rename fails during Commit(), the
+// outputs already renamed are put back (the previous files are kept as hard-linked backups
+// until the commit is complete).
+//
+// CheckOutputs refuses, before any work, outputs that name an input (the same file, also
+// through a symbolic or hard link: same device and inode; or the same canonical path when the
+// output does not exist yet), two outputs naming the same file, outputs that are
+// directories and outputs whose directory does not exist. It also hands the inputs to the
+// open batch, which checks every output staged later against them (outputs whose names are
+// only known during the run, e.g. `scancam ba`'s files).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace scancam {
+
+/// A command-line role and a path, e.g. {"--plot", "a.png"}; the role is quoted in messages.
+struct NamedPath {
+  std::string role;
+  std::string path;
+};
+
+/// True when `a` and `b` are the same file (equivalent when both exist, else the same
+/// weakly canonical path).
+bool SameFile(const std::string& a, const std::string& b);
+
+/// Throws scancam::Error (message naming both roles and paths) when an output is an input,
+/// two outputs are the same file, an output is a directory or its directory is missing.
+/// Empty paths are ignored. The inputs are remembered by the open OutputBatch, if any.
+void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs);
+
+/// Writes `path` atomically: `write(tmp)` must write the whole file at `tmp` (throwing
+/// scancam::Error on failure); then `tmp` replaces `path` (or is staged in the open
+/// OutputBatch). Throws scancam::Error naming `path` when the temporary cannot be created,
+/// synced or renamed.
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(const std::string& tmp)>& write);
+
+/// The same for a file whose whole content is in memory.
+void WriteFileAtomically(const std::string& path, std::string_view content);
+
+/// The outputs of one run: see the header comment. At most one batch is open at a time.
+class OutputBatch {
+ public:
+  OutputBatch();
+  ~OutputBatch();  ///< uncommitted: removes the staged temporaries
+  OutputBatch(const OutputBatch&) = delete;
+  OutputBatch& operator=(const OutputBatch&) = delete;
+
+  /// Renames every staged temporary over its output; throws scancam::Error (after putting
+  /// back what it had renamed) when one cannot be renamed.
+  void Commit();
+  /// Outputs staged so far (final paths, in staging order).
+  std::vector<std::string> staged() const;
+};
+
+}  // namespace scancam

@@ -1,0 +1,266 @@
+#include "scancam/output_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <mutex>
+#include <random>
+
+#include "scancam/error.h"
+
+namespace scancam {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Staged {
+  std::string tmp;
+  std::string final_path;
+};
+
+struct BatchState {
+  std::vector<NamedPath> inputs;
+  std::vector<Staged> staged;
+};
+
+std::mutex g_mutex;
+BatchState* g_batch = nullptr;
+
+std::string Quoted(const NamedPath& p) { return p.role + " '" + p.path + "'"; }
+
+// The file an output path really names: a symbolic link is followed (its target replaced).
+std::string ResolveOutput(const std::string& path) {
+  std::error_code ec;
+  if (fs::is_symlink(fs::symlink_status(path, ec))) {
+    const fs::path target = fs::weakly_canonical(path, ec);
+    if (!ec) return target.string();
+  }
+  return path;
+}
+
+std::string RandomTag() {
+  static std::mutex m;
+  static std::mt19937_64 rng(std::random_device{}() ^
+                             static_cast<std::uint64_t>(::getpid()) * 0x9E3779B97F4A7C15ull);
+  std::lock_guard<std::mutex> lock(m);
+  char buf[24];
+  std::snprintf(buf, sizeof buf, "%012llx",
+                static_cast<unsigned long long>(rng() & 0xffffffffffffull));
+  return buf;
+}
+
+// Creates an empty temporary file beside `final_path`; returns its path.
+std::string CreateTemp(const std::string& final_path) {
+  const fs::path f(final_path);
+  const fs::path dir = f.parent_path();
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const fs::path tmp = dir / (".scancam-tmp-" + RandomTag() + "-" + f.filename().string());
+    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+      struct stat st;
+      if (::stat(final_path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+        ::fchmod(fd, st.st_mode & 07777);  // keep the permissions of the file replaced
+      }
+      ::close(fd);
+      return tmp.string();
+    }
+    if (errno != EEXIST) {
+      throw FileError(final_path, "",
+                      std::string("cannot create a temporary file in its directory (") +
+                          std::strerror(errno) + ")");
+    }
+  }
+  throw FileError(final_path, "", "cannot create a temporary file in its directory");
+}
+
+void SyncFile(const std::string& tmp, const std::string& final_path) {
+  const int fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    throw FileError(final_path, "", "the writer left no file (temporary " + tmp + " vanished)");
+  }
+  const int rc = ::fsync(fd);
+  ::close(fd);
+  if (rc != 0) {
+    throw FileError(final_path, "",
+                    std::string("cannot flush the file to disk (") + std::strerror(errno) + ")");
+  }
+}
+
+void CheckNotInput(const std::vector<NamedPath>& inputs, const std::string& output) {
+  for (const NamedPath& in : inputs) {
+    if (!in.path.empty() && SameFile(output, in.path)) {
+      throw FileError(output, "",
+                      "refusing to write: this output is the input " + Quoted(in) +
+                          " (the same file); choose another output name");
+    }
+  }
+}
+
+}  // namespace
+
+bool SameFile(const std::string& a, const std::string& b) {
+  std::error_code ea, eb;
+  const bool xa = fs::exists(a, ea), xb = fs::exists(b, eb);
+  if (xa && xb) {
+    std::error_code ec;
+    return fs::equivalent(a, b, ec);
+  }
+  if (xa != xb) return false;
+  std::error_code ec1, ec2;
+  const fs::path ca = fs::weakly_canonical(a, ec1), cb = fs::weakly_canonical(b, ec2);
+  if (ec1 || ec2) return fs::absolute(a).lexically_normal() == fs::absolute(b).lexically_normal();
+  return ca == cb;
+}
+
+void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<NamedPath>& inputs) {
+  {
+    std::lock_guard<std::mutex> lock(g_mutex);
+    if (g_batch) g_batch->inputs.insert(g_batch->inputs.end(), inputs.begin(), inputs.end());
+  }
+  for (std::size_t i = 0; i < outputs.size(); ++i) {
+    const NamedPath& out = outputs[i];
+    if (out.path.empty()) continue;
+    for (const NamedPath& in : inputs) {
+      if (!in.path.empty() && SameFile(out.path, in.path)) {
+        throw Error(Quoted(out) + " is the input " + Quoted(in) +
+                    " (the same file): an output never overwrites an input; choose another "
+                    "output name");
+      }
+    }
+    for (std::size_t j = 0; j < i; ++j) {
+      if (!outputs[j].path.empty() && SameFile(out.path, outputs[j].path)) {
+        throw Error(Quoted(out) + " and " + Quoted(outputs[j]) +
+                    " are the same file: give each output its own name");
+      }
+    }
+    std::error_code ec;
+    if (fs::is_directory(out.path, ec)) {
+      throw Error(Quoted(out) + " is a directory, not a file name");
+    }
+    const fs::path dir = fs::path(out.path).parent_path();
+    if (!dir.empty() && !fs::is_directory(dir, ec)) {
+      throw Error(Quoted(out) + ": the directory '" + dir.string() + "' does not exist");
+    }
+  }
+}
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(const std::string& tmp)>& write) {
+  if (path.empty()) throw Error("empty output file name");
+  const std::string final_path = ResolveOutput(path);
+  {
+    std::lock_guard<std::mutex> lock(g_mutex);
+    if (g_batch) {
+      CheckNotInput(g_batch->inputs, final_path);
+      for (const Staged& s : g_batch->staged) {
+        if (SameFile(s.final_path, final_path)) {
+          throw FileError(path, "", "written twice in one run (two outputs name this file)");
+        }
+      }
+    }
+  }
+  std::error_code ec;
+  if (fs::is_directory(final_path, ec)) {
+    throw FileError(path, "", "is a directory, not a file name");
+  }
+  const std::string tmp = CreateTemp(final_path);
+  try {
+    write(tmp);
+    SyncFile(tmp, path);
+  } catch (...) {
+    std::remove(tmp.c_str());
+    throw;
+  }
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (g_batch) {
+    g_batch->staged.push_back({tmp, final_path});
+    return;
+  }
+  if (std::rename(tmp.c_str(), final_path.c_str()) != 0) {
+    const int err = errno;
+    std::remove(tmp.c_str());
+    throw FileError(path, "", std::string("cannot replace the file (") + std::strerror(err) + ")");
+  }
+}
+
+void WriteFileAtomically(const std::string& path, std::string_view content) {
+  WriteFileAtomically(path, [&](const std::string& tmp) {
+    std::FILE* f = std::fopen(tmp.c_str(), "wb");
+    if (!f) throw FileError(path, "", "cannot open the file for writing");
+    const bool ok = std::fwrite(content.data(), 1, content.size(), f) == content.size();
+    if (std::fclose(f) != 0 || !ok) throw FileError(path, "", "write error (disk full?)");
+  });
+}
+
+OutputBatch::OutputBatch() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (g_batch) throw Error("internal: an output batch is already open");
+  g_batch = new BatchState();
+}
+
+OutputBatch::~OutputBatch() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (!g_batch) return;
+  for (const Staged& s : g_batch->staged) std::remove(s.tmp.c_str());
+  delete g_batch;
+  g_batch = nullptr;
+}
+
+std::vector<std::string> OutputBatch::staged() const {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  std::vector<std::string> out;
+  if (g_batch) {
+    for (const Staged& s : g_batch->staged) out.push_back(s.final_path);
+  }
+  return out;
+}
+
+void OutputBatch::Commit() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (!g_batch) return;
+  std::vector<Staged>& staged = g_batch->staged;
+  // Keep every file about to be replaced as a hard-linked backup until all renames are done.
+  std::vector<std::string> backup(staged.size());
+  for (std::size_t i = 0; i < staged.size(); ++i) {
+    struct stat st;
+    if (::lstat(staged[i].final_path.c_str(), &st) != 0) continue;
+    const fs::path f(staged[i].final_path);
+    const std::string b =
+        (f.parent_path() / (".scancam-old-" + RandomTag() + "-" + f.filename().string())).string();
+    if (::link(staged[i].final_path.c_str(), b.c_str()) == 0) backup[i] = b;
+  }
+  std::size_t done = 0;
+  for (; done < staged.size(); ++done) {
+    if (std::rename(staged[done].tmp.c_str(), staged[done].final_path.c_str()) != 0) break;
+  }
+  if (done < staged.size()) {
+    const int err = errno;
+    const std::string failed = staged[done].final_path;
+    for (std::size_t i = 0; i < done; ++i) {  // put back what this run had replaced
+      if (!backup[i].empty()) {
+        std::rename(backup[i].c_str(), staged[i].final_path.c_str());
+        backup[i].clear();
+      } else {
+        std::remove(staged[i].final_path.c_str());
+      }
+    }
+    for (std::size_t i = done; i < staged.size(); ++i) std::remove(staged[i].tmp.c_str());
+    for (const std::string& b : backup)
+      if (!b.empty()) std::remove(b.c_str());
+    staged.clear();
+    throw FileError(failed, "",
+                    std::string("cannot replace the file (") + std::strerror(err) +
+                        "); no output of this run was kept");
+  }
+  for (const std::string& b : backup)
+    if (!b.empty()) std::remove(b.c_str());
+  staged.clear();
+}
+
+}  // namespace scancam
