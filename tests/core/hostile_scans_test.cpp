@@ -111,7 +111,7 @@ MutationCounts MutateAndLoad(const std::string& original, const std::string& dir
       EXPECT_EQ(outcome.rfind(path + ":", 0), 0u)
           << "message does not start with the file: " << outcome;
       if (outcome.find("gzip data is damaged") != std::string::npos) ++c.gzip_damaged;
-      if (outcome.find("MRPT failed") != std::string::npos ||
+      if (outcome.find("MRPT crashed") != std::string::npos ||
           outcome.find("more memory than") != std::string::npos)
         ++c.mrpt_failed;
       for (char ch : outcome) {
@@ -197,6 +197,25 @@ TEST(HostileRawlog, PlainRawlogReadsLikeTheGzipOne) {
       EXPECT_EQ(a.point_m[k], b.point_m[k]);
     }
   }
+}
+
+// The SIGSEGV of issue 13 (CObservation3DRangeScan::rangeImage_setSize from serializeFrom):
+// one byte (0xc4) inserted at byte 755237 of the uncompressed stream of tests_rgbd.rawlog
+// crashed the whole process before; now the decoder process dies and the caller gets a
+// FileError naming the object.
+TEST(HostileRawlog, MrptCrashIsAFileErrorAndTheProcessGoesOn) {
+  SCANCAM_REQUIRE_SHARED();
+  const std::string dir = test::TempDir();
+  std::string plain = RawlogUncompressedBytes(test::SharedDataset("mrpt/tests_rgbd.rawlog"));
+  ASSERT_EQ(plain.size(), 5908231u);
+  plain.insert(755237, 1, '\xc4');
+  const std::string path = dir + "/crash.rawlog";
+  WriteFile(path, plain);
+  ExpectError([&] { LoadScan(path); },
+              {path + ":object 0 (byte 0 of the uncompressed stream)", "MRPT crashed", "damaged"});
+  ExpectError([&] { ListRawlogScans(path); }, {path + ":object 0", "MRPT crashed"});
+  // This process is fine and reads the real file afterwards.
+  EXPECT_GT(LoadScan(test::SharedDataset("mrpt/tests_rgbd.rawlog")).valid_count(), 1000u);
 }
 
 // A 2D scan whose beam count is set to 2^31-1 in the uncompressed stream: MRPT would resize

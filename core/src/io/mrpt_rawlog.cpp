@@ -66,6 +66,21 @@ std::string MrptMessage(const std::exception& e) {
     clean += (c >= 0x20 && c < 0x7f) ? ch : '?';
   }
   if (clean.size() > 300) clean = clean.substr(0, 300) + "...";
+  // MRPT's words for the two usual consequences of damaged data.
+  if (clean.find("end-flag missing") != std::string::npos) {
+    const std::size_t q = clean.find("class: '");
+    return "the data of " +
+           (q == std::string::npos ? std::string("an object")
+                                   : clean.substr(q + 7, clean.find('\'', q + 8) - q - 6)) +
+           " does not end where it should (damaged data)";
+  }
+  if (clean.find("which is not registered") != std::string::npos) {
+    const std::size_t q = clean.find("class '");
+    const std::size_t e = q == std::string::npos ? q : clean.find("' which", q);
+    return "unknown MRPT class name " +
+           (e == std::string::npos ? std::string("?") : clean.substr(q + 6, e - q - 5)) +
+           " (damaged data, or a class this MRPT does not know)";
+  }
   return clean;
 }
 
@@ -209,7 +224,9 @@ std::vector<ObsRecord> ReadObservations(const std::string& path, const RawlogByt
                             (bytes.gzip ? "uncompressed data" : "file") + " ends (byte " +
                             std::to_string(size) + ") inside this object (" + MrptMessage(e) + ")");
       }
-      throw FileError(path, ObjectWhere(k, start), "not a readable MRPT object: " + MrptMessage(e));
+      throw FileError(path, ObjectWhere(k, start),
+                      "not a readable MRPT object: " + MrptMessage(e) + " (MRPT stopped at byte " +
+                          std::to_string(at) + ")");
     }
     if (!obj) continue;
     if (auto sf = std::dynamic_pointer_cast<mrpt::obs::CSensoryFrame>(obj)) {
@@ -860,9 +877,10 @@ std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
     if (sig == SIGXCPU || sig == SIGKILL) {
       throw FileError(path, at, "MRPT took too long " + doing + ": the file is damaged");
     }
-    std::string name = sig ? strsignal(sig) : "no reply";
-    throw FileError(
-        path, at, "MRPT failed (" + name + ") " + doing + ": the file is damaged or not a rawlog");
+    const std::string name = sig ? strsignal(sig) : "no reply";
+    throw FileError(path, at,
+                    "MRPT crashed (" + name + ") " + doing +
+                        ": the file is damaged or not a rawlog (ScanCam itself goes on)");
   }
   if (reply[0] == 'E') throw Error(reply.substr(1));
   return reply.substr(1);
