@@ -2,7 +2,9 @@
 #pragma once
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -42,6 +44,15 @@ inline void WriteFile(const std::string& path, const std::string& content) {
 inline std::string ReadFile(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
   return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+}
+
+/// Runs the built `scancam` CLI with `args` (shell words after "scancam"); its stdout and stderr
+/// go to DIR/stdout.txt and DIR/stderr.txt. Returns the exit status (-1 if it did not exit).
+inline int RunCli(const std::string& dir, const std::string& args) {
+  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
+                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 /// Runs `f` and expects a scancam::Error whose message contains every one of `parts` (the

@@ -21,15 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::ReadFile;
+using test::RunCli;
 using test::TempDir;
-
-// Runs the CLI with arguments; returns its exit code; stdout/stderr go to files in dir.
-int RunCli(const std::string& dir, const std::string& args) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 // A small room corner with a box, on a PTX-like grid: rows = scan lines (azimuth),
 // cols = points along a line (elevation), as io/ptx.h lays a PTX out. Some no-returns.

@@ -26,14 +26,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::ReadFile;
+using test::RunCli;
 using test::WriteFile;
-
-int RunCli(const std::string& dir, const std::string& args) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 // A small simulated acquisition (pinhole camera, rotating scanner), once per test process.
 struct SimFiles {

@@ -34,10 +34,7 @@ using namespace scancam::colour;
 namespace fs = std::filesystem;
 
 int RunCli(const std::string& dir, const std::string& args) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" colorize " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return test::RunCli(dir, "colorize " + args);
 }
 
 // The simulated acquisition (pinhole camera, rotating scanner), written once per process (CTest

@@ -18,14 +18,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::ReadFile;
+using test::RunCli;
 using test::TempDir;
-
-int RunCli(const std::string& dir, const std::string& args) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
 
 const char* kSmall =
     " --planes 90 --phi-step-deg 4 --beams 61 --theta-step-deg 3 --supersample 1 --pairs 6"
