@@ -1,5 +1,6 @@
 #include "scancam/io/mrpt_rawlog.h"
 
+#include <fcntl.h>
 #include <mrpt/io/CFileGZOutputStream.h>
 #include <mrpt/io/CMemoryStream.h>
 #include <mrpt/obs/CObservation.h>
@@ -12,6 +13,7 @@
 #include <mrpt/opengl/CPointCloud.h>
 #include <mrpt/poses/CPose3D.h>
 #include <mrpt/serialization/CArchive.h>
+#include <poll.h>
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
@@ -22,6 +24,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -814,8 +817,11 @@ std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
     ~Unmap() { munmap(p, sizeof(DecodeWhere)); }
   } unmap{page};
   DecodeWhere* where = new (page) DecodeWhere();
+  // CPU seconds for the child; the parent waits at most that long plus a margin in real time.
+  const rlim_t cpu_s = 60 + static_cast<rlim_t>(bytes.data.size() >> 20);
   int fds[2];
-  if (pipe(fds) != 0) throw FileError(path, "", "cannot create a pipe for the MRPT decoder");
+  if (pipe2(fds, O_CLOEXEC) != 0)
+    throw FileError(path, "", "cannot create a pipe for the MRPT decoder");
   const std::size_t vm = VirtualMemoryBytes();
   const pid_t pid = fork();
   if (pid < 0) {
@@ -831,9 +837,11 @@ std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
       const rlimit as{vm + budget, vm + budget};
       setrlimit(RLIMIT_AS, &as);
     }
-    const rlim_t cpu_s = 60 + static_cast<rlim_t>(bytes.data.size() >> 20);
     const rlimit cpu{cpu_s, cpu_s + 5};
     setrlimit(RLIMIT_CPU, &cpu);
+    // A crash ends the child, whatever handler the host application (CloudCompare's crash
+    // reporter, a sanitizer) installed for the whole process.
+    for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) signal(sig, SIG_DFL);
     g_where = where;
     std::string reply;
     try {
@@ -858,7 +866,20 @@ std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
   close(fds[1]);
   std::string reply;
   char buf[1 << 16];
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2 * cpu_s + 30);
+  bool timed_out = false;
   for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      timed_out = true;  // e.g. stuck on a lock another thread held at fork()
+      kill(pid, SIGKILL);
+      break;
+    }
+    pollfd p{fds[0], POLLIN, 0};
+    const int ready = poll(&p, 1, static_cast<int>(std::min<long long>(left.count(), 1000)));
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready == 0) continue;
     const ssize_t r = ::read(fds[0], buf, sizeof buf);
     if (r < 0 && errno == EINTR) continue;
     if (r <= 0) break;
@@ -874,10 +895,13 @@ std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
       w.stage == 0 ? "decoding this object" : "converting the observations read";
   if (WIFSIGNALED(status) || !WIFEXITED(status) || WEXITSTATUS(status) != 0 || reply.empty()) {
     const int sig = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
-    if (sig == SIGXCPU || sig == SIGKILL) {
+    if (sig == SIGXCPU || timed_out) {
       throw FileError(path, at, "MRPT took too long " + doing + ": the file is damaged");
     }
-    const std::string name = sig ? strsignal(sig) : "no reply";
+    const std::string name = sig ? std::string(strsignal(sig))
+                                 : (WIFEXITED(status) && WEXITSTATUS(status) != 0
+                                        ? "exit code " + std::to_string(WEXITSTATUS(status))
+                                        : std::string("no reply"));
     throw FileError(path, at,
                     "MRPT crashed (" + name + ") " + doing +
                         ": the file is damaged or not a rawlog (ScanCam itself goes on)");

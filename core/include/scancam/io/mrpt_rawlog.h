@@ -6,10 +6,12 @@
 // reads a byte; bytes after the gzip stream are an error too. MRPT then decodes the stream in
 // a forked child process (MRPT trusts sizes read from the stream: damaged rawlogs made it
 // crash or allocate 4-8 GB) whose address space is limited to the parent's plus 512 MiB +
-// 16 x the uncompressed size (not under sanitizers, which reserve terabytes) and whose CPU
-// time is limited; a crash, a blown budget or an MRPT exception there is a FileError naming
-// the object being decoded, and the calling process (CLI or CloudCompare) goes on. The child
-// only decodes and converts; the result comes back through a pipe.
+// 16 x the uncompressed size (not under sanitizers, which reserve terabytes), whose CPU time
+// is limited to 60 s + 1 s per MiB (and its real time to twice that + 30 s) and whose crash
+// signals are reset to their default; a crash, a blown budget or an MRPT exception there is a
+// FileError naming the object being decoded, and the calling process (CLI or CloudCompare)
+// goes on. The child only decodes and converts; the result comes back through a pipe. (fork()
+// in a multi-threaded host: the child runs only this thread's MRPT decoding and _exit()s.)
 //
 // The file is read object by object; observations are taken both bare and from inside
 // CSensoryFrame objects (actions are skipped). A stream that ends inside an object, or a gzip
