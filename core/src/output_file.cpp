@@ -150,43 +150,50 @@ void CheckOutputs(const std::vector<NamedPath>& outputs, const std::vector<Named
   }
 }
 
-void WriteFileAtomically(const std::string& path,
-                         const std::function<void(const std::string& tmp)>& write) {
+AtomicFile::AtomicFile(const std::string& path) : path_(path) {
   if (path.empty()) throw Error("empty output file name");
-  const std::string final_path = ResolveOutput(path);
+  final_ = ResolveOutput(path);
   {
     std::lock_guard<std::mutex> lock(g_mutex);
     if (g_batch) {
-      CheckNotInput(g_batch->inputs, final_path);
+      CheckNotInput(g_batch->inputs, final_);
       for (const Staged& s : g_batch->staged) {
-        if (SameFile(s.final_path, final_path)) {
+        if (SameFile(s.final_path, final_)) {
           throw FileError(path, "", "written twice in one run (two outputs name this file)");
         }
       }
     }
   }
   std::error_code ec;
-  if (fs::is_directory(final_path, ec)) {
-    throw FileError(path, "", "is a directory, not a file name");
-  }
-  const std::string tmp = CreateTemp(final_path);
-  try {
-    write(tmp);
-    SyncFile(tmp, path);
-  } catch (...) {
-    std::remove(tmp.c_str());
-    throw;
-  }
+  if (fs::is_directory(final_, ec)) throw FileError(path, "", "is a directory, not a file name");
+  tmp_ = CreateTemp(final_);
+}
+
+AtomicFile::~AtomicFile() {
+  if (!done_) std::remove(tmp_.c_str());
+}
+
+void AtomicFile::Commit() {
+  if (done_) return;
+  SyncFile(tmp_, path_);
   std::lock_guard<std::mutex> lock(g_mutex);
+  done_ = true;
   if (g_batch) {
-    g_batch->staged.push_back({tmp, final_path});
+    g_batch->staged.push_back({tmp_, final_});
     return;
   }
-  if (std::rename(tmp.c_str(), final_path.c_str()) != 0) {
+  if (std::rename(tmp_.c_str(), final_.c_str()) != 0) {
     const int err = errno;
-    std::remove(tmp.c_str());
-    throw FileError(path, "", std::string("cannot replace the file (") + std::strerror(err) + ")");
+    std::remove(tmp_.c_str());
+    throw FileError(path_, "", std::string("cannot replace the file (") + std::strerror(err) + ")");
   }
+}
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(const std::string& tmp)>& write) {
+  AtomicFile file(path);
+  write(file.tmp());
+  file.Commit();
 }
 
 void WriteFileAtomically(const std::string& path, std::string_view content) {

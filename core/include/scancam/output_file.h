@@ -56,6 +56,24 @@ void WriteFileAtomically(const std::string& path,
 /// The same for a file whose whole content is in memory.
 void WriteFileAtomically(const std::string& path, std::string_view content);
 
+/// The two-step form, for writers that open and stream into the file themselves: the
+/// constructor creates the temporary file tmp() beside the output (throwing scancam::Error
+/// as WriteFileAtomically does), Commit() flushes it to disk and renames it over the output
+/// (or stages it in the open OutputBatch); destroyed uncommitted, it removes the temporary.
+class AtomicFile {
+ public:
+  explicit AtomicFile(const std::string& path);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+  const std::string& tmp() const { return tmp_; }
+  void Commit();
+
+ private:
+  std::string path_, final_, tmp_;
+  bool done_ = false;
+};
+
 /// The outputs of one run: see the header comment. At most one batch is open at a time.
 class OutputBatch {
  public:

@@ -46,15 +46,21 @@ void Put(std::vector<char>* buf, const T& v) {
   buf->insert(buf->end(), p, p + sizeof(T));
 }
 
-std::ofstream OpenOut(const std::string& path) {
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  if (!f) throw FileError(path, "", "cannot open for writing");
-  return f;
-}
+// An output file written atomically (scancam/output_file.h): the stream writes a temporary
+// file beside `path`; Finish() puts it in place.
+class OutFile : public std::ofstream {
+ public:
+  explicit OutFile(const std::string& path) : atomic(path) {
+    open(atomic.tmp(), std::ios::binary | std::ios::trunc);
+    if (!*this) throw FileError(path, "", "cannot open for writing");
+  }
+  AtomicFile atomic;
+};
 
-void Finish(std::ofstream& f, const std::string& path) {
-  f.flush();
+void Finish(OutFile& f, const std::string& path) {
+  f.close();
   if (!f) throw FileError(path, "", "write failed (disk full?)");
+  f.atomic.Commit();
 }
 
 std::vector<unsigned char> EncodeTexture(const cv::Mat& bgr, int jpeg_quality,
@@ -81,40 +87,38 @@ void WriteColouredPly(const std::string& path, const OrderedScan& scan,
     if (options.drop_uncoloured && coloured.state[i] != PointState::kColoured) continue;
     ++count;
   }
-  WriteFileAtomically(path, [&](const std::string& tmp) {
-    std::ofstream f = OpenOut(tmp);
-    f << "ply\nformat binary_little_endian 1.0\n"
-      << "comment ScanCam coloured scan, scan frame, metres\n"
-      << "comment scalar_scancam_state: 1 out_of_view, 2 occluded, 3 coloured\n"
-      << "comment scalar_quality: image pixels per metre of surface (0: not coloured or unknown)\n"
-      << "element vertex " << count << "\n"
-      << "property float x\nproperty float y\nproperty float z\n"
-      << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-      << "property uchar scalar_scancam_state\nproperty float scalar_quality\nend_header\n";
-    std::vector<char> buf;
-    buf.reserve(20 * 65536);
-    for (std::size_t i = 0; i < scan.size(); ++i) {
-      if (!scan.valid(i)) continue;
-      const bool col = coloured.state[i] == PointState::kColoured;
-      if (options.drop_uncoloured && !col) continue;
-      const Eigen::Vector3f& p = scan.point_m[i];
-      Put(&buf, p.x());
-      Put(&buf, p.y());
-      Put(&buf, p.z());
-      const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
-      Put(&buf, c.r);
-      Put(&buf, c.g);
-      Put(&buf, c.b);
-      Put(&buf, static_cast<std::uint8_t>(coloured.state[i]));
-      Put(&buf, coloured.quality.empty() ? 0.f : coloured.quality[i]);
-      if (buf.size() >= 20 * 65536) {
-        f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-        buf.clear();
-      }
+  OutFile f(path);
+  f << "ply\nformat binary_little_endian 1.0\n"
+    << "comment ScanCam coloured scan, scan frame, metres\n"
+    << "comment scalar_scancam_state: 1 out_of_view, 2 occluded, 3 coloured\n"
+    << "comment scalar_quality: image pixels per metre of surface (0: not coloured or unknown)\n"
+    << "element vertex " << count << "\n"
+    << "property float x\nproperty float y\nproperty float z\n"
+    << "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+    << "property uchar scalar_scancam_state\nproperty float scalar_quality\nend_header\n";
+  std::vector<char> buf;
+  buf.reserve(20 * 65536);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (!scan.valid(i)) continue;
+    const bool col = coloured.state[i] == PointState::kColoured;
+    if (options.drop_uncoloured && !col) continue;
+    const Eigen::Vector3f& p = scan.point_m[i];
+    Put(&buf, p.x());
+    Put(&buf, p.y());
+    Put(&buf, p.z());
+    const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
+    Put(&buf, c.r);
+    Put(&buf, c.g);
+    Put(&buf, c.b);
+    Put(&buf, static_cast<std::uint8_t>(coloured.state[i]));
+    Put(&buf, coloured.quality.empty() ? 0.f : coloured.quality[i]);
+    if (buf.size() >= 20 * 65536) {
+      f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      buf.clear();
     }
-    f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-    Finish(f, path);
-  });
+  }
+  f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+  Finish(f, path);
 }
 
 void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
@@ -424,80 +428,74 @@ std::vector<std::string> WriteObj(const std::string& path, const TexturedMesh& m
     const std::string name = stem + "_tex" + std::to_string(part.image) + ext;
     const fs::path tp = dir / name;
     const auto bytes = EncodeTexture(mesh.images[part.image], options.jpeg_quality, tp.string());
-    WriteFileAtomically(tp.string(), [&](const std::string& tmp) {
-      std::ofstream f = OpenOut(tmp);
-      f.write(reinterpret_cast<const char*>(bytes.data()),
-              static_cast<std::streamsize>(bytes.size()));
-      Finish(f, tp.string());
-    });
+    OutFile f(tp.string());
+    f.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
+    Finish(f, tp.string());
     tex_name[part.image] = name;
     written.push_back(tp.string());
   }
   // Materials.
   {
-    WriteFileAtomically(mtl.string(), [&](const std::string& tmp) {
-      std::ofstream f = OpenOut(tmp);
-      f << "# ScanCam textured scan mesh\n";
-      for (std::size_t k = 0; k < tex_name.size(); ++k) {
-        if (tex_name[k].empty()) continue;
-        f << "\nnewmtl image" << k << "\n"
-          << "Ka 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n"
-          << "map_Kd " << tex_name[k] << "\n";
-      }
-      f << "\nnewmtl untextured\nKa 0.6 0.6 0.6\nKd 0.6 0.6 0.6\nKs 0 0 0\nd 1\nillum 1\n";
-      Finish(f, mtl.string());
-    });
+    OutFile f(mtl.string());
+    f << "# ScanCam textured scan mesh\n";
+    for (std::size_t k = 0; k < tex_name.size(); ++k) {
+      if (tex_name[k].empty()) continue;
+      f << "\nnewmtl image" << k << "\n"
+        << "Ka 1 1 1\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n"
+        << "map_Kd " << tex_name[k] << "\n";
+    }
+    f << "\nnewmtl untextured\nKa 0.6 0.6 0.6\nKd 0.6 0.6 0.6\nKs 0 0 0\nd 1\nillum 1\n";
+    Finish(f, mtl.string());
     written.push_back(mtl.string());
   }
   // Geometry.
-  WriteFileAtomically(path, [&](const std::string& tmp) {
-    std::ofstream f = OpenOut(tmp);
-    f << "# ScanCam textured scan mesh: scan frame, metres; " << mesh.vertex_count()
-      << " vertices, " << mesh.face_count() << " faces\n"
-      << "mtllib " << stem << ".mtl\n";
-    std::string buf;
-    buf.reserve(1 << 20);
-    char line[160];
-    auto flush = [&](bool force) {
-      if (force || buf.size() > (1u << 20) - 200) {
-        f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
-        buf.clear();
-      }
-    };
-    std::size_t v_base = 1, vt_base = 1;
-    for (const auto& part : mesh.parts) {
-      const bool tex = part.image >= 0;
-      buf += tex ? "o image" + std::to_string(part.image) + "\nusemtl image" +
-                       std::to_string(part.image) + "\n"
-                 : std::string("o untextured\nusemtl untextured\n");
-      for (const auto& p : part.positions) {
-        std::snprintf(line, sizeof line, "v %.6f %.6f %.6f\n", p.x(), p.y(), p.z());
-        buf += line;
-        flush(false);
-      }
-      for (const auto& t : part.uv) {
-        std::snprintf(line, sizeof line, "vt %.7f %.7f\n", t.x(), 1.0 - t.y());
-        buf += line;
-        flush(false);
-      }
-      for (const auto& fc : part.faces) {
-        if (tex) {
-          std::snprintf(line, sizeof line, "f %zu/%zu %zu/%zu %zu/%zu\n", v_base + fc[0],
-                        vt_base + fc[0], v_base + fc[1], vt_base + fc[1], v_base + fc[2],
-                        vt_base + fc[2]);
-        } else {
-          std::snprintf(line, sizeof line, "f %zu %zu %zu\n", v_base + fc[0], v_base + fc[1],
-                        v_base + fc[2]);
-        }
-        buf += line;
-        flush(false);
-      }
-      v_base += part.positions.size();
-      vt_base += part.uv.size();
+  OutFile f(path);
+  f << "# ScanCam textured scan mesh: scan frame, metres; " << mesh.vertex_count() << " vertices, "
+    << mesh.face_count() << " faces\n"
+    << "mtllib " << stem << ".mtl\n";
+  std::string buf;
+  buf.reserve(1 << 20);
+  char line[160];
+  auto flush = [&](bool force) {
+    if (force || buf.size() > (1u << 20) - 200) {
+      f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
+      buf.clear();
     }
-    flush(true);
-    Finish(f, path);
-  });
+  };
+  std::size_t v_base = 1, vt_base = 1;
+  for (const auto& part : mesh.parts) {
+    const bool tex = part.image >= 0;
+    buf += tex ? "o image" + std::to_string(part.image) + "\nusemtl image" +
+                     std::to_string(part.image) + "\n"
+               : std::string("o untextured\nusemtl untextured\n");
+    for (const auto& p : part.positions) {
+      std::snprintf(line, sizeof line, "v %.6f %.6f %.6f\n", p.x(), p.y(), p.z());
+      buf += line;
+      flush(false);
+    }
+    for (const auto& t : part.uv) {
+      std::snprintf(line, sizeof line, "vt %.7f %.7f\n", t.x(), 1.0 - t.y());
+      buf += line;
+      flush(false);
+    }
+    for (const auto& fc : part.faces) {
+      if (tex) {
+        std::snprintf(line, sizeof line, "f %zu/%zu %zu/%zu %zu/%zu\n", v_base + fc[0],
+                      vt_base + fc[0], v_base + fc[1], vt_base + fc[1], v_base + fc[2],
+                      vt_base + fc[2]);
+      } else {
+        std::snprintf(line, sizeof line, "f %zu %zu %zu\n", v_base + fc[0], v_base + fc[1],
+                      v_base + fc[2]);
+      }
+      buf += line;
+      flush(false);
+    }
+    v_base += part.positions.size();
+    vt_base += part.uv.size();
+  }
+  flush(true);
+  Finish(f, path);
   written.insert(written.begin(), path);
   return written;
 }
@@ -615,20 +613,18 @@ void WriteGlb(const std::string& path, const TexturedMesh& mesh, const MeshOptio
       12 + 8 + static_cast<std::uint32_t>(js.size()) + 8 + static_cast<std::uint32_t>(bin.size());
   if (12.0 + 8.0 + double(js.size()) + 8.0 + double(bin.size()) > 4294967295.0)
     throw FileError(path, "", "the model is larger than a GLB file can hold (4 GiB)");
-  WriteFileAtomically(path, [&](const std::string& tmp) {
-    std::ofstream f = OpenOut(tmp);
-    auto u32 = [&f](std::uint32_t v) { f.write(reinterpret_cast<const char*>(&v), 4); };
-    u32(0x46546C67u);  // "glTF"
-    u32(2u);
-    u32(total);
-    u32(static_cast<std::uint32_t>(js.size()));
-    u32(0x4E4F534Au);  // "JSON"
-    f.write(js.data(), static_cast<std::streamsize>(js.size()));
-    u32(static_cast<std::uint32_t>(bin.size()));
-    u32(0x004E4942u);  // "BIN\0"
-    f.write(reinterpret_cast<const char*>(bin.data()), static_cast<std::streamsize>(bin.size()));
-    Finish(f, path);
-  });
+  OutFile f(path);
+  auto u32 = [&f](std::uint32_t v) { f.write(reinterpret_cast<const char*>(&v), 4); };
+  u32(0x46546C67u);  // "glTF"
+  u32(2u);
+  u32(total);
+  u32(static_cast<std::uint32_t>(js.size()));
+  u32(0x4E4F534Au);  // "JSON"
+  f.write(js.data(), static_cast<std::streamsize>(js.size()));
+  u32(static_cast<std::uint32_t>(bin.size()));
+  u32(0x004E4942u);  // "BIN\0"
+  f.write(reinterpret_cast<const char*>(bin.data()), static_cast<std::streamsize>(bin.size()));
+  Finish(f, path);
 }
 
 }  // namespace scancam::colour

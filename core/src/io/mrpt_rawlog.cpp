@@ -142,8 +142,19 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
   std::size_t produced = 0;
   b.data.resize(std::max<std::size_t>(file.size() * 4, 1 << 16));
   constexpr std::size_t kChunk = 1u << 30;  // z_stream counts in 32 bits
+  // A gzip "bomb" (deflate packs up to 1032:1) must not take the machine's memory.
+  const std::size_t max_bytes = std::max<std::size_t>(
+      std::size_t{1} << 30, static_cast<std::size_t>(sysconf(_SC_PHYS_PAGES)) *
+                                static_cast<std::size_t>(sysconf(_SC_PAGESIZE)) / 2);
   for (;;) {
-    if (produced == b.data.size()) b.data.resize(b.data.size() * 2);
+    if (produced == b.data.size()) {
+      if (produced >= max_bytes) {
+        throw FileError(path, io_detail::ByteWhere(file.size() - in_left),
+                        "the gzip stream inflates to more than " + std::to_string(max_bytes >> 20) +
+                            " MiB (half this machine's memory); not read");
+      }
+      b.data.resize(std::min(b.data.size() * 2, max_bytes));
+    }
     const std::size_t in_now = std::min(in_left, kChunk);
     const std::size_t out_now = std::min(b.data.size() - produced, kChunk);
     zs.avail_in = static_cast<uInt>(in_now);
@@ -171,7 +182,7 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
       b.complete = false;  // the data ends before the stream does
       break;
     }
-    if (rc == Z_BUF_ERROR) continue;  // needs more output space
+    if (rc == Z_BUF_ERROR && zs.avail_out == 0) continue;  // needs more output space
     if (rc == Z_MEM_ERROR) throw FileError(path, io_detail::ByteWhere(at), "out of memory");
     throw FileError(path, io_detail::ByteWhere(at),
                     "the gzip data is damaged: " + ZlibProblem(zs.msg));
@@ -1054,45 +1065,45 @@ void WriteMrpt2DScanRawlog(const std::string& path, const RotatingScanData& data
   for (float r : data.range_m) {
     if (std::isfinite(r)) max_range = std::max(max_range, r);
   }
-  WriteFileAtomically(path, [&](const std::string& tmp) {
-    mrpt::io::CFileGZOutputStream out;
-    if (!out.open(tmp)) throw FileError(path, "", "cannot open the file for writing");
-    auto ar = mrpt::serialization::archiveFrom(out);
-    try {
-      for (int i = 0; i < data.planes; ++i) {
-        CObservation2DRangeScan o;
-        o.sensorLabel = sensor_label;
-        o.timestamp = mrpt::Clock::fromDouble(1.0e9 + 0.01 * i);
-        o.aperture = static_cast<float>(aperture);
-        o.rightToLeft = true;
-        o.maxRange = 2.f * max_range;
-        o.resizeScan(static_cast<std::size_t>(m));
-        const bool intensity = !data.intensity.empty();
-        if (intensity) o.setScanHasIntensity(true);
-        for (int j = 0; j < m; ++j) {
-          const float r = data.range(i, j);
-          const bool valid = std::isfinite(r) && r > 0.f;
-          o.setScanRange(static_cast<std::size_t>(j), valid ? r : 0.f);
-          o.setScanRangeValidity(static_cast<std::size_t>(j), valid);
-          if (intensity) {
-            o.setScanIntensity(
-                static_cast<std::size_t>(j),
-                static_cast<int>(std::lround(data.intensity[static_cast<std::size_t>(i) * m + j])));
-          }
+  AtomicFile file(path);
+  mrpt::io::CFileGZOutputStream out;
+  if (!out.open(file.tmp())) throw FileError(path, "", "cannot open the file for writing");
+  auto ar = mrpt::serialization::archiveFrom(out);
+  try {
+    for (int i = 0; i < data.planes; ++i) {
+      CObservation2DRangeScan o;
+      o.sensorLabel = sensor_label;
+      o.timestamp = mrpt::Clock::fromDouble(1.0e9 + 0.01 * i);
+      o.aperture = static_cast<float>(aperture);
+      o.rightToLeft = true;
+      o.maxRange = 2.f * max_range;
+      o.resizeScan(static_cast<std::size_t>(m));
+      const bool intensity = !data.intensity.empty();
+      if (intensity) o.setScanHasIntensity(true);
+      for (int j = 0; j < m; ++j) {
+        const float r = data.range(i, j);
+        const bool valid = std::isfinite(r) && r > 0.f;
+        o.setScanRange(static_cast<std::size_t>(j), valid ? r : 0.f);
+        o.setScanRangeValidity(static_cast<std::size_t>(j), valid);
+        if (intensity) {
+          o.setScanIntensity(
+              static_cast<std::size_t>(j),
+              static_cast<int>(std::lround(data.intensity[static_cast<std::size_t>(i) * m + j])));
         }
-        // Eq. 3: the plane is the sensor plane pitched by phi_i about y, its centre at
-        // R_y(phi_i) (d_x, 0, d_z).
-        const double phi = data.phi_rad[i];
-        const double c = std::cos(phi), s = std::sin(phi);
-        o.sensorPose = mrpt::poses::CPose3D(c * data.dx_m + s * data.dz_m, 0.0,
-                                            -s * data.dx_m + c * data.dz_m, 0.0, phi, 0.0);
-        ar << o;
       }
-    } catch (const std::exception& e) {
-      throw FileError(path, "", "MRPT could not write the rawlog (" + MrptMessage(e) + ")");
+      // Eq. 3: the plane is the sensor plane pitched by phi_i about y, its centre at
+      // R_y(phi_i) (d_x, 0, d_z).
+      const double phi = data.phi_rad[i];
+      const double c = std::cos(phi), s = std::sin(phi);
+      o.sensorPose = mrpt::poses::CPose3D(c * data.dx_m + s * data.dz_m, 0.0,
+                                          -s * data.dx_m + c * data.dz_m, 0.0, phi, 0.0);
+      ar << o;
     }
-    out.close();
-  });
+  } catch (const std::exception& e) {
+    throw FileError(path, "", "MRPT could not write the rawlog (" + MrptMessage(e) + ")");
+  }
+  out.close();
+  file.Commit();
 }
 
 }  // namespace scancam

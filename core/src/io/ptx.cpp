@@ -379,20 +379,10 @@ PtxScan PtxFromOrderedScan(const OrderedScan& scan, const Eigen::Matrix4d& trans
   return ptx;
 }
 
-namespace {
-void WritePtxTo(const std::string& tmp, const std::string& path, const std::vector<PtxScan>& scans);
-}  // namespace
-
 void WritePtx(const std::string& path, const std::vector<PtxScan>& scans) {
   if (scans.empty()) throw FileError(path, "", "no scan to write");
-  WriteFileAtomically(path, [&](const std::string& tmp) { WritePtxTo(tmp, path, scans); });
-}
-
-namespace {
-// WritePtx's body: writes `scans` to `tmp`; messages name `path`.
-void WritePtxTo(const std::string& tmp, const std::string& path,
-                const std::vector<PtxScan>& scans) {
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  AtomicFile file(path);
+  std::FILE* f = std::fopen(file.tmp().c_str(), "wb");
   if (!f) throw FileError(path, "", "cannot open the file for writing");
   std::string out;
   bool ok = true;
@@ -460,8 +450,8 @@ void WritePtxTo(const std::string& tmp, const std::string& path,
   }
   ok = (std::fclose(f) == 0) && ok;
   if (!ok) throw FileError(path, "", "write error");
+  file.Commit();
 }
-}  // namespace
 
 OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,
                     const Progress& progress) {

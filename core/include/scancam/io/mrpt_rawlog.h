@@ -1,17 +1,19 @@
 // ScanCam: MRPT rawlogs (gzip-compressed MRPT serialisation), read through MRPT's own
-// libraries (mrpt::io::CFileGZInputStream, mrpt::serialization::CArchive).
+// libraries (mrpt::serialization::CArchive over the inflated stream).
 //
 // Hostile files: a gzip rawlog is first inflated whole with zlib and its CRC-32 and length
 // checked, so damaged compressed data ends in "byte N: the gzip data is damaged" before MRPT
-// reads a byte; bytes after the gzip stream are an error too. MRPT then decodes the stream in
-// a forked child process (MRPT trusts sizes read from the stream: damaged rawlogs made it
-// crash or allocate 4-8 GB) whose address space is limited to the parent's plus 512 MiB +
-// 16 x the uncompressed size (not under sanitizers, which reserve terabytes), whose CPU time
-// is limited to 60 s + 1 s per MiB (and its real time to twice that + 30 s) and whose crash
-// signals are reset to their default; a crash, a blown budget or an MRPT exception there is a
-// FileError naming the object being decoded, and the calling process (CLI or CloudCompare)
-// goes on. The child only decodes and converts; the result comes back through a pipe. (fork()
-// in a multi-threaded host: the child runs only this thread's MRPT decoding and _exit()s.)
+// reads a byte; bytes after the gzip stream are an error too, and so is a stream that
+// inflates to more than half the machine's memory (at least 1 GiB is allowed). MRPT then
+// decodes the stream in a forked child process (MRPT trusts sizes read from the stream:
+// damaged rawlogs made it crash or allocate 4-8 GB) whose address space is limited to the
+// parent's plus 512 MiB + 16 x the uncompressed size (not under sanitizers, which reserve
+// terabytes), whose CPU time is limited to 60 s + 1 s per MiB (and its real time to twice
+// that + 30 s) and whose crash signals are reset to their default; a crash, a blown budget or
+// an MRPT exception there is a FileError naming the object being decoded, and the calling
+// process (CLI or CloudCompare) goes on. The child only decodes and converts; the result
+// comes back through a pipe. (fork() in a multi-threaded host: the child runs only this
+// thread's MRPT decoding and _exit()s.)
 //
 // The file is read object by object; observations are taken both bare and from inside
 // CSensoryFrame objects (actions are skipped). A stream that ends inside an object, or a gzip
