@@ -13,6 +13,7 @@
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
+#include "valid_region_options.h"
 
 namespace scancam::cli {
 namespace {
@@ -74,16 +75,9 @@ int RunCalibrate(const Args& args) {
   }
 
   CalibrateOptions opt;
-  if (args.has("--mask")) {
-    const std::string mask_path = args.get("--mask");
-    opt.image_mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
-    if (opt.image_mask.empty()) throw Error(mask_path + ": cannot read the mask image");
-    if (opt.image_mask.cols != camera.width() || opt.image_mask.rows != camera.height()) {
-      throw Error(mask_path + ": the mask is " + std::to_string(opt.image_mask.cols) + "x" +
-                  std::to_string(opt.image_mask.rows) + " px but the camera is " +
-                  std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
-    }
-  }
+  // A mask file wins; else the valid region found from the camera (and the image, if given).
+  std::string region_how;
+  opt.image_mask = ChooseValidRegion(args, camera, image, args.get("--mask"), &region_how);
   opt.suggest_picks = args.get_int("--suggest", opt.suggest_picks);
   opt.method = args.get("--method", opt.method);
   opt.refine = !args.has("--no-refine");
@@ -146,6 +140,14 @@ int RunCalibrate(const Args& args) {
       throw Error(plot_path + ": cannot write the image");
     if (!quiet) std::cout << "wrote " << plot_path << "\n";
   }
+  if (args.has("--valid-region-out")) {
+    const std::string p = args.get("--valid-region-out");
+    WriteValidRegion(p, opt.image_mask, camera,
+                     {camera_path, pairs_path, args.get("--scan"), args.get("--image"),
+                      args.get("--mask"), out_path, args.get("--plot")});
+    if (!quiet) std::cout << "wrote " << p << "\n";
+  }
+  if (!quiet) std::cout << "valid region: " << region_how << "\n";
   if (!quiet) std::cout << FormatCalibrationSummary(cal) << "wrote " << out_path << "\n";
   return 0;
 }
@@ -188,7 +190,8 @@ Command MakeCalibrateCommand() {
           {"--image", "FILE", "The camera image: checked against the camera file's size."},
           {"--mask", "FILE",
            "Image mask (black = unusable, e.g. outside an omni mirror): pick suggestions "
-           "avoid it; pairs on it are warned about."},
+           "avoid it; pairs on it are warned about. Without it the valid region is found "
+           "from the camera and the --image (see --no-auto-mask)."},
           {"--plot", "FILE.png",
            "Draw the pairs on the --image: picked pixel (circle), projected laser point "
            "(cross), residual line; green inliers, red flagged; magenta squares: where to pick "
@@ -222,7 +225,7 @@ Command MakeCalibrateCommand() {
            "and store the error against it."},
           {"--quiet", "", "Print nothing but errors."},
       },
-      ScanLoadOptionSpecs());
+      Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));
   c.run = RunCalibrate;
   return c;
 }

@@ -1,0 +1,66 @@
+#include "valid_region_options.h"
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "scancam/camera/valid_region.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+
+namespace scancam::cli {
+
+std::vector<OptionSpec> ValidRegionOptionSpecs() {
+  return {
+      {"--no-auto-mask", "",
+       "Without --mask, use every pixel the camera model projects to (default: find the valid "
+       "region: the model's domain, the dark border around a fisheye's image circle or a "
+       "mirror's rim, a catadioptric camera's central blind spot)."},
+      {"--valid-region-out", "X.png",
+       "Write the valid image region in use (255 valid, 0 not; the --mask when given). "
+       "Several images: _1, _2, ... before the extension."},
+      {"--max-view-angle-deg", "DEG",
+       "The lens' calibrated field of view: pixels whose ray is more than DEG from the optical "
+       "axis are not used (automatic region only)."},
+  };
+}
+
+cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
+                          const std::string& mask_path, std::string* how) {
+  if (!mask_path.empty()) {
+    cv::Mat mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
+    if (mask.empty()) throw FileError(mask_path, "", "cannot read the mask image");
+    if (mask.cols != camera.width() || mask.rows != camera.height())
+      throw FileError(mask_path, "",
+                      "the mask is " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
+                          " px but the camera is " + std::to_string(camera.width()) + "x" +
+                          std::to_string(camera.height()));
+    if (how) *how = "mask file " + mask_path;
+    return mask;
+  }
+  if (args.has("--no-auto-mask")) {
+    if (how) *how = "every pixel (--no-auto-mask)";
+    return {};
+  }
+  ValidRegionOptions o;
+  o.max_angle_deg = args.get_double("--max-view-angle-deg", 0.0);
+  if (!(o.max_angle_deg >= 0.0 && o.max_angle_deg <= 180.0))
+    throw Error("option --max-view-angle-deg: must be in (0, 180]");
+  const ValidRegion r = FindValidRegion(camera, image, o);
+  if (how) *how = "automatic: " + r.Describe() + (image.empty() ? " (no image: model only)" : "");
+  return r.mask;
+}
+
+void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera,
+                      const std::vector<std::string>& inputs) {
+  namespace fs = std::filesystem;
+  for (const std::string& in : inputs) {
+    std::error_code ec;
+    if (!in.empty() && (fs::path(in) == fs::path(path) || fs::equivalent(in, path, ec)))
+      throw FileError(path, "--valid-region-out",
+                      "this is an input of the run (" + in + "); choose another file");
+  }
+  WritePng(path, region.empty() ? cv::Mat(camera.height(), camera.width(), CV_8UC1, cv::Scalar(255))
+                                : region);
+}
+
+}  // namespace scancam::cli
