@@ -7,18 +7,23 @@
 #include "scancam/camera/valid_region.h"
 
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <sstream>
 
 #include "scancam/colour/colourise.h"
 #include "scancam/sim/colour_truth.h"
 #include "scancam/sim/office_scene.h"
 #include "scancam/sim/render.h"
 #include "scancam/sim/simulate.h"
+#include "test_util.h"
 
 namespace {
 
@@ -207,5 +212,75 @@ TEST_P(ValidRegionSim, NothingColouredFromOutsideTheLens) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Presets, ValidRegionSim, ::testing::Values("omni", "fisheye"));
+
+// The CLI: colorize and calibrate use the region by default, a mask file wins, --no-auto-mask
+// turns it off, --valid-region-out writes it (never over an input); pick suggestions stay in it.
+int RunCli(const std::string& dir, const std::string& args, std::string* out = nullptr) {
+  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
+                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
+  const int status = std::system(cmd.c_str());
+  if (out) *out = test::ReadFile(dir + "/stdout.txt") + test::ReadFile(dir + "/stderr.txt");
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(ValidRegionCli, DefaultMaskWinsOptOutAndSuggestions) {
+  const std::string d = test::TempDir();
+  sim::SimulateOptions o;
+  o.camera = "fisheye";
+  o.image_circle_px = 470.0;
+  o.supersample = 1;
+  sim::WriteSimulation(sim::Simulate(o), d);
+  const cv::Mat truth = cv::imread(d + "/mask.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_FALSE(truth.empty());
+  cv::imwrite(d + "/white.png", cv::Mat(truth.size(), CV_8UC1, cv::Scalar(255)));
+  const std::string base = "colorize --scan " + d + "/scan.txt --image " + d +
+                           "/image.png --camera " + d + "/camera.yaml --calib " + d +
+                           "/ground_truth.json --out " + d + "/c.ply";
+  std::string text;
+  ASSERT_EQ(RunCli(d, base + " --valid-region-out " + d + "/auto.png", &text), 0) << text;
+  EXPECT_NE(text.find("valid region: automatic"), std::string::npos) << text;
+  ASSERT_EQ(RunCli(d, base + " --no-auto-mask --valid-region-out " + d + "/none.png", &text), 0);
+  ASSERT_EQ(
+      RunCli(d, base + " --mask " + d + "/white.png --valid-region-out " + d + "/given.png", &text),
+      0);
+  const cv::Mat autom = cv::imread(d + "/auto.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat none = cv::imread(d + "/none.png", cv::IMREAD_GRAYSCALE);
+  const cv::Mat given = cv::imread(d + "/given.png", cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(autom.size(), truth.size());
+  EXPECT_EQ(cv::countNonZero(given), static_cast<int>(truth.total())) << "the mask file wins";
+  EXPECT_EQ(cv::countNonZero(none), static_cast<int>(truth.total()));
+  EXPECT_EQ(cv::countNonZero(autom & (truth == 0)), 0) << "valid where the lens shows nothing";
+  EXPECT_GT(cv::countNonZero(autom), 0.98 * cv::countNonZero(truth));
+
+  // Never over an input.
+  const std::string image_before = test::ReadFile(d + "/image.png");
+  EXPECT_EQ(RunCli(d, base + " --valid-region-out " + d + "/image.png", &text), 1);
+  EXPECT_NE(text.find("input"), std::string::npos) << text;
+  EXPECT_EQ(test::ReadFile(d + "/image.png"), image_before);
+
+  // Pick suggestions: without the region some land in the black beyond the image circle.
+  auto outside = [&](const std::string& extra) {
+    const std::string cal = d + "/calib.json";
+    EXPECT_EQ(RunCli(d, "calibrate --camera " + d + "/camera.yaml --pairs " + d +
+                            "/pairs.csv --scan " + d + "/scan.txt --image " + d +
+                            "/image.png --suggest 8 --out " + cal + " " + extra),
+              0);
+    std::ifstream f(cal);
+    const nlohmann::json j = nlohmann::json::parse(f);
+    int n = 0;
+    for (const auto& s : j.at("suggested_picks")) {
+      const int u = static_cast<int>(std::lround(s.at("image_px")[0].get<double>()));
+      const int v = static_cast<int>(std::lround(s.at("image_px")[1].get<double>()));
+      n += truth.at<std::uint8_t>(v, u) == 0;
+    }
+    EXPECT_GT(j.at("suggested_picks").size(), 4u);
+    return n;
+  };
+  const int without = outside("--no-auto-mask"), with = outside("");
+  std::printf("suggestions in the black: %d of 8 with --no-auto-mask, %d by default\n", without,
+              with);
+  EXPECT_GT(without, 0) << "the failure this guards against";
+  EXPECT_EQ(with, 0);
+}
 
 }  // namespace
