@@ -10,8 +10,10 @@
 //   1. Projection: CameraModel::Project(T_cam_scan * point_m[i]) (the same validity tests as
 //      CameraModel::ProjectBatch). Behind the camera, outside the model's valid field of view,
 //      outside the image or outside the optional image mask (the mask pixel at the rounded
-//      projection is 0) -> kOutOfView for that image. The pinhole model is evaluated in float
-//      (pixel error below 1e-3 px for images up to 10^4 px wide; the other models in double).
+//      projection is 0; without a mask file, callers pass the valid region that
+//      camera/valid_region.h finds: the CLI does) -> kOutOfView for that image. The pinhole
+//      model is evaluated in float (pixel error below 1e-3 px for images up to 10^4 px wide;
+//      the other models in double).
 //   2. Depth d_i = |X_cam| (distance from the camera centre, metres; not the z coordinate,
 //      so wide-angle, fisheye and 360-degree cameras are treated alike).
 //   3. Occlusion (z-buffer in image space). Every projected cell is splatted into a depth
@@ -236,7 +238,8 @@ struct ColourView {
   Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
   cv::Mat image;     ///< CV_8UC3 BGR (OpenCV order), camera.width() x camera.height()
   cv::Mat mask;      ///< optional CV_8UC1 of the same size: 0 = not usable (e.g. outside a
-                     ///< catadioptric mirror); empty = every pixel usable
+                     ///< catadioptric mirror); empty = every pixel usable. Without a mask
+                     ///< file, FindValidRegion (camera/valid_region.h) gives one.
   std::string name;  ///< for messages: usually the image file
 };
 
