@@ -10,6 +10,7 @@
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/error.h"
+#include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
@@ -59,9 +60,8 @@ int RunCalibrate(const Args& args) {
   cv::Mat image;
   if (args.has("--image")) {
     const std::string image_path = args.get("--image");
-    image = cv::imread(image_path, cv::IMREAD_COLOR);
-    if (image.empty()) throw Error(image_path + ": cannot read the image");
-    CheckImageSize(camera, image.cols, image.rows, image_path);
+    image = ReadImage(image_path, cv::IMREAD_COLOR, "image",
+                      [&](int w, int h) { CheckImageSize(camera, w, h, image_path); });
   }
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");
@@ -76,13 +76,8 @@ int RunCalibrate(const Args& args) {
   CalibrateOptions opt;
   if (args.has("--mask")) {
     const std::string mask_path = args.get("--mask");
-    opt.image_mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
-    if (opt.image_mask.empty()) throw Error(mask_path + ": cannot read the mask image");
-    if (opt.image_mask.cols != camera.width() || opt.image_mask.rows != camera.height()) {
-      throw Error(mask_path + ": the mask is " + std::to_string(opt.image_mask.cols) + "x" +
-                  std::to_string(opt.image_mask.rows) + " px but the camera is " +
-                  std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
-    }
+    opt.image_mask = ReadImage(mask_path, cv::IMREAD_GRAYSCALE, "mask",
+                               [&](int w, int h) { CheckImageSize(camera, w, h, mask_path); });
   }
   opt.suggest_picks = args.get_int("--suggest", opt.suggest_picks);
   opt.method = args.get("--method", opt.method);

@@ -191,24 +191,22 @@ int RunColorize(const Args& args) {
   const int row_scale = args.get_int("--grid-row-scale", 0);
 
   const Progress progress(StderrProgress(quiet));
-  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
-
   std::vector<ColourView> views(n);
   for (std::size_t k = 0; k < n; ++k) {
     ColourView& v = views[k];
     v.name = images[k];
     v.camera = LoadCamera(cameras[k]);
-    v.image = cv::imread(images[k], cv::IMREAD_COLOR);
-    if (v.image.empty())
-      throw FileError(images[k], "", "cannot read the image (missing or not an image file)");
-    CheckImageSize(v.camera, v.image.cols, v.image.rows, images[k]);
+    v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
+                        [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
     v.T_cam_scan = LoadExtrinsic(calibs[k]);
     if (!masks[k].empty()) {
-      v.mask = cv::imread(masks[k], cv::IMREAD_GRAYSCALE);
-      if (v.mask.empty()) throw FileError(masks[k], "", "cannot read the mask image");
+      v.mask = ReadImage(masks[k], cv::IMREAD_GRAYSCALE, "mask",
+                         [&](int w, int h) { CheckImageSize(v.camera, w, h, masks[k]); });
     }
     CheckView(v);
   }
+  // The scan last: a bad camera, image or pose file fails before a long scan import.
+  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
 
   const ColouredScan coloured = Colourise(scan, views, co, progress);
   mo.continuity.ground = coloured.ground;  // the mesh joins what the colouring joined

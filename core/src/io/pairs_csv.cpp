@@ -4,6 +4,7 @@
 #include <array>
 #include <cctype>
 #include <charconv>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -144,6 +145,14 @@ std::vector<PointPair> ParsePairsCsv(const std::string& text, const std::string&
     }
     const std::string trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
+    // Labels end up in JSON and on screen: the text must be UTF-8.
+    if (const std::size_t bad = FirstInvalidUtf8(line); bad != std::string::npos) {
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", static_cast<unsigned char>(line[bad]));
+      throw FileError(name, std::to_string(lineno),
+                      "byte " + std::string(hex) + " at column " + std::to_string(bad + 1) +
+                          " is not UTF-8 text (save the pairs file as UTF-8)");
+    }
     const std::vector<std::string> fields = SplitCsvLine(line, name, lineno);
     if (!have_header) {
       for (std::size_t k = 0; k < fields.size(); ++k) {
