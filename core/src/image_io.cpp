@@ -313,13 +313,14 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
     throw FileError(path, "", what + " not found (or not a regular file)");
   }
   auto check = [&](long long w, long long h, const char* when) {
+    // The caller's size first: "not the camera's size" is the more useful message.
+    if (check_size) check_size(static_cast<int>(w), static_cast<int>(h));
     if (w > kMaxImageSidePx || h > kMaxImageSidePx || w * h > kMaxImagePixels) {
       throw FileError(path, "",
                       what + " is " + std::to_string(w) + "x" + std::to_string(h) + " px " + when +
                           ", beyond ScanCam's limit of " + std::to_string(kMaxImageSidePx) +
                           " px per side and " + std::to_string(kMaxImagePixels) + " px in all");
     }
-    if (check_size) check_size(static_cast<int>(w), static_cast<int>(h));
   };
   const ImageFileInfo info = ReadImageHeader(path);
   if (!info.format.empty()) {

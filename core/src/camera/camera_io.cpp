@@ -664,25 +664,28 @@ int FsSide(const std::string& path, const cv::FileNode& root, const std::string&
 
 // OpenCV FileStorage's parse errors as "FILE:line N: what": e.err is "NAME(LINE): what" (the
 // line counted in the text given to OpenCV, which has `added_lines` more at its start).
+// OpenCV FileStorage's parse errors as "FILE:line N: what". OpenCV 4.6 puts "NAME(LINE): what"
+// into the exception's func field (and the function name into err): look in both. LINE counts
+// the text given to OpenCV, which has `added_lines` more at its start.
 [[noreturn]] void ThrowFsError(const std::string& path, const cv::Exception& e, int added_lines) {
   std::string what = e.err;
   std::string where;
-  const std::size_t open = what.find('(');
-  const std::size_t close = what.find("): ");
-  if (open != std::string::npos && close != std::string::npos && open < close) {
-    const std::string num = what.substr(open + 1, close - open - 1);
-    if (!num.empty() && num.find_first_not_of("0123456789") == std::string::npos) {
-      const int line = std::max(1, std::stoi(num) - added_lines);
-      where = "line " + std::to_string(line);
-      what = what.substr(close + 3);
+  for (const std::string& text : {e.func, e.err}) {
+    const std::size_t close = text.find("): ");
+    const std::size_t open = text.rfind('(', close);
+    if (close == std::string::npos || open == std::string::npos) continue;
+    const std::string num = text.substr(open + 1, close - open - 1);
+    if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos) {
+      continue;
     }
+    where = "line " + std::to_string(std::max(1, std::stoi(num) - added_lines));
+    what = text.substr(close + 3);
+    break;
   }
-  throw FileError(path, where, "not a valid OpenCV FileStorage " +
-                                   std::string(path.size() > 5 &&
-                                                       path.compare(path.size() - 5, 5, ".json") == 0
-                                                   ? "JSON"
-                                                   : "YAML") +
-                                   " file: " + what);
+  const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
+  throw FileError(path, where,
+                  std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") +
+                      " file: " + what);
 }
 
 CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool json,
