@@ -53,7 +53,6 @@ std::vector<float> Percentiles(const cv::Mat& image, const std::vector<double>& 
   return out;
 }
 
-
 // ---- image headers ----------------------------------------------------------------------------
 
 // Random access to a file's bytes for the header readers; reads past the end fail.
@@ -147,7 +146,8 @@ void CheckPngChunks(ByteFile& f) {
     }
     std::uint32_t crc = Crc32Update(0xFFFFFFFFu, head + 4, 4);
     for (std::uint64_t done = 0; done < len;) {
-      const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(buf.size(), len - done));
+      const std::size_t n =
+          static_cast<std::size_t>(std::min<std::uint64_t>(buf.size(), len - done));
       if (!f.Read(pos + 8 + done, buf.data(), n)) f.Fail(pos, "read error");
       crc = Crc32Update(crc, buf.data(), n);
       done += n;
@@ -175,7 +175,8 @@ ImageFileInfo JpegHeader(ByteFile& f) {
     const unsigned char t = m[1];
     pos += 2;
     if (t == 0x01 || (t >= 0xD0 && t <= 0xD8)) continue;  // markers without a length
-    if (t == 0xD9 || t == 0xDA) f.Fail(pos - 2, "damaged JPEG: no frame header (SOF) before the image data");
+    if (t == 0xD9 || t == 0xDA)
+      f.Fail(pos - 2, "damaged JPEG: no frame header (SOF) before the image data");
     unsigned char l[2];
     if (!f.Read(pos, l, 2)) f.Fail(pos, "JPEG file ends inside a segment (truncated)");
     const std::uint16_t len = Be16(l);
@@ -193,6 +194,38 @@ ImageFileInfo JpegHeader(ByteFile& f) {
     }
     pos += len;
   }
+}
+
+// A JPEG must end with its EOI marker after the scan data: libjpeg decodes a truncated file
+// anyway (grey lower part, "Premature end of JPEG file" on stderr). Walks the segments to the
+// first SOS, then looks for FF D9 after it (searching from the end: trailers after EOI exist).
+void CheckJpegEnd(ByteFile& f) {
+  std::uint64_t pos = 2;
+  while (true) {
+    unsigned char m[4];
+    if (!f.Read(pos, m, 2)) f.Fail(pos, "JPEG file ends before its image data (truncated)");
+    if (m[0] != 0xFF) f.Fail(pos, "damaged JPEG: expected a marker (0xFF), found another byte");
+    if (m[1] == 0xFF || m[1] == 0x01 || (m[1] >= 0xD0 && m[1] <= 0xD8)) {
+      pos += m[1] == 0xFF ? 1 : 2;
+      continue;
+    }
+    if (!f.Read(pos + 2, m + 2, 2)) f.Fail(pos, "JPEG file ends inside a segment (truncated)");
+    pos += 2 + Be16(m + 2);
+    if (m[1] == 0xDA) break;
+  }
+  std::vector<unsigned char> buf(1 << 16);
+  std::uint64_t end = f.size();
+  while (end > pos) {
+    const std::uint64_t begin = end - std::min<std::uint64_t>(end - pos, buf.size());
+    const std::size_t n = static_cast<std::size_t>(end - begin);
+    if (!f.Read(begin, buf.data(), n)) f.Fail(begin, "read error");
+    for (std::size_t i = n; i-- > 1;) {
+      if (buf[i - 1] == 0xFF && buf[i] == 0xD9) return;
+    }
+    if (begin == pos) break;
+    end = begin + 1;  // keep one byte of overlap for a marker split between blocks
+  }
+  f.Fail(f.size(), "JPEG file ends before its end marker (truncated)");
 }
 
 ImageFileInfo TiffHeader(ByteFile& f, bool little) {
@@ -224,10 +257,14 @@ ImageFileInfo TiffHeader(ByteFile& f, bool little) {
     const std::uint64_t tag = u(p, 2), type = u(p + 2, 2);
     const unsigned char* val = p + 4 + value_size;
     std::uint64_t v = 0;
-    if (type == 3) v = u(val, 2);                // SHORT
-    else if (type == 4) v = u(val, 4);           // LONG
-    else if (type == 16 && big) v = u(val, 8);   // LONG8
-    else if (tag == 256 || tag == 257) f.Fail(ifd, "damaged TIFF: image size of an unknown type");
+    if (type == 3)
+      v = u(val, 2);  // SHORT
+    else if (type == 4)
+      v = u(val, 4);  // LONG
+    else if (type == 16 && big)
+      v = u(val, 8);  // LONG8
+    else if (tag == 256 || tag == 257)
+      f.Fail(ifd, "damaged TIFF: image size of an unknown type");
     if (tag == 256) w = v;
     if (tag == 257) hgt = v;
   }
@@ -251,7 +288,8 @@ ImageFileInfo BmpHeader(ByteFile& f) {
     w = static_cast<std::int32_t>(le(18, 4)), h = static_cast<std::int32_t>(le(22, 4));
   }
   w = std::llabs(w), h = std::llabs(h);
-  if (w == 0 || h == 0) f.Fail(18, "damaged BMP header: image size " + std::to_string(w) + "x" + std::to_string(h));
+  if (w == 0 || h == 0)
+    f.Fail(18, "damaged BMP header: image size " + std::to_string(w) + "x" + std::to_string(h));
   return {"BMP", static_cast<int>(std::min<long long>(w, 0x7FFFFFFF)),
           static_cast<int>(std::min<long long>(h, 0x7FFFFFFF))};
 }
@@ -313,8 +351,24 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
     throw FileError(path, "", what + " not found (or not a regular file)");
   }
   auto check = [&](long long w, long long h, const char* when) {
-    // The caller's size first: "not the camera's size" is the more useful message.
-    if (check_size) check_size(static_cast<int>(w), static_cast<int>(h));
+    // The caller's size first: "not the camera's size" is the more useful message. Before
+    // decoding, the header's size may still be turned by an EXIF orientation (cv::imread applies
+    // it): the swapped size passes too, the decoded size is then checked exactly.
+    if (check_size) {
+      try {
+        check_size(static_cast<int>(w), static_cast<int>(h));
+      } catch (const Error&) {
+        bool swapped_ok = false;
+        if (std::string(when) != "(decoded)") {
+          try {
+            check_size(static_cast<int>(h), static_cast<int>(w));
+            swapped_ok = true;
+          } catch (const Error&) {
+          }
+        }
+        if (!swapped_ok) throw;
+      }
+    }
     if (w > kMaxImageSidePx || h > kMaxImageSidePx || w * h > kMaxImagePixels) {
       throw FileError(path, "",
                       what + " is " + std::to_string(w) + "x" + std::to_string(h) + " px " + when +
@@ -325,10 +379,9 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
   const ImageFileInfo info = ReadImageHeader(path);
   if (!info.format.empty()) {
     check(info.width, info.height, "(from its header, not decoded)");
-    if (info.format == "PNG") {
-      ByteFile f(path);
-      CheckPngChunks(f);
-    }
+    ByteFile f(path);
+    if (info.format == "PNG") CheckPngChunks(f);
+    if (info.format == "JPEG") CheckJpegEnd(f);
   }
   LimitOpenCvImageSize();
   cv::Mat image;

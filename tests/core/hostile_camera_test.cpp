@@ -112,10 +112,9 @@ TEST(HostileCamera, HugeImageSizeIsRefusedAtOnceNamingTheKey) {
 // The same through the CLI: exit 1 within seconds, the camera file and key named.
 TEST(HostileCamera, CliRefusesHugeCameraQuickly) {
   const std::string dir = TempDir();
-  const std::string cam =
-      Write(dir, "cam.yaml",
-            Replace(ReadFile(Example("pinhole_opencv.yaml")), "image_width: 1280",
-                    "image_width: 2147483647"));
+  const std::string cam = Write(dir, "cam.yaml",
+                                Replace(ReadFile(Example("pinhole_opencv.yaml")),
+                                        "image_width: 1280", "image_width: 2147483647"));
   const std::string pairs = Write(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
   const auto t0 = std::chrono::steady_clock::now();
   EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + cam + "\" --pairs \"" + pairs + "\" --out \"" +
@@ -139,20 +138,27 @@ TEST(HostileCamera, OutOfRangeValuesNameTheKeyAndTheParameter) {
   };
   const std::vector<Case> cases = {
       // focal length of a few pixels: a mistyped value, not a 179-degree pinhole
-      {"tiny_f.yaml", Replace(ocv, K, "9.1235, 0., 641.22, 0., 910.87, 358.91"),
+      {"tiny_f.yaml",
+       Replace(ocv, K, "9.1235, 0., 641.22, 0., 910.87, 358.91"),
        {"camera_matrix", "fx = 9.1235", "implausible"}},
-      {"huge_f.yaml", Replace(ocv, K, "912.35, 0., 641.22, 0., 9.1087e+12, 358.91"),
+      {"huge_f.yaml",
+       Replace(ocv, K, "912.35, 0., 641.22, 0., 9.1087e+12, 358.91"),
        {"camera_matrix", "fy", "implausible"}},
-      {"zero_f.yaml", Replace(ocv, K, "0., 0., 641.22, 0., 910.87, 358.91"),
+      {"zero_f.yaml",
+       Replace(ocv, K, "0., 0., 641.22, 0., 910.87, 358.91"),
        {"camera_matrix", "fx = 0", "> 0"}},
-      {"pp.yaml", Replace(ocv, K, "912.35, 0., 64122., 0., 910.87, 358.91"),
+      {"pp.yaml",
+       Replace(ocv, K, "912.35, 0., 64122., 0., 910.87, 358.91"),
        {"camera_matrix", "cx, cy", "outside"}},
-      {"nan.yaml", Replace(ocv, K, "912.35, 0., 641.22, 0., .nan, 358.91"),
+      {"nan.yaml",
+       Replace(ocv, K, "912.35, 0., 641.22, 0., .nan, 358.91"),
        {"camera_matrix", "finite"}},
-      {"inf_dist.yaml", Replace(ocv, "-0.3412, 0.1235", "-.inf, 0.1235"),
+      {"inf_dist.yaml",
+       Replace(ocv, "-0.3412, 0.1235", "-.inf, 0.1235"),
        {"distortion_coefficients", "finite"}},
       // k1 = -40 folds back 20 px from the centre
-      {"fold.yaml", Replace(ocv, "-0.3412, 0.1235", "-40., 0.1235"),
+      {"fold.yaml",
+       Replace(ocv, "-0.3412, 0.1235", "-40., 0.1235"),
        {"distortion_coefficients", "fold back", "not invertible"}},
   };
   for (const Case& c : cases) {
@@ -180,9 +186,9 @@ TEST(HostileCamera, OutOfRangeValuesNameTheKeyAndTheParameter) {
             "   data: [ 63.66, 0., 90000., 0., 63.66, 99.5, 0., 0., 1. ]\n");
   ExpectError([&] { LoadCamera(p); }, {p, "camera_matrix", "cu", "longitudes"});
   // The examples still load (the bounds are not too tight for real cameras).
-  for (const char* f : {"pinhole_opencv.yaml", "fisheye_opencv.yaml", "omni_opencv.yaml",
-                        "ocam_calib_results.txt", "equirect_opencv.yaml",
-                        "pinhole_rational_opencv.yaml"}) {
+  for (const char* f :
+       {"pinhole_opencv.yaml", "fisheye_opencv.yaml", "omni_opencv.yaml", "ocam_calib_results.txt",
+        "equirect_opencv.yaml", "pinhole_rational_opencv.yaml"}) {
     EXPECT_NO_THROW(LoadCamera(Example(f))) << f;
   }
 }
@@ -196,8 +202,8 @@ TEST(HostileCamera, SolverFailureAlsoNamesTheCameraFile) {
   for (int i = 0; i < 8; ++i) {  // pixels and points with no pose in common
     PointPair p;
     p.image_u = rng.uniform(0.0, 1279.0), p.image_v = rng.uniform(0.0, 719.0);
-    p.point_m = Eigen::Vector3d(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0),
-                                rng.uniform(2.0, 20.0));
+    p.point_m =
+        Eigen::Vector3d(rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), rng.uniform(2.0, 20.0));
     p.line = i + 2;
     pairs.push_back(p);
   }
@@ -229,17 +235,17 @@ TEST(HostileCamera, DeletedDistortionKeyIsAnError) {
     return s.erase(a, b - a);
   };
   // OpenCV YAML (the issue's case: "distortion_coefficients" key and its matrix deleted).
-  std::string p = Write(dir, "ocv.yaml",
-                        without_line(ReadFile(Example("pinhole_opencv.yaml")),
-                                     "distortion_coefficients", 5));
+  std::string p =
+      Write(dir, "ocv.yaml",
+            without_line(ReadFile(Example("pinhole_opencv.yaml")), "distortion_coefficients", 5));
   ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   p = Write(dir, "fisheye.yaml",
             without_line(ReadFile(Example("fisheye_opencv.yaml")), "distortion_coefficients", 5));
   ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   // ROS: distortion_coefficients is required by ROS's own parser too.
-  p = Write(dir, "ros.yaml",
-            without_line(ReadFile(Example("pinhole_ros_plumb_bob.yaml")),
-                         "distortion_coefficients", 4));
+  p = Write(
+      dir, "ros.yaml",
+      without_line(ReadFile(Example("pinhole_ros_plumb_bob.yaml")), "distortion_coefficients", 4));
   ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   // Kalibr: distortion_model and distortion_coeffs are required by Kalibr.
   p = Write(dir, "kalibr.yaml",
@@ -286,7 +292,8 @@ TEST(HostileCamera, RosWithoutDistortionModelWarns) {
 TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
   const std::string dir = TempDir();
   // nlohmann's parse_error.101 -> FILE:LINE:COLUMN, no "[json.exception" text, bytes escaped.
-  std::string p = Write(dir, "cam.json", "{\n  \"model\": \"pinhole\",\n  \"image_width\": \xff\n}");
+  std::string p =
+      Write(dir, "cam.json", "{\n  \"model\": \"pinhole\",\n  \"image_width\": \xff\n}");
   ExpectError([&] { LoadCamera(p); }, {p + ":3:", "invalid JSON", "\\xFF"});
   try {
     LoadCamera(p);
@@ -416,8 +423,7 @@ TEST(HostileImage, DamagedPngNamesTheChunkAndByte) {
   flipped[idat + 20] = static_cast<char>(flipped[idat + 20] ^ 0x5A);
   std::string p = Write(dir, "crc.png", flipped);
   testing::internal::CaptureStderr();
-  ExpectError([&] { ReadImage(p); },
-              {p, "byte " + std::to_string(idat), "IDAT", "CRC"});
+  ExpectError([&] { ReadImage(p); }, {p, "byte " + std::to_string(idat), "IDAT", "CRC"});
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
   p = Write(dir, "cut.png", png.substr(0, png.size() / 2));
   ExpectError([&] { ReadImage(p); }, {p, "truncated"});
@@ -436,10 +442,10 @@ TEST(HostileImage, DamagedPngNamesTheChunkAndByte) {
   cam_png[idat2 + 20] = static_cast<char>(cam_png[idat2 + 20] ^ 0x5A);
   Write(dir, "photo.png", cam_png);
   const std::string pairs = Write(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
-  EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") + "\" --image \"" +
-                            dir + "/photo.png\" --pairs \"" + pairs + "\" --out \"" + dir +
-                            "/o.json\""),
-            1);
+  EXPECT_EQ(
+      RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") + "\" --image \"" + dir +
+                      "/photo.png\" --pairs \"" + pairs + "\" --out \"" + dir + "/o.json\""),
+      1);
   const std::string err = ReadFile(dir + "/stderr.txt");
   EXPECT_EQ(err.find("libpng"), std::string::npos) << err;
   EXPECT_NE(err.find("photo.png:byte " + std::to_string(idat2) + ": PNG chunk 'IDAT'"),
@@ -455,6 +461,10 @@ TEST(HostileImage, DamagedJpegTiffBmpHeaders) {
   std::string jpg(buf.begin(), buf.end());
   std::string p = Write(dir, "cut.jpg", jpg.substr(0, 30));  // ends before the frame header
   ExpectError([&] { ReadImage(p); }, {p, "byte", "JPEG", "truncated"});
+  p = Write(dir, "half.jpg", jpg.substr(0, jpg.size() - 2));  // EOI cut off
+  testing::internal::CaptureStderr();
+  ExpectError([&] { ReadImage(p); }, {p, "byte", "end marker", "truncated"});
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");  // no "Premature end of JPEG file"
   std::string bad = jpg;
   const std::size_t sof = bad.find("\xFF\xC0");
   ASSERT_NE(sof, std::string::npos);
@@ -474,7 +484,8 @@ TEST(HostileImage, DamagedJpegTiffBmpHeaders) {
               {"missing.png", "mask not found"});
 }
 
-// ---- calibration JSON ----------------------------------------------------------------------------
+// ---- calibration JSON
+// ----------------------------------------------------------------------------
 
 TEST(HostileJson, CalibrationJsonIsValidatedWithKeyNames) {
   const std::string dir = TempDir();
@@ -486,10 +497,12 @@ TEST(HostileJson, CalibrationJsonIsValidatedWithKeyNames) {
     std::vector<std::string> parts;
   };
   const std::vector<Case> cases = {
-      {"syntax.json", "{\n  \"T_cam_scan\": [[1, 0, 0, 0.1],\n  [0, 1 0, 0.2]]\n}",
+      {"syntax.json",
+       "{\n  \"T_cam_scan\": [[1, 0, 0, 0.1],\n  [0, 1 0, 0.2]]\n}",
        {":3:", "invalid JSON", "parsing"}},
       {"missing.json", "{\"pose\": 1}", {"T_cam_scan", "no pose found"}},
-      {"rows.json", "{\"T_cam_scan\": [[1, 0, 0, 0.1], [0, 1, 0, 0.2], [0, 0, 1, 0.3]]}",
+      {"rows.json",
+       "{\"T_cam_scan\": [[1, 0, 0, 0.1], [0, 1, 0, 0.2], [0, 0, 1, 0.3]]}",
        {"T_cam_scan", "4x4"}},
       {"text.json",
        "{\"T_cam_scan\": [[1, 0, 0, \"x\"], [0, 1, 0, 0.2], [0, 0, 1, 0.3], [0, 0, 0, 1]]}",
@@ -547,8 +560,8 @@ TEST(HostilePairs, InvalidUtf8LabelNamesFileLineAndColumn) {
                               "6,7,8,9,10,caf\xe9 door\n");
   ExpectError([&] { ReadPairsCsv(p); }, {p + ":3:", "0xE9", "column 15", "UTF-8"});
   // The CLI: exit 1, one plain line naming the pairs file and line, no raw byte.
-  EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") +
-                            "\" --pairs \"" + p + "\" --out \"" + dir + "/o.json\""),
+  EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") + "\" --pairs \"" +
+                            p + "\" --out \"" + dir + "/o.json\""),
             1);
   const std::string err = ReadFile(dir + "/stderr.txt");
   EXPECT_NE(err.find(p + ":3:"), std::string::npos) << err;
@@ -559,7 +572,8 @@ TEST(HostilePairs, InvalidUtf8LabelNamesFileLineAndColumn) {
   EXPECT_EQ(ReadPairsCsv(q).at(0).label, "caf\xc3\xa9 \xe2\x82\xac");
 }
 
-// ---- the CLI's top level --------------------------------------------------------------------------
+// ---- the CLI's top level
+// --------------------------------------------------------------------------
 
 TEST(HostileCli, EscapedExceptionsBecomeOnePlainLine) {
   EXPECT_NE(PlainErrorMessage(std::bad_alloc()).find("out of memory"), std::string::npos);

@@ -50,7 +50,10 @@ ImageFileInfo ReadImageHeader(const std::string& path);
 ///     CheckImageSize against the camera); called with the header's size before decoding and
 ///     again with the decoded size;
 ///   - a PNG whose chunk structure or CRCs are damaged (truncated, bytes inserted or changed):
-///     "FILE:byte N: PNG chunk 'IDAT' is damaged (CRC mismatch)" instead of libpng's text.
+///     "FILE:byte N: PNG chunk 'IDAT' is damaged (CRC mismatch)" instead of libpng's text;
+///   - a JPEG without its end marker after the image data (truncated).
+/// (Before decoding, the header's size with width and height swapped also passes check_size:
+/// cv::imread turns images by their EXIF orientation; the decoded size is checked exactly.)
 /// Decoding errors (also OpenCV's own pixel limit for other formats) become plain FileErrors
 /// naming the file; `what` ("image", "mask") names the role in messages.
 cv::Mat ReadImage(const std::string& path, int flags = cv::IMREAD_COLOR,

@@ -26,6 +26,15 @@ std::string ReadText(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, ec)) {
     throw FileError(path, "", "camera file not found (or not a regular file)");
   }
+  // Camera files are a few kB (OpenCV's calibration output with every view's points: a few MB).
+  constexpr std::uintmax_t kMaxCameraFileBytes = 64u << 20;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxCameraFileBytes) {
+    throw FileError(path, "",
+                    "not a camera file: " + std::to_string(size) +
+                        " bytes (camera files are "
+                        "at most a few MB)");
+  }
   std::ifstream f(path, std::ios::binary);
   if (!f) throw FileError(path, "", "cannot open camera file for reading");
   std::ostringstream s;
@@ -98,6 +107,10 @@ class YamlReader {
 
   YNode Parse() {
     if (lines_.empty()) throw FileError(file_, "", "empty YAML document");
+    if (lines_.size() > kMaxLines) {
+      Fail(lines_[kMaxLines].no,
+           "more than " + std::to_string(kMaxLines) + " lines: not a Kalibr / ROS camera file");
+    }
     std::size_t i = 0;
     YNode root = ParseBlock(&i, lines_[0].indent);
     if (i < lines_.size()) {
@@ -158,8 +171,20 @@ class YamlReader {
     return s;
   }
 
+  // Limits that keep a hostile file from exhausting the stack or time.
+  static constexpr std::size_t kMaxLines = 20000;
+  static constexpr int kMaxDepth = 64;
+  struct DepthGuard {
+    DepthGuard(const YamlReader& r, int line) : r_(r) {
+      if (++r_.depth_ > kMaxDepth) r_.Fail(line, "nesting deeper than 64 levels");
+    }
+    ~DepthGuard() { --r_.depth_; }
+    const YamlReader& r_;
+  };
+
   // A block (map or sequence) whose lines have exactly `indent`.
   YNode ParseBlock(std::size_t* i, int indent) {
+    const DepthGuard guard(*this, lines_[*i].no);
     YNode node;
     node.line = lines_[*i].no;
     const bool is_seq = lines_[*i].text == "-" || lines_[*i].text.rfind("- ", 0) == 0;
@@ -268,6 +293,7 @@ class YamlReader {
   }
 
   YNode Flow(const std::string& t, std::size_t* p, int line) {
+    const DepthGuard guard(*this, line);
     SkipSpaces(t, p);
     YNode n;
     n.line = line;
@@ -327,6 +353,7 @@ class YamlReader {
 
   std::string file_;
   std::vector<Line> lines_;
+  mutable int depth_ = 0;
 };
 
 // Field access with errors naming file, line and field.
@@ -420,7 +447,7 @@ void CheckK(const std::string& file, const std::string& where, const std::vector
 // "cam0.intrinsics"), so that CameraModel's parameter errors name the key.
 struct Keys {
   std::string width = "image_width", height = "image_height";
-  std::string matrix = "camera_matrix";       // fx fy cx cy (s)
+  std::string matrix = "camera_matrix";  // fx fy cx cy (s)
   std::string dist = "distortion_coefficients";
   std::string xi = "xi";
   std::string pol = "ocam_pol", invpol = "ocam_invpol";
@@ -436,10 +463,7 @@ struct Keys {
       case CameraType::kOmni:
         return param < 5 ? matrix : param == 5 ? xi : dist;
       case CameraType::kOCam:
-        return param < 2   ? centre
-               : param < 5 ? affine
-               : param < OCamModel::kIdxNInv ? pol
-                                             : invpol;
+        return param < 2 ? centre : param < 5 ? affine : param < OCamModel::kIdxNInv ? pol : invpol;
       case CameraType::kEquirect:
         break;
     }
@@ -462,10 +486,11 @@ CameraModel Build(const std::string& file, CameraType type, const Keys& keys, F&
 
 // An image side read from a file as a number: a whole number of pixels in 1..kMaxImageSidePx
 // (checked before any conversion to int, so 1e20 or 2^31 cannot overflow).
-int ImageSide(const std::string& file, const std::string& where, double v) {
+int ImageSide(const std::string& file, const std::string& where, double v,
+              const std::string& what = "image size") {
   if (!(v >= 1.0 && v <= kMaxImageSidePx) || v != std::floor(v)) {
     throw FileError(file, where,
-                    "image size must be a whole number of pixels from 1 to " +
+                    what + " must be an integer number of pixels from 1 to " +
                         std::to_string(kMaxImageSidePx) + ", found " + Num(v));
   }
   return static_cast<int>(v);
@@ -581,8 +606,8 @@ CameraModel LoadOCam(const std::string& path, const std::string& text) {
   o.center_u = lines[2].v[1];
   o.c = lines[3].v[0], o.d = lines[3].v[1], o.e = lines[3].v[2];
   const std::string w_size = "line " + std::to_string(lines[4].no);
-  const int hh = ImageSide(path, w_size, lines[4].v[0]);
-  const int ww = ImageSide(path, w_size, lines[4].v[1]);
+  const int hh = ImageSide(path, w_size, lines[4].v[0], kWhat[4]);
+  const int ww = ImageSide(path, w_size, lines[4].v[1], kWhat[4]);
   Keys keys;
   keys.width = keys.height = w_size;
   keys.pol = "line " + std::to_string(lines[0].no);
@@ -658,8 +683,8 @@ int FsSide(const std::string& path, const cv::FileNode& root, const std::string&
   const cv::FileNode n = root[key];
   if (n.isNone() || n.empty()) throw FileError(path, key, "missing field");
   if (!n.isInt() && !n.isReal()) throw FileError(path, key, "expected a whole number of pixels");
-  return ImageSide(path, key, n.isInt() ? static_cast<double>(static_cast<int>(n))
-                                        : static_cast<double>(n));
+  return ImageSide(path, key,
+                   n.isInt() ? static_cast<double>(static_cast<int>(n)) : static_cast<double>(n));
 }
 
 // OpenCV FileStorage's parse errors as "FILE:line N: what": e.err is "NAME(LINE): what" (the
@@ -683,9 +708,9 @@ int FsSide(const std::string& path, const cv::FileNode& root, const std::string&
     break;
   }
   const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
-  throw FileError(path, where,
-                  std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") +
-                      " file: " + what);
+  throw FileError(
+      path, where,
+      std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") + " file: " + what);
 }
 
 CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool json,
@@ -996,8 +1021,9 @@ CameraModel LoadRos(const std::string& path, const YNode& root,
   if (f.Opt("distortion_model")) {
     dmodel = f.String("distortion_model");
   } else {
-    warn(path + ": distortion_model is missing: read as plumb_bob, as ROS does for old files; "
-                "add 'distortion_model: equidistant' if this is a fisheye camera");
+    warn(path +
+         ": distortion_model is missing: read as plumb_bob, as ROS does for old files; "
+         "add 'distortion_model: equidistant' if this is a fisheye camera");
   }
   if (!f.Opt("distortion_coefficients")) {
     throw FileError(path, "distortion_coefficients",
@@ -1109,9 +1135,12 @@ bool IsOpenCalib(const nlohmann::json& j) {
 std::vector<double> JsonNumbers(const std::string& path, const nlohmann::json& j,
                                 const std::string& field) {
   std::vector<double> out;
+  int depth = 0;
   std::function<void(const nlohmann::json&)> rec = [&](const nlohmann::json& e) {
     if (e.is_array()) {
+      if (++depth > 8) throw FileError(path, field, "arrays nested too deeply");
       for (const auto& x : e) rec(x);
+      --depth;
     } else if (e.is_number()) {
       out.push_back(e.get<double>());
     } else {

@@ -140,8 +140,8 @@ namespace {
 
 // Names of the parameters (models.h layouts), for messages.
 std::string ParamName(CameraType type, int i) {
-  static const char* kPinhole[] = {"fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4",
-                                   "k5", "k6"};
+  static const char* kPinhole[] = {"fx", "fy", "cx", "cy", "k1", "k2",
+                                   "p1", "p2", "k3", "k4", "k5", "k6"};
   static const char* kFisheye[] = {"fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4"};
   static const char* kOmni[] = {"fx", "fy", "cx", "cy", "s", "xi", "k1", "k2", "p1", "p2"};
   static const char* kEquirect[] = {"fu", "fv", "cu", "cv"};
@@ -157,8 +157,8 @@ std::string ParamName(CameraType type, int i) {
     case CameraType::kOCam:
       break;
   }
-  static const char* kOCam[] = {"centre u", "centre v", "affine c", "affine d", "affine e",
-                                "rho_max", "pol length"};
+  static const char* kOCam[] = {"centre u", "centre v", "affine c",  "affine d",
+                                "affine e", "rho_max",  "pol length"};
   if (i < OCamModel::kIdxPol) return kOCam[i];
   if (i < OCamModel::kIdxNInv) return "pol a" + std::to_string(i - OCamModel::kIdxPol);
   if (i == OCamModel::kIdxNInv) return "invpol length";
@@ -295,14 +295,12 @@ void CameraModel::Init() {
         fail(OCamModel::kIdxNPol, "pol length must be 1.." + std::to_string(OCamModel::kMaxPol));
       }
       if (ni < 0 || ni > OCamModel::kMaxInv || ni != params_[OCamModel::kIdxNInv]) {
-        fail(OCamModel::kIdxNInv,
-             "invpol length must be 0.." + std::to_string(OCamModel::kMaxInv));
+        fail(OCamModel::kIdxNInv, "invpol length must be 0.." + std::to_string(OCamModel::kMaxInv));
       }
       const double* pol = params_.data() + OCamModel::kIdxPol;
       if (!(pol[0] < 0.0)) {
         fail(OCamModel::kIdxPol,
-             "pol a0 = " + Num(pol[0]) +
-                 " must be negative (OCamCalib's z axis points backwards)");
+             "pol a0 = " + Num(pol[0]) + " must be negative (OCamCalib's z axis points backwards)");
       }
       const double c = params_[2], d = params_[3], e = params_[4];
       const double det = c - d * e;
@@ -364,9 +362,9 @@ void CameraModel::Init() {
       const bool ok = UnprojectT(type_, params_.data(), px.data(), b.data()) && b.allFinite() &&
                       std::atan2(b.head<2>().norm(), b.z()) <= model_max_angle_rad_ + 1e-9;
       if (!ok) {
-        const int first = type_ == CameraType::kOCam ? OCamModel::kIdxPol
+        const int first = type_ == CameraType::kOCam   ? OCamModel::kIdxPol
                           : type_ == CameraType::kOmni ? 6
-                                                        : 4;
+                                                       : 4;
         fail(first, std::string(type_ == CameraType::kOCam ? "the polynomial pol"
                                                            : "the distortion coefficients") +
                         " fold back (the lens model is not invertible) within " + Num(reach) +
