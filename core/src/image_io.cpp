@@ -162,11 +162,14 @@ void CheckPngChunks(ByteFile& f) {
   }
 }
 
-ImageFileInfo JpegHeader(ByteFile& f) {
+// Walks a JPEG's segments from SOI to the first SOS: the size from the frame header (SOFn),
+// and in `scan_start` the byte after the SOS header, where the compressed data begin.
+ImageFileInfo JpegHeader(ByteFile& f, std::uint64_t* scan_start = nullptr) {
+  ImageFileInfo info;
   std::uint64_t pos = 2;
   while (true) {
     unsigned char m[2];
-    if (!f.Read(pos, m, 2)) f.Fail(pos, "JPEG file ends before its frame header (truncated)");
+    if (!f.Read(pos, m, 2)) f.Fail(pos, "JPEG file ends before its image data (truncated)");
     if (m[0] != 0xFF) f.Fail(pos, "damaged JPEG: expected a marker (0xFF), found another byte");
     if (m[1] == 0xFF) {  // fill byte
       ++pos;
@@ -175,14 +178,19 @@ ImageFileInfo JpegHeader(ByteFile& f) {
     const unsigned char t = m[1];
     pos += 2;
     if (t == 0x01 || (t >= 0xD0 && t <= 0xD8)) continue;  // markers without a length
-    if (t == 0xD9 || t == 0xDA)
-      f.Fail(pos - 2, "damaged JPEG: no frame header (SOF) before the image data");
+    if (t == 0xD9) f.Fail(pos - 2, "damaged JPEG: end marker before the image data");
     unsigned char l[2];
     if (!f.Read(pos, l, 2)) f.Fail(pos, "JPEG file ends inside a segment (truncated)");
     const std::uint16_t len = Be16(l);
     if (len < 2) f.Fail(pos, "damaged JPEG: segment length " + std::to_string(len));
+    if (t == 0xDA) {
+      if (info.format.empty())
+        f.Fail(pos - 2, "damaged JPEG: no frame header (SOF) before the image data");
+      if (scan_start) *scan_start = pos + len;
+      return info;
+    }
     const bool sof = t >= 0xC0 && t <= 0xCF && t != 0xC4 && t != 0xC8 && t != 0xCC;
-    if (sof) {
+    if (sof && info.format.empty()) {
       unsigned char b[5];
       if (len < 7 || !f.Read(pos + 2, b, 5)) f.Fail(pos, "damaged JPEG frame header");
       const int h = Be16(b + 1), w = Be16(b + 3);
@@ -190,29 +198,18 @@ ImageFileInfo JpegHeader(ByteFile& f) {
         f.Fail(pos, "JPEG frame header gives an image size of " + std::to_string(w) + "x" +
                         std::to_string(h) + " px");
       }
-      return {"JPEG", w, h};
+      info = {"JPEG", w, h};
     }
     pos += len;
   }
 }
 
-// A JPEG must end with its EOI marker after the scan data: libjpeg decodes a truncated file
-// anyway (grey lower part, "Premature end of JPEG file" on stderr). Walks the segments to the
-// first SOS, then looks for FF D9 after it (searching from the end: trailers after EOI exist).
+// A JPEG must end with its EOI marker after the compressed data: libjpeg decodes a truncated
+// file anyway (grey lower part, "Premature end of JPEG file" on stderr). Looks for FF D9 after
+// the data start, searching from the end (some cameras append trailers after EOI).
 void CheckJpegEnd(ByteFile& f) {
-  std::uint64_t pos = 2;
-  while (true) {
-    unsigned char m[4];
-    if (!f.Read(pos, m, 2)) f.Fail(pos, "JPEG file ends before its image data (truncated)");
-    if (m[0] != 0xFF) f.Fail(pos, "damaged JPEG: expected a marker (0xFF), found another byte");
-    if (m[1] == 0xFF || m[1] == 0x01 || (m[1] >= 0xD0 && m[1] <= 0xD8)) {
-      pos += m[1] == 0xFF ? 1 : 2;
-      continue;
-    }
-    if (!f.Read(pos + 2, m + 2, 2)) f.Fail(pos, "JPEG file ends inside a segment (truncated)");
-    pos += 2 + Be16(m + 2);
-    if (m[1] == 0xDA) break;
-  }
+  std::uint64_t pos = 0;
+  JpegHeader(f, &pos);
   std::vector<unsigned char> buf(1 << 16);
   std::uint64_t end = f.size();
   while (end > pos) {
