@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
@@ -312,13 +311,28 @@ ImageFileInfo PnmHeader(ByteFile& f) {
   return {"PNM", static_cast<int>(v[0]), static_cast<int>(v[1])};
 }
 
-// Lets OpenCV refuse oversized images of the formats we do not parse before allocating (its
-// limit is read once, from the environment, at its first use).
-void LimitOpenCvImageSize() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    setenv("OPENCV_IO_MAX_IMAGE_PIXELS", std::to_string(kMaxImagePixels).c_str(), 0);
-  });
+ImageFileInfo WebpHeader(ByteFile& f) {
+  unsigned char b[30];
+  if (!f.Read(0, b, 30)) f.Fail(f.size(), "WebP file ends inside its header (truncated)");
+  const std::string chunk(reinterpret_cast<char*>(b + 12), 4);
+  auto le = [&](int o, int n) {
+    std::uint32_t v = 0;
+    for (int i = 0; i < n; ++i) v |= std::uint32_t(b[o + i]) << (8 * i);
+    return v;
+  };
+  if (chunk == "VP8 ") {  // lossy: key frame start code, then 14-bit width and height
+    if (b[23] != 0x9D || b[24] != 0x01 || b[25] != 0x2A) f.Fail(23, "damaged WebP (VP8) header");
+    return {"WebP", static_cast<int>(le(26, 2) & 0x3FFF), static_cast<int>(le(28, 2) & 0x3FFF)};
+  }
+  if (chunk == "VP8L") {  // lossless: signature 0x2F, then 14-bit width - 1 and height - 1
+    if (b[20] != 0x2F) f.Fail(20, "damaged WebP (VP8L) header");
+    const std::uint32_t v = le(21, 4);
+    return {"WebP", static_cast<int>((v & 0x3FFF) + 1), static_cast<int>(((v >> 14) & 0x3FFF) + 1)};
+  }
+  if (chunk == "VP8X") {  // extended: 24-bit canvas width - 1 and height - 1
+    return {"WebP", static_cast<int>(le(24, 3) + 1), static_cast<int>(le(27, 3) + 1)};
+  }
+  f.Fail(12, "damaged WebP: unknown first chunk");
 }
 
 }  // namespace
@@ -335,6 +349,10 @@ ImageFileInfo ReadImageHeader(const std::string& path) {
     return TiffHeader(f, m[0] == 'I');
   }
   if (n >= 2 && m[0] == 'B' && m[1] == 'M') return BmpHeader(f);
+  if (n == 8 && std::equal(m, m + 4, "RIFF") && f.size() >= 16) {
+    unsigned char w[4];
+    if (f.Read(8, w, 4) && std::equal(w, w + 4, "WEBP")) return WebpHeader(f);
+  }
   if (n >= 3 && m[0] == 'P' && m[1] >= '1' && m[1] <= '6' && std::isspace(m[2])) {
     return PnmHeader(f);
   }
@@ -373,33 +391,34 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
                           " px per side and " + std::to_string(kMaxImagePixels) + " px in all");
     }
   };
+  // Only formats whose size is known before decoding: OpenCV's own limit (2^30 px) is fixed
+  // when its library loads and would let a small file allocate gigabytes.
   const ImageFileInfo info = ReadImageHeader(path);
-  if (!info.format.empty()) {
-    check(info.width, info.height, "(from its header, not decoded)");
+  if (info.format.empty()) {
+    throw FileError(path, "",
+                    "not a PNG, JPEG, TIFF, BMP, WebP or PNM " + what +
+                        " (the formats whose size ScanCam checks before decoding)");
+  }
+  check(info.width, info.height, "(from its header, not decoded)");
+  {
     ByteFile f(path);
     if (info.format == "PNG") CheckPngChunks(f);
     if (info.format == "JPEG") CheckJpegEnd(f);
   }
-  LimitOpenCvImageSize();
   cv::Mat image;
   try {
     image = cv::imread(path, flags);
   } catch (const cv::Exception& e) {
     const std::string msg = e.what();
-    if (msg.find("MAX_IMAGE_PIXELS") != std::string::npos) {
-      throw FileError(path, "",
-                      what + " is larger than ScanCam's limit of " +
-                          std::to_string(kMaxImagePixels) + " px (not decoded)");
+    if (msg.find("MAX_IMAGE_PIXELS") != std::string::npos) {  // OpenCV's limit, as a sentence
+      throw FileError(path, "", what + " is larger than OpenCV's pixel limit (not decoded)");
     }
     throw FileError(path, "", "cannot decode the " + what + ": " + PlainErrorMessage(e));
   } catch (const std::bad_alloc&) {
     throw FileError(path, "", "not enough memory to decode the " + what);
   }
   if (image.empty()) {
-    throw FileError(path, "",
-                    "cannot decode the " + what +
-                        (info.format.empty() ? " (not an image format OpenCV can read, or damaged)"
-                                             : " (damaged " + info.format + " data)"));
+    throw FileError(path, "", "cannot decode the " + what + " (damaged " + info.format + " data)");
   }
   check(image.cols, image.rows, "(decoded)");
   return image;

@@ -34,18 +34,20 @@ constexpr long long kMaxImagePixels = 1LL << 28;
 
 /// What an image file's header says, read without decoding the pixels.
 struct ImageFileInfo {
-  std::string format;  ///< "PNG", "JPEG", "TIFF", "BMP", "PNM"; "" when not one of these
+  std::string format;  ///< "PNG", "JPEG", "TIFF", "BMP", "WebP", "PNM"; "" for other formats
   int width = 0;       ///< px (0 when format is "")
   int height = 0;
 };
 
 /// Reads the image size from the header of a PNG (IHDR), JPEG (SOFn), TIFF (first IFD, classic
-/// and BigTIFF), BMP or PNM file: a few hundred bytes, no pixel is decoded. Throws FileError
-/// naming the file and the byte when the header is damaged; format "" for other formats.
+/// and BigTIFF), BMP, WebP or PNM file: a few hundred bytes, no pixel is decoded. Throws
+/// FileError naming the file and the byte when the header is damaged; format "" for other
+/// formats.
 ImageFileInfo ReadImageHeader(const std::string& path);
 
 /// Reads an image for ScanCam (cv::imread `flags`), refusing bad input BEFORE decoding:
-///   - the size from the header (ReadImageHeader) beyond kMaxImageSidePx / kMaxImagePixels;
+///   - formats ReadImageHeader does not know (their size cannot be checked before decoding);
+///   - the size from the header beyond kMaxImageSidePx / kMaxImagePixels;
 ///   - `check_size(width, height)`, when given, throws for a size the caller cannot use (e.g.
 ///     CheckImageSize against the camera); called with the header's size before decoding and
 ///     again with the decoded size;
