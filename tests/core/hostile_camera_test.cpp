@@ -581,6 +581,9 @@ TEST(HostilePairs, InvalidUtf8LabelNamesFileLineAndColumn) {
   const std::string err = ReadFile(dir + "/stderr.txt");
   EXPECT_NE(err.find(p + ":3:"), std::string::npos) << err;
   EXPECT_TRUE(PrintableOnly(err)) << err;
+  // Control characters (a terminal escape in a label) are refused too.
+  const std::string e = Write(dir, "esc.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,a\x1b[2Jb\n");
+  ExpectError([&] { ReadPairsCsv(e); }, {e + ":2:", "0x1B", "column 12", "control character"});
   // Valid UTF-8 labels are kept as they are.
   const std::string q =
       Write(dir, "ok.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,caf\xc3\xa9 \xe2\x82\xac\n");

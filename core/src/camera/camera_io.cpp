@@ -1334,6 +1334,7 @@ CameraModel LoadCameraUnwrapped(const std::string& path, const LoadCameraOptions
       throw FileError(path, "", "could not detect the camera file format");
   }
   cam.set_source(path);
+  cam.set_name(PrintableText(cam.name()));  // shown in messages and summaries
   return cam;
 }
 

@@ -32,7 +32,9 @@ nlohmann::json PoseToJson(const Eigen::Isometry3d& T) {
 
 double JsonNumber(const nlohmann::json& j, const std::string& file, const std::string& field) {
   if (!j.is_number()) {
-    throw FileError(file, "", "field '" + field + "' must be a number, found " + j.dump());
+    std::string found = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    if (found.size() > 40) found = found.substr(0, 40) + "...";
+    throw FileError(file, "", "field '" + field + "' must be a number, found " + found);
   }
   const double v = j.get<double>();
   if (!std::isfinite(v)) throw FileError(file, "", "field '" + field + "' is not finite");
