@@ -10,6 +10,7 @@
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/error.h"
+#include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
@@ -60,9 +61,8 @@ int RunCalibrate(const Args& args) {
   cv::Mat image;
   if (args.has("--image")) {
     const std::string image_path = args.get("--image");
-    image = cv::imread(image_path, cv::IMREAD_COLOR);
-    if (image.empty()) throw Error(image_path + ": cannot read the image");
-    CheckImageSize(camera, image.cols, image.rows, image_path);
+    image = ReadImage(image_path, cv::IMREAD_COLOR, "image",
+                      [&](int w, int h) { CheckImageSize(camera, w, h, image_path); });
   }
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");

@@ -193,23 +193,22 @@ int RunColorize(const Args& args) {
   const int row_scale = args.get_int("--grid-row-scale", 0);
 
   const Progress progress(StderrProgress(quiet));
-  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
-
   std::vector<ColourView> views(n);
   std::vector<std::string> region_how(n);
   for (std::size_t k = 0; k < n; ++k) {
     ColourView& v = views[k];
     v.name = images[k];
     v.camera = LoadCamera(cameras[k]);
-    v.image = cv::imread(images[k], cv::IMREAD_COLOR);
-    if (v.image.empty())
-      throw FileError(images[k], "", "cannot read the image (missing or not an image file)");
-    CheckImageSize(v.camera, v.image.cols, v.image.rows, images[k]);
+    v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
+                        [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
     v.T_cam_scan = LoadExtrinsic(calibs[k]);
     // A mask file wins; else the valid region found from the camera and the image.
     v.mask = ChooseValidRegion(args, v.camera, v.image, masks[k], &region_how[k]);
     CheckView(v);
   }
+  // The scan after the views: a bad camera, image, mask or pose file fails before a long scan
+  // import.
+  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
   std::vector<std::string> written;
   if (!region_out.empty()) {
     std::vector<std::string> inputs = images;

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
+#include "scancam/camera/camera_io.h"
 #include "scancam/camera/valid_region.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
@@ -27,13 +28,8 @@ std::vector<OptionSpec> ValidRegionOptionSpecs() {
 cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
                           const std::string& mask_path, std::string* how) {
   if (!mask_path.empty()) {
-    cv::Mat mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
-    if (mask.empty()) throw FileError(mask_path, "", "cannot read the mask image");
-    if (mask.cols != camera.width() || mask.rows != camera.height())
-      throw FileError(mask_path, "",
-                      "the mask is " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
-                          " px but the camera is " + std::to_string(camera.width()) + "x" +
-                          std::to_string(camera.height()));
+    cv::Mat mask = ReadImage(mask_path, cv::IMREAD_GRAYSCALE, "mask",
+                             [&](int w, int h) { CheckImageSize(camera, w, h, mask_path); });
     if (how) *how = "mask file " + mask_path;
     return mask;
   }

@@ -15,6 +15,7 @@
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/error.h"
+#include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
@@ -99,9 +100,9 @@ struct CalibCommand : public ccCommandLineInterface::Command {
     try {
       const scancam::CameraModel camera = scancam::LoadCamera(o["CAMERA"].toStdString());
       if (o.contains("IMAGE")) {
-        const cv::Mat img = cv::imread(o["IMAGE"].toStdString(), cv::IMREAD_UNCHANGED);
-        if (img.empty()) throw scancam::Error(o["IMAGE"].toStdString() + ": cannot read the image");
-        scancam::CheckImageSize(camera, img.cols, img.rows, o["IMAGE"].toStdString());
+        const std::string image = o["IMAGE"].toStdString();
+        scancam::ReadImage(image, cv::IMREAD_UNCHANGED, "image",
+                           [&](int w, int h) { scancam::CheckImageSize(camera, w, h, image); });
       }
       const std::vector<scancam::PointPair> pairs = scancam::ReadPairsCsv(o["PAIRS"].toStdString());
       CloudScan cs;
@@ -143,15 +144,12 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
       scancam::colour::ColourView view;
       view.name = o["IMAGE"].toStdString();
       view.camera = scancam::LoadCamera(o["CAMERA"].toStdString());
-      view.image = cv::imread(view.name, cv::IMREAD_COLOR);
-      if (view.image.empty())
-        throw scancam::Error(view.name + ": cannot read the image (missing or not an image)");
-      scancam::CheckImageSize(view.camera, view.image.cols, view.image.rows, view.name);
+      view.image = scancam::ReadImage(view.name, cv::IMREAD_COLOR, "image", [&](int w, int h) {
+        scancam::CheckImageSize(view.camera, w, h, view.name);
+      });
       view.T_cam_scan = scancam::colour::LoadExtrinsic(o["CALIB"].toStdString());
       if (o.contains("MASK")) {
-        view.mask = cv::imread(o["MASK"].toStdString(), cv::IMREAD_GRAYSCALE);
-        if (view.mask.empty())
-          throw scancam::Error(o["MASK"].toStdString() + ": cannot read the mask image");
+        view.mask = scancam::ReadImage(o["MASK"].toStdString(), cv::IMREAD_GRAYSCALE, "mask");
       }
       scancam::colour::CheckView(view);
       for (CLCloudDesc& desc : cmd.clouds()) {

@@ -529,9 +529,7 @@ bool CalibrationWindow::loadCamera(const QString& path) {
 
 bool CalibrationWindow::loadImage(const QString& path) {
   return guarded(tr("Image"), [&] {
-    cv::Mat img = cv::imread(path.toStdString(), cv::IMREAD_COLOR);
-    if (img.empty())
-      throw Error(path.toStdString() + ": cannot read the image (missing or not an image)");
+    cv::Mat img = ReadImage(path.toStdString(), cv::IMREAD_COLOR, "image");
     const bool had_image = !image_bgr_.empty();
     const bool same_image = QFileInfo(path) == QFileInfo(image_path_);
     image_bgr_ = img;
@@ -1074,8 +1072,7 @@ void CalibrationWindow::chooseMask() {
 
 bool CalibrationWindow::loadMask(const QString& path) {
   return guarded(tr("Mask"), [&] {
-    cv::Mat m = cv::imread(path.toStdString(), cv::IMREAD_GRAYSCALE);
-    if (m.empty()) throw Error(path.toStdString() + ": cannot read the mask image");
+    cv::Mat m = ReadImage(path.toStdString(), cv::IMREAD_GRAYSCALE, "mask");
     mask_ = m;
     mask_path_ = path;
     emit inputsChanged();
