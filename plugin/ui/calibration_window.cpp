@@ -127,7 +127,13 @@ CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
   resize(1400, 850);
 }
 
-CalibrationWindow::~CalibrationWindow() = default;
+CalibrationWindow::~CalibrationWindow() {
+  // The child widgets outlive this body (a label editor still open commits its text while
+  // the table is destroyed): nothing may reach this window's members any more.
+  qApp->removeEventFilter(this);
+  pairs_->setUndoStack(nullptr);
+  pairs_->disconnect(this);
+}
 
 template <typename F>
 bool CalibrationWindow::guarded(const QString& what, F&& f) {
@@ -250,6 +256,7 @@ void CalibrationWindow::buildUi() {
            [this] { chooseCalibrationToLoad(); });
   act_apply_ = make(tr("Apply colours"),
                     tr("Colour the cloud from the camera image with this calibration"), [this] {
+                      if (scene_closed_) return;  // the cloud is gone
                       const QString problem = colouringProblem();
                       if (!problem.isEmpty()) {
                         reportError(tr("Cannot apply colours: ") + problem);
@@ -258,8 +265,9 @@ void CalibrationWindow::buildUi() {
                       emit applyColoursRequested();
                     });
   act_restore_ = make(tr("Restore colours"),
-                      tr("Put back the colours the cloud had before ScanCam coloured it"),
-                      [this] { emit restoreColoursRequested(); });
+                      tr("Put back the colours the cloud had before ScanCam coloured it"), [this] {
+                        if (!scene_closed_) emit restoreColoursRequested();
+                      });
   act_export_ = make(tr("Export..."),
                      tr("Colour the scan and write a textured mesh (OBJ, glTF) or a coloured "
                         "cloud (PLY)"),
@@ -283,6 +291,10 @@ void CalibrationWindow::buildUi() {
   act_pick3d_->setToolTip(tr("Pick the laser side of pairs on the cloud in the 3D view"));
   act_pick3d_->setEnabled(false);
   connect(act_pick3d_, &QAction::toggled, this, [this](bool on) {
+    if (on && scene_closed_) {  // the cloud is gone: nothing to pick on
+      act_pick3d_->setChecked(false);
+      return;
+    }
     if (on) setStatus(tr("Picking in the 3D view: click a point of the cloud"), kInfo);
     emit pick3dToggled(on);
   });
