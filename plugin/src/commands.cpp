@@ -5,6 +5,7 @@
 #include <ccPointCloud.h>
 #include <ccProgressDialog.h>
 
+#include <QDir>
 #include <QFileInfo>
 #include <QMap>
 #include <QStringList>
@@ -176,8 +177,9 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
           QString written;
           const QString error = cmd.exportEntity(desc, "SCANCAM_COLORIZED", &written);
           if (!error.isEmpty()) return cmd.error(QString("-%1: %2").arg(kColorizeKeyword, error));
+          // exportEntity gives the name; the file is in the input's folder (desc.path).
           cmd.print(QString("[ScanCam] wrote %1 (-AUTO_SAVE OFF to only keep it in memory)")
-                        .arg(written));
+                        .arg(desc.path.isEmpty() ? written : QDir(desc.path).filePath(written)));
         } else {
           cmd.print(QString("[ScanCam] %1 coloured in memory (-AUTO_SAVE OFF): save it with "
                             "-SAVE_CLOUDS")

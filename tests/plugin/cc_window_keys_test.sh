@@ -92,17 +92,20 @@ expect_cloud() {
 main="$(wait_window "CloudCompare v")" || fail "CloudCompare's main window did not appear"
 xdotool windowmove "$main" 0 0
 xdotool windowsize "$main" 1600 1000
-# The PTX loads; the DB tree then shows the file's group and the cloud (second row).
-for _ in $(seq 50); do
-  [ -s "$work/cc.log" ] && grep -q "scan.ptx" "$work/cc.log" 2>/dev/null && break
-  sleep 0.2
-done
-sleep 3
+# The PTX loads; the DB tree then shows the file's group and the cloud (second row). Select
+# the cloud and press the plugin's toolbar button (scripts/screenshots.sh) until the window
+# opens (the button is enabled once a cloud is selected).
 echo "== select the cloud, open the calibration window on it"
-xdotool mousemove 175 138 click 1
-sleep 1
-xdotool mousemove 1219 61 click 1  # the plugin's toolbar button (scripts/screenshots.sh)
-win="$(wait_window "ScanCam calibration")" || fail "the calibration window did not open"
+win=""
+for _ in $(seq 30); do
+  xdotool mousemove 175 138 click 1
+  sleep 0.3
+  xdotool mousemove 1219 61 click 1
+  win="$(xdotool search --onlyvisible --name "ScanCam calibration" 2>/dev/null | tail -1)" || true
+  [ -z "$win" ] || break
+  sleep 0.7
+done
+[ -n "$win" ] || fail "the calibration window did not open"
 xdotool windowmove "$win" 1150 0
 xdotool windowsize "$win" 1400 850
 sleep 2
