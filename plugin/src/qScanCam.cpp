@@ -9,7 +9,6 @@
 #include <QIcon>
 #include <QMainWindow>
 #include <QMessageBox>
-#include <QSettings>
 
 #include "cc_compat.h"
 #include "cc_progress.h"
@@ -38,8 +37,6 @@ ccPointCloud* SingleSelectedCloud(const ccHObject::Container& selected) {
     return nullptr;
   return static_cast<ccPointCloud*>(selected.front());
 }
-
-constexpr char kSettingsGroup[] = "qScanCam";
 
 }  // namespace
 
@@ -274,37 +271,8 @@ void qScanCam::openCalibration() {
   w->show();
   if (!w->setScan(cloud_scan_.scan, cloud->getName())) return;
 
-  // Reopen the files last used with THIS scan (never another scan's): the camera, the image
-  // (which reloads the pairs of this scan and image), the mask; and say so.
-  const QString scan_key = QString("scans/%1").arg(w->scanFingerprint());
-  QSettings settings;
-  settings.beginGroup(kSettingsGroup);
-  settings.beginGroup(scan_key);
-  const QString camera = settings.value("camera").toString();
-  const QString image = settings.value("image").toString();
-  const QString mask = settings.value("mask").toString();
-  settings.endGroup();
-  settings.endGroup();
-  QStringList reopened;
-  if (!camera.isEmpty() && QFileInfo::exists(camera) && w->loadCamera(camera))
-    reopened << tr("camera %1").arg(camera);
-  if (!image.isEmpty() && QFileInfo::exists(image) && w->loadImage(image))
-    reopened << tr("image %1").arg(image);
-  if (!mask.isEmpty() && QFileInfo::exists(mask) && !w->imagePath().isEmpty() && w->loadMask(mask))
-    reopened << tr("mask %1").arg(mask);
-  if (!reopened.isEmpty())
-    w->reportInfo(tr("Reopened what was last used with this scan: %1 (File menu to change; the "
-                     "line under the toolbar shows what is active)")
-                      .arg(reopened.join(", ")));
-  // Remember the files for the next time, for this scan.
-  connect(w, &scancam::ui::CalibrationWindow::inputsChanged, this, [w, scan_key] {
-    QSettings s;
-    s.beginGroup(kSettingsGroup);
-    s.beginGroup(scan_key);
-    s.setValue("camera", w->cameraPath());
-    s.setValue("image", w->imagePath());
-    s.setValue("mask", w->maskPath());
-  });
+  // The files last used with THIS scan (never another scan's) come back, with a message.
+  w->reopenRememberedInputs();
 }
 
 void qScanCam::applyColours() {

@@ -22,6 +22,7 @@
 #include <QProgressDialog>
 #include <QPushButton>
 #include <QSaveFile>
+#include <QSettings>
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QTableView>
@@ -1341,6 +1342,39 @@ void CalibrationWindow::setPick3dAvailable(bool available) {
 void CalibrationWindow::setRestoreAvailable(bool available) {
   restore_available_ = available;
   updateActions();
+}
+
+int CalibrationWindow::reopenRememberedInputs() {
+  if (scan_fingerprint_.isEmpty()) return 0;
+  const QString group = QString("qScanCam/scans/%1").arg(scan_fingerprint_);
+  QSettings settings;
+  settings.beginGroup(group);
+  const QString camera = settings.value("camera").toString();
+  const QString image = settings.value("image").toString();
+  const QString mask = settings.value("mask").toString();
+  settings.endGroup();
+  QStringList reopened;
+  if (!camera.isEmpty() && QFileInfo::exists(camera) && loadCamera(camera))
+    reopened << tr("camera %1").arg(camera);
+  if (!image.isEmpty() && QFileInfo::exists(image) && loadImage(image))
+    reopened << tr("image %1").arg(image);
+  if (!mask.isEmpty() && QFileInfo::exists(mask) && !image_path_.isEmpty() && loadMask(mask))
+    reopened << tr("mask %1").arg(mask);
+  if (!reopened.isEmpty())
+    reportInfo(tr("Reopened what was last used with this scan: %1 (File menu to change; the "
+                  "line under the toolbar shows what is active)")
+                   .arg(reopened.join(", ")));
+  if (!remembering_) {
+    remembering_ = true;
+    connect(this, &CalibrationWindow::inputsChanged, this, [this, group] {
+      QSettings s;
+      s.beginGroup(group);
+      s.setValue("camera", camera_path_);
+      s.setValue("image", image_path_);
+      s.setValue("mask", mask_path_);
+    });
+  }
+  return reopened.size();
 }
 
 void CalibrationWindow::setSceneClosed(const QString& message) {

@@ -158,6 +158,11 @@ class CalibrationWindow : public QMainWindow {
   /// The line that shows the active scan, camera, image, mask and pairs file.
   QString activeInputsText() const;
   QUndoStack* undoStack() const { return undo_; }
+  /// Reopens the camera file, image (with its pairs) and mask last used with this scan (same
+  /// ScanFingerprint; QSettings group "qScanCam/scans/<fingerprint>"), says what it reopened,
+  /// and from now on remembers them there whenever they change. Call after setScan. Returns
+  /// how many files it reopened.
+  int reopenRememberedInputs();
   /// The host's cloud is gone: the window says so (title, status, that line) and stops asking
   /// the host to act (apply / restore colours, 3D picking are disabled for good).
   void setSceneClosed(const QString& message);
@@ -272,6 +277,7 @@ class CalibrationWindow : public QMainWindow {
   QString autosave_path_;
   QString scan_fingerprint_;
   bool scene_closed_ = false;
+  bool remembering_ = false;  // inputs are saved per scan (reopenRememberedInputs)
   QUndoStack* undo_ = nullptr;
   std::optional<Calibration> calibration_;
   QString calibration_source_;

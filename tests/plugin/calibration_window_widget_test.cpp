@@ -13,6 +13,7 @@
 #include <QMainWindow>
 #include <QMessageBox>
 #include <QPushButton>
+#include <QSettings>
 #include <QSignalSpy>
 #include <QTabWidget>
 #include <QTableView>
@@ -645,6 +646,45 @@ class CalibrationWindowTest : public QObject {
     QCOMPARE(w->autosavePath(), sidecar);
     QCOMPARE(w->pairsModel()->size(), 1);
     QCOMPARE(w->pairsModel()->pairs()[0].image_px->x(), 300.0);
+  }
+
+  void inputsComeBackOnlyForTheirScan() {
+    // A throw-away settings file (what the plugin keeps in CloudCompare's settings).
+    const QString dir = QString(SCANCAM_TEST_TMP) + "/calibration_window_settings";
+    std::filesystem::remove_all(dir.toStdString());
+    QCoreApplication::setOrganizationName("ScanCamTest");
+    QCoreApplication::setApplicationName("calibration_window_widget_test");
+    QSettings::setPath(QSettings::NativeFormat, QSettings::UserScope, dir);
+    QSettings::setPath(QSettings::IniFormat, QSettings::UserScope, dir);
+    const QString image = FreshImage("remember");
+    const QString mask = QString::fromStdString(Sim().dir + "/mask.png");
+    {
+      auto w = std::make_unique<CalibrationWindow>();
+      w->setErrorDialogsEnabled(false);
+      QVERIFY(w->setScan(Sim().scan, "sim scan"));
+      QCOMPARE(w->reopenRememberedInputs(), 0);  // nothing remembered yet
+      QVERIFY(w->loadCamera(Sim().camera));
+      QVERIFY(w->loadImage(image));
+      QVERIFY(w->loadMask(mask));
+    }
+    {
+      // Another scan: nothing of the first one's comes back.
+      auto w = std::make_unique<CalibrationWindow>();
+      w->setErrorDialogsEnabled(false);
+      QVERIFY(w->setScan(OtherScan(), "other scan"));
+      QCOMPARE(w->reopenRememberedInputs(), 0);
+      QVERIFY(w->cameraPath().isEmpty() && w->imagePath().isEmpty() && w->maskPath().isEmpty());
+      QVERIFY(w->activeInputsText().contains("Camera: none"));
+    }
+    // The same scan again: camera, image and mask come back, and it says so.
+    auto w = std::make_unique<CalibrationWindow>();
+    w->setErrorDialogsEnabled(false);
+    QVERIFY(w->setScan(Sim().scan, "sim scan"));
+    QCOMPARE(w->reopenRememberedInputs(), 3);
+    QCOMPARE(w->cameraPath(), Sim().camera);
+    QCOMPARE(w->imagePath(), image);
+    QCOMPARE(w->maskPath(), mask);
+    QVERIFY(w->statusText().startsWith("Reopened what was last used with this scan"));
   }
 
   void pairsThatDoNotFitTheScanAreMarked() {
