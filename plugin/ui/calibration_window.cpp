@@ -238,12 +238,23 @@ void CalibrationWindow::buildUi() {
                          [this] { choosePairsToSave(); });
   act_delete_ = make(tr("Delete pair"), tr("Delete the selected pair (Delete key)"),
                      [this] { deleteSelectedPair(); });
-  act_undo_ = undo_->createUndoAction(this, tr("Undo"));
-  act_undo_->setToolTip(tr("Undo the last change to the pairs (Ctrl+Z)"));
+  // Fixed texts (the toolbar does not move); what would be undone is in the tooltip.
+  act_undo_ = make(tr("Undo"), tr("Nothing to undo"), [this] { undo_->undo(); });
   act_undo_->setShortcuts({QKeySequence::Undo});
-  act_redo_ = undo_->createRedoAction(this, tr("Redo"));
-  act_redo_->setToolTip(tr("Redo the change undone last (Ctrl+Shift+Z)"));
+  act_undo_->setEnabled(false);
+  act_redo_ = make(tr("Redo"), tr("Nothing to redo"), [this] { undo_->redo(); });
   act_redo_->setShortcuts({QKeySequence(tr("Ctrl+Shift+Z")), QKeySequence(tr("Ctrl+Y"))});
+  act_redo_->setEnabled(false);
+  connect(undo_, &QUndoStack::canUndoChanged, act_undo_, &QAction::setEnabled);
+  connect(undo_, &QUndoStack::canRedoChanged, act_redo_, &QAction::setEnabled);
+  connect(undo_, &QUndoStack::undoTextChanged, this, [this](const QString& text) {
+    act_undo_->setToolTip(text.isEmpty() ? tr("Nothing to undo")
+                                         : tr("Undo: %1 (Ctrl+Z)").arg(text));
+  });
+  connect(undo_, &QUndoStack::redoTextChanged, this, [this](const QString& text) {
+    act_redo_->setToolTip(text.isEmpty() ? tr("Nothing to redo")
+                                         : tr("Redo: %1 (Ctrl+Shift+Z)").arg(text));
+  });
   connect(act_undo_, &QAction::triggered, this,
           [this] { setStatus(tr("Undone: %1").arg(undo_->redoText()), kInfo); });
   connect(act_redo_, &QAction::triggered, this,
@@ -336,9 +347,7 @@ void CalibrationWindow::buildUi() {
   tb->addSeparator();
   tb->addAction(act_load_pairs_);
   tb->addAction(act_save_pairs_);
-  tb->addAction(act_delete_);
-  tb->addAction(act_undo_);
-  tb->addAction(act_redo_);
+  tb->addAction(act_delete_);  // Undo / Redo: Pairs menu and Ctrl+Z (the toolbar stays short)
   tb->addAction(act_pick3d_);
   tb->addSeparator();
   tb->addWidget(method_combo_);

@@ -462,8 +462,10 @@ class CalibrationWindowTest : public QObject {
     const int n = w->pairsModel()->size();
     QVERIFY(n >= 3);
     // Delete after a click in a BA view, and after a click on the photo: no pair selected,
-    // nothing happens (and the host's Delete does not fire).
+    // nothing happens (and the host's Delete does not fire). The window must be the active
+    // one: Qt matches no shortcut at all without an active window.
     w->activateWindow();
+    QVERIFY(QTest::qWaitForWindowActive(w.get()));
     ImageView* ba = w->scanView(0);
     ba->setFocus();
     QTest::keyClick(ba->viewport(), Qt::Key_Delete);
@@ -498,6 +500,8 @@ class CalibrationWindowTest : public QObject {
     QCOMPARE(w->pairsModel()->size(), n - 1);
     QCOMPARE(host_deleted.count(), 0);
     // Keys pressed in the host still reach the host (the window only keeps its own).
+    host.activateWindow();
+    QVERIFY(QTest::qWaitForWindowActive(&host));
     QTest::keyClick(&host, Qt::Key_Delete);
     QCOMPARE(host_deleted.count(), 1);
     QCOMPARE(w->pairsModel()->size(), n - 1);

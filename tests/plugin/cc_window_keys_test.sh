@@ -40,6 +40,7 @@ trap cleanup EXIT
 disp=121
 while [ -e "/tmp/.X${disp}-lock" ] || [ -e "/tmp/.X11-unix/X${disp}" ]; do disp=$((disp + 1)); done
 export DISPLAY=":$disp"
+unset QT_QPA_PLATFORM WAYLAND_DISPLAY  # the real X server, not offscreen
 Xvfb "$DISPLAY" -screen 0 2600x1000x24 -nolisten tcp >"$work/xvfb.log" 2>&1 &
 pids+=($!)
 for _ in $(seq 100); do xdotool getmouselocation >/dev/null 2>&1 && break; sleep 0.1; done
@@ -58,7 +59,7 @@ fail() {
 # Waits for a visible window whose title matches $1 (regex), prints its id.
 wait_window() {
   local id=""
-  for _ in $(seq 150); do
+  for _ in $(seq 600); do  # up to 2 min: a loaded machine starts CloudCompare slowly
     id="$(xdotool search --onlyvisible --name "$1" 2>/dev/null | tail -1)" || true
     [ -n "$id" ] && { echo "$id"; return 0; }
     sleep 0.2
@@ -78,7 +79,7 @@ pair_count() {
   grep -v '^#' "$sidecar" | tail -n +2 | grep -c . || true
 }
 wait_pairs() {
-  for _ in $(seq 50); do [ "$(pair_count)" = "$1" ] && return 0; sleep 0.1; done
+  for _ in $(seq 150); do [ "$(pair_count)" = "$1" ] && return 0; sleep 0.1; done
   fail "expected $1 pair(s) in $sidecar, found $(pair_count)$2"
 }
 window_title() { xdotool getwindowname "$win"; }
@@ -97,7 +98,7 @@ xdotool windowsize "$main" 1600 1000
 # opens (the button is enabled once a cloud is selected).
 echo "== select the cloud, open the calibration window on it"
 win=""
-for _ in $(seq 30); do
+for _ in $(seq 90); do
   xdotool mousemove 175 138 click 1
   sleep 0.3
   xdotool mousemove 1219 61 click 1
@@ -113,9 +114,16 @@ shot_root "$work/shots/1_opened.png"
 tree_before="$(tree_digest before)"
 
 echo "== open the image (Ctrl+O in the window)"
-xdotool windowactivate --sync "$win"
-xdotool key ctrl+o
-dlg="$(wait_window "Camera image")" || fail "no file dialog for the image"
+dlg=""
+for _ in $(seq 60); do  # the window may still be computing its BA images
+  xdotool windowactivate --sync "$win"
+  xdotool key ctrl+o
+  sleep 0.5
+  dlg="$(xdotool search --onlyvisible --name "^Camera image$" 2>/dev/null | tail -1)" || true
+  [ -z "$dlg" ] || break
+  sleep 1
+done
+[ -n "$dlg" ] || fail "no file dialog for the image"
 xdotool windowactivate --sync "$dlg"
 xdotool type --delay 5 "$image"
 xdotool key Return
@@ -124,9 +132,15 @@ sleep 1.5
 # Window-relative spots: the BA view (centre), the photo (right dock), the first table row.
 ba_x=300; ba_y=330; photo_x=1050; photo_y=300; row_x=60; row_y=603
 echo "== a pair: click on the BA view, then on the photo"
-xdotool mousemove --window "$win" $ba_x $ba_y click 1
-sleep 0.5
-xdotool mousemove --window "$win" $photo_x $photo_y click 1
+# Until the image is in (a click on the photo before is refused; a second click on the BA view
+# only corrects the half-picked pair).
+for _ in $(seq 30); do
+  xdotool mousemove --window "$win" $ba_x $ba_y click 1
+  sleep 0.5
+  xdotool mousemove --window "$win" $photo_x $photo_y click 1
+  sleep 0.5
+  [ "$(pair_count)" = 1 ] && break
+done
 wait_pairs 1 " after a click on the BA view and one on the photo"
 
 echo "== Delete after a click in the BA view"
@@ -169,7 +183,7 @@ xdotool mousemove 175 138 click 1
 sleep 0.5
 xdotool key Delete
 closed=0
-for _ in $(seq 50); do
+for _ in $(seq 150); do
   case "$(window_title)" in *"cloud closed"*) closed=1; break;; esac
   sleep 0.1
 done
