@@ -1424,14 +1424,20 @@ void CalibrationWindow::refreshActiveInputs() {
 
 // ---- keys ---------------------------------------------------------------------------------
 
-bool CalibrationWindow::ownsKeyTarget(QWidget* w) const {
-  // Up the parents to this window; a dock (floating: a window of its own) belongs to it, any
-  // other window (a dialog, a menu, the host's windows) does not.
+CalibrationWindow::KeyTarget CalibrationWindow::keyTarget(QWidget* w) const {
+  // Up the parents to this window; a dock (floating: a window of its own) belongs to it, and so
+  // does a popup opened from it (a menu, the solver list); any other window (a dialog, the
+  // host's windows) does not.
+  bool popup = false;
   for (QWidget* x = w; x; x = x->parentWidget()) {
-    if (x == this) return true;
-    if (x->isWindow() && !qobject_cast<QDockWidget*>(x)) return false;
+    if (x == this) return popup ? KeyTarget::kPopup : KeyTarget::kWindow;
+    if (x->isWindow() && x->windowType() == Qt::Popup) {
+      popup = true;
+      continue;
+    }
+    if (x->isWindow() && !qobject_cast<QDockWidget*>(x)) return KeyTarget::kNone;
   }
-  return false;
+  return KeyTarget::kNone;
 }
 
 namespace {
@@ -1448,7 +1454,8 @@ bool CalibrationWindow::eventFilter(QObject* watched, QEvent* event) {
   if (event->type() != QEvent::ShortcutOverride && event->type() != QEvent::KeyPress)
     return QMainWindow::eventFilter(watched, event);
   auto* w = qobject_cast<QWidget*>(watched);
-  if (!w || !ownsKeyTarget(w)) return false;
+  const KeyTarget target = w ? keyTarget(w) : KeyTarget::kNone;
+  if (target == KeyTarget::kNone) return false;
   auto* key = static_cast<QKeyEvent*>(event);
   if (event->type() == QEvent::ShortcutOverride) {
     // Accepting the override keeps Qt from matching the key against shortcuts, among them
@@ -1456,7 +1463,8 @@ bool CalibrationWindow::eventFilter(QObject* watched, QEvent* event) {
     key->accept();
     return true;
   }
-  if (EditsText(w)) return false;
+  // A popup (menu, list) and text being edited use their keys themselves.
+  if (target == KeyTarget::kPopup || EditsText(w)) return false;
   return handleKey(key);
 }
 

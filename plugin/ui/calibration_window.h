@@ -12,10 +12,10 @@
 // pixel outside the camera's field of view, is refused with a message. Every edit of the pairs
 // (including loading a file) can be undone: Ctrl+Z, redo Ctrl+Shift+Z / Ctrl+Y.
 //
-// Keys: while the focus is anywhere in this window (its docks too, floating or not), the
-// window takes every key itself: no shortcut of the host application fires (CloudCompare's
-// main-window Delete has an application-wide shortcut and would delete the selected cloud),
-// and the window's own shortcuts act only here (eventFilter). Text being edited (a pair's
+// Keys: while the focus is anywhere in this window (its docks too, floating or not, and its
+// menus), the window takes every key itself: no shortcut of the host application fires
+// (CloudCompare's main-window Delete has an application-wide shortcut and would delete the selected
+// cloud), and the window's own shortcuts act only here (eventFilter). Text being edited (a pair's
 // label) keeps its keys.
 //
 // Autosave: every change is written at once (atomically: temporary file + rename) to the
@@ -227,8 +227,10 @@ class CalibrationWindow : public QMainWindow {
   void restoreIncompletePair(const QString& path);
   bool writePairsFile(const QString& path);
   void setStatus(const QString& text, int level);
-  /// True for widgets whose keys this window takes (itself, its children, its docks).
-  bool ownsKeyTarget(QWidget* w) const;
+  /// Whose keys a widget's are: this window's (itself, its children, its docks), a popup of
+  /// it (a menu: no host shortcut, but the popup handles its keys), or not ours.
+  enum class KeyTarget { kNone, kWindow, kPopup };
+  KeyTarget keyTarget(QWidget* w) const;
   /// A key pressed in the window: its own shortcuts, Delete, Esc. True when used.
   bool handleKey(QKeyEvent* event);
   void refreshActiveInputs();

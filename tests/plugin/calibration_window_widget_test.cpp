@@ -11,6 +11,8 @@
 #include <QLabel>
 #include <QLineEdit>
 #include <QMainWindow>
+#include <QMenu>
+#include <QMenuBar>
 #include <QMessageBox>
 #include <QPushButton>
 #include <QSettings>
@@ -499,6 +501,16 @@ class CalibrationWindowTest : public QObject {
     QCOMPARE(editor->text(), QString("oor"));
     QCOMPARE(w->pairsModel()->size(), n - 1);
     QCOMPARE(host_deleted.count(), 0);
+    // A menu of the window is open: its keys are its own, the host's Delete stays off.
+    QMenu* menu = w->menuBar()->actions().at(1)->menu();  // "Pairs"
+    QVERIFY(menu);
+    menu->popup(w->mapToGlobal(QPoint(40, 40)));
+    QVERIFY(QTest::qWaitForWindowExposed(menu));
+    QTest::keyClick(menu, Qt::Key_Delete);
+    QCOMPARE(host_deleted.count(), 0);
+    QTest::keyClick(menu, Qt::Key_Escape);
+    menu->close();
+    QCOMPARE(w->pairsModel()->size(), n - 1);
     // Keys pressed in the host still reach the host (the window only keeps its own).
     host.activateWindow();
     QVERIFY(QTest::qWaitForWindowActive(&host));
