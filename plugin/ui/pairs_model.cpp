@@ -217,22 +217,21 @@ void PairsModel::rowChanged(int row) {
   emit pairsEdited();
 }
 
+int PairsModel::rowForPick(int selected) {
+  if (selected >= 0 && selected < size()) return selected;
+  if (!pairs_.empty() && !pairs_.back().complete()) return size() - 1;
+  beginInsertRows(QModelIndex(), size(), size());
+  pairs_.emplace_back();
+  endInsertRows();
+  return size() - 1;
+}
+
 int PairsModel::placeImageHalf(const QPointF& px, int selected) {
   const bool moving = selected >= 0 && selected < size();
   return recorded(
       moving ? tr("Move the image point of pair %1").arg(selected + 1) : tr("Pick an image point"),
       [&] {
-        int row = -1;
-        if (selected >= 0 && selected < size()) {
-          row = selected;
-        } else if (!pairs_.empty() && !pairs_.back().complete()) {
-          row = size() - 1;
-        } else {
-          beginInsertRows(QModelIndex(), size(), size());
-          pairs_.emplace_back();
-          endInsertRows();
-          row = size() - 1;
-        }
+        const int row = rowForPick(selected);
         EditablePair& p = pairs_[static_cast<std::size_t>(row)];
         p.image_px = px;
         p.solved = false;
@@ -246,17 +245,7 @@ int PairsModel::placeScanHalf(double scan_row, double scan_col, int selected) {
   return recorded(
       moving ? tr("Move the scan point of pair %1").arg(selected + 1) : tr("Pick a scan point"),
       [&] {
-        int row = -1;
-        if (selected >= 0 && selected < size()) {
-          row = selected;
-        } else if (!pairs_.empty() && !pairs_.back().complete()) {
-          row = size() - 1;
-        } else {
-          beginInsertRows(QModelIndex(), size(), size());
-          pairs_.emplace_back();
-          endInsertRows();
-          row = size() - 1;
-        }
+        const int row = rowForPick(selected);
         EditablePair& p = pairs_[static_cast<std::size_t>(row)];
         p.scan_cell = QPointF(scan_col, scan_row);
         p.point_m.reset();  // the new cell defines the laser point now

@@ -139,6 +139,9 @@ class PairsModel : public QAbstractTableModel {
 
  private:
   void rowChanged(int row);
+  /// The row a pick goes to by the picking rule (file comment); appends an empty pair when
+  /// the rule starts a new one.
+  int rowForPick(int selected);
   /// Runs the edit `f` and records it on the undo stack as `text`.
   template <typename F>
   auto recorded(const QString& text, F&& f);

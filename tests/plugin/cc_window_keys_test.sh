@@ -19,59 +19,24 @@
 # Screenshots of each step are left in WORKDIR/shots.
 set -euo pipefail
 cli="$1"; plugin="$2"; work="$3"
-for tool in Xvfb openbox xdotool xwd convert CloudCompare; do
-  command -v "$tool" >/dev/null || { echo "cc_window_keys_test: $tool is not installed"; exit 1; }
-done
+source "$(dirname "${BASH_SOURCE[0]}")/../../scripts/cc_gui_session.sh"
 rm -rf "$work"
-mkdir -p "$work/home" "$work/xdg/CCCorp/CloudCompare/plugins" "$work/run" "$work/shots"
-chmod 700 "$work/run"
-cp "$plugin" "$work/xdg/CCCorp/CloudCompare/plugins/"
+mkdir -p "$work/shots"
+trap cc_gui_stop EXIT
 "$cli" simulate --out "$work/sim" --supersample 1 --dropout 0 --quiet
 image="$work/sim/image.png"
 sidecar="$image.scancam-pairs.csv"
-
-pids=()
-cleanup() {
-  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do kill "${pids[$i]}" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-}
-trap cleanup EXIT
-
-disp=121
-while [ -e "/tmp/.X${disp}-lock" ] || [ -e "/tmp/.X11-unix/X${disp}" ]; do disp=$((disp + 1)); done
-export DISPLAY=":$disp"
-unset QT_QPA_PLATFORM WAYLAND_DISPLAY  # the real X server, not offscreen
-Xvfb "$DISPLAY" -screen 0 2600x1000x24 -nolisten tcp >"$work/xvfb.log" 2>&1 &
-pids+=($!)
-for _ in $(seq 100); do xdotool getmouselocation >/dev/null 2>&1 && break; sleep 0.1; done
-HOME="$work/home" openbox >"$work/openbox.log" 2>&1 &
-pids+=($!)
-sleep 1
-export HOME="$work/home" XDG_DATA_HOME="$work/xdg" XDG_RUNTIME_DIR="$work/run"
-(cd "$work" && exec CloudCompare "$work/sim/scan.ptx") >"$work/cc.log" 2>&1 &
-pids+=($!)
+cc_gui_start "$work" "$plugin" 2600x1000 "$work/sim/scan.ptx"
 
 fail() {
   echo "FAIL: $*"
   shot_root "$work/shots/failure.png" || true
   exit 1
 }
-# Waits for a visible window whose title matches $1 (regex), prints its id.
-wait_window() {
-  local id=""
-  for _ in $(seq 600); do  # up to 2 min: a loaded machine starts CloudCompare slowly
-    id="$(xdotool search --onlyvisible --name "$1" 2>/dev/null | tail -1)" || true
-    [ -n "$id" ] && { echo "$id"; return 0; }
-    sleep 0.2
-  done
-  return 1
-}
-shot_root() { xwd -root -silent | convert xwd:- "$@"; }
-shot_window() { local id="$1"; shift; xwd -id "$id" -silent | convert xwd:- "$@"; }
 # A digest of CloudCompare's DB tree (top left of the main window), and a picture of it.
 tree_digest() {
-  xwd -id "$main" -silent | convert xwd:- -crop 340x330+0+95 +repage "$work/shots/tree_$1.png"
-  convert "$work/shots/tree_$1.png" rgb:- | md5sum | cut -d' ' -f1
+  shot_window "$main" -crop 340x330+0+95 +repage "$work/shots/tree_$1.png"
+  "$cc_gui_convert" "$work/shots/tree_$1.png" rgb:- | md5sum | cut -d' ' -f1
 }
 # Complete pairs in the autosaved pairs file (comment and header lines excluded).
 pair_count() {
