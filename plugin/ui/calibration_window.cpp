@@ -611,32 +611,37 @@ bool CalibrationWindow::loadImage(const QString& path) {
         mask_path_.clear();
       }
       autosave_path_ = sidecarFor(path);
-      if (had_image || pairs_->size() == 0) {
-        loading_pairs_ = true;
-        try {
+      try {
+        if (had_image || pairs_->size() == 0) {
+          loading_pairs_ = true;
           if (pairs_->size() > 0) pairs_->clear();
           msg += reloadSidecarPairs();
-        } catch (...) {
           loading_pairs_ = false;
           undo_->clear();
-          throw;
+        } else if (QFileInfo::exists(autosave_path_)) {
+          // Pairs made (or loaded) before any image: kept, and the image's pairs added to them.
+          const int before = pairs_->size();
+          pairs_->appendPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+          msg += tr("; kept the %1 pairs made before the image and appended the %2 pairs of %3 "
+                    "(Ctrl+Z takes them out)")
+                     .arg(before)
+                     .arg(pairs_->size() - before)
+                     .arg(QFileInfo(autosave_path_).fileName());
+        } else {
+          msg += tr("; the %1 pairs made before the image are kept (saved to %2)")
+                     .arg(pairs_->size())
+                     .arg(QFileInfo(autosave_path_).fileName());
+          autosave();
         }
+      } catch (const std::exception& e) {
+        // An unreadable pairs file is never overwritten by the next autosave.
         loading_pairs_ = false;
         undo_->clear();
-      } else if (QFileInfo::exists(autosave_path_)) {
-        // Pairs made (or loaded) before any image: kept, and the image's pairs added to them.
-        const int before = pairs_->size();
-        pairs_->appendPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
-        msg += tr("; kept the %1 pairs made before the image and appended the %2 pairs of %3 "
-                  "(Ctrl+Z takes them out)")
-                   .arg(before)
-                   .arg(pairs_->size() - before)
-                   .arg(QFileInfo(autosave_path_).fileName());
-      } else {
-        msg += tr("; the %1 pairs made before the image are kept (saved to %2)")
-                   .arg(pairs_->size())
-                   .arg(QFileInfo(autosave_path_).fileName());
-        autosave();
+        autosave_path_.clear();
+        refreshActiveInputs();
+        throw Error(std::string(e.what()) +
+                    " (that file is left as it is; new pairs are not saved until you choose "
+                    "Save pairs as)");
       }
       calibration_.reset();
       calibration_source_.clear();
@@ -1158,6 +1163,9 @@ void CalibrationWindow::refreshOverlay() {
     }
   }
   camera_view_->setOverlayPoints(px, QColor(0, 255, 80));
+  // VALID IMAGE REGION (issue 13 section 2, not done here): once core computes the valid
+  // region of a fisheye / omni image (a CV_8UC1 mask from camera + image), draw its outline on
+  // camera_view_ at this spot; a mask file still wins when given.
 }
 
 void CalibrationWindow::poseChanged() {

@@ -10,7 +10,9 @@
 // half; otherwise it completes the last pair, or starts a new one. Esc deselects, Delete (or
 // Backspace) removes the selected pair. A click on a scan cell without a laser return, or on a
 // pixel outside the camera's field of view, is refused with a message. Every edit of the pairs
-// (including loading a file) can be undone: Ctrl+Z, redo Ctrl+Shift+Z / Ctrl+Y.
+// (including loading a file) can be undone: Ctrl+Z, redo Ctrl+Shift+Z / Ctrl+Y. "Load pairs"
+// over existing pairs asks: replace, append or cancel (loadPairsAsking). Pairs that do not fit
+// the scan (a cell outside the grid, or far from the pair's x,y,z) are marked orange.
 //
 // Keys: while the focus is anywhere in this window (its docks too, floating or not, and its
 // menus), the window takes every key itself: no shortcut of the host application fires

@@ -703,6 +703,25 @@ class CalibrationWindowTest : public QObject {
     QVERIFY(w->statusText().startsWith("Reopened what was last used with this scan"));
   }
 
+  void anUnreadablePairsFileIsNeverOverwritten() {
+    const QString image = FreshImage("corrupt");
+    const QString sidecar = CalibrationWindow::SidecarPath(image);
+    {
+      QFile f(sidecar);
+      QVERIFY(f.open(QIODevice::WriteOnly));
+      f.write("image_u,image_v,scan_row,scan_col\n1,2,abc,4\n");
+    }
+    const QString text = FileText(sidecar);
+    auto w = MakeWindow(QString());
+    QVERIFY(w);
+    QVERIFY(!w->loadImage(image));
+    QVERIFY(w->statusText().contains("left as it is"));
+    QVERIFY(w->autosavePath().isEmpty());
+    w->addImagePick(300, 150);
+    QCOMPARE(w->pairsModel()->size(), 1);
+    QCOMPARE(FileText(sidecar), text);
+  }
+
   void pairsThatDoNotFitTheScanAreMarked() {
     const QString image = FreshImage("misfit");
     const QString csv = QFileInfo(image).path() + "/misfit.csv";
