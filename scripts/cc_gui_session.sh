@@ -1,10 +1,10 @@
 # Sourced (bash): the real CloudCompare GUI on a virtual X server, for scripts that drive it
 # like a user (scripts/screenshots.sh, tests/plugin/cc_window_keys_test.sh).
 #
-#   cc_gui_start WORK PLUGIN_SO SCREEN FILE
+#   cc_gui_start WORK PLUGIN_SO SCREEN FILE...
 #       throw-away HOME, XDG_DATA_HOME (the plugin installed there) and XDG_RUNTIME_DIR under
 #       WORK; Xvfb on a free display of size SCREEN (e.g. 1600x1000) with openbox; then
-#       CloudCompare opening FILE (its output in WORK/cc.log). Exports DISPLAY, HOME, XDG_*.
+#       CloudCompare opening the FILEs (its output in WORK/cc.log). Exports DISPLAY, HOME, XDG_*.
 #   cc_gui_stop          kills what cc_gui_start started (call it from the caller's EXIT trap)
 #   wait_window REGEX    prints the id of a visible window whose title matches (waits <= 2 min)
 #   shot_root ARGS...    the whole screen through convert (ARGS: options, then the output file)
@@ -15,7 +15,8 @@ cc_gui_convert=/usr/bin/convert
 [ -x "$cc_gui_convert" ] || cc_gui_convert="$(command -v convert || true)"
 
 cc_gui_start() {
-  local work="$1" plugin="$2" screen="$3" file="$4" tool disp
+  local work="$1" plugin="$2" screen="$3" tool disp
+  shift 3
   for tool in Xvfb openbox xdotool xwd CloudCompare "$cc_gui_convert"; do
     command -v "$tool" >/dev/null || { echo "cc_gui_start: $tool is not installed" >&2; return 1; }
   done
@@ -35,7 +36,7 @@ cc_gui_start() {
   cc_gui_pids+=($!)
   sleep 1
   export HOME="$work/home" XDG_DATA_HOME="$work/xdg" XDG_RUNTIME_DIR="$work/run"
-  (cd "$work" && exec CloudCompare "$file") >"$work/cc.log" 2>&1 &
+  (cd "$work" && exec CloudCompare "$@") >"$work/cc.log" 2>&1 &
   cc_gui_pids+=($!)
 }
 

@@ -199,7 +199,14 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
 }
 
 void qScanCam::openCalibration() {
-  if (!m_app) return;
+  // Progress dialogs run the event loop: a second click on the action meanwhile must not open
+  // a second window (or replace the first one half-built).
+  if (!m_app || opening_) return;
+  opening_ = true;
+  struct Done {
+    bool& flag;
+    ~Done() { flag = false; }
+  } done{opening_};
   ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
   if (!cloud) {
     log("select one point cloud first", scancam::ui::CalibrationWindow::kError);
@@ -243,7 +250,7 @@ void qScanCam::openCalibration() {
   w->setWindowFlag(Qt::Window, true);
   w->setErrorDialogsEnabled(false);  // CloudCompare's console pops up errors itself
   w->setAttribute(Qt::WA_DeleteOnClose);
-  w->setWindowTitle(tr("ScanCam calibration: %1").arg(cloud->getName()));
+  w->setTitleBase(tr("ScanCam calibration: %1").arg(cloud->getName()));
   w->setWindowIcon(getIcon());
   QWidget* main_window = m_app->getMainWindow();
   w->setProgressRunner([main_window](const QString& title,
@@ -261,6 +268,9 @@ void qScanCam::openCalibration() {
   connect(w, &scancam::ui::CalibrationWindow::pick3dToggled, this,
           [this](bool on) { guarded("Picking in the 3D view", [this, on] { setPicking(on); }); });
   connect(w, &QObject::destroyed, this, [this] {
+    // A window replaced by one on another cloud is destroyed later: then window_ is already
+    // the new one, whose picking and watcher stay.
+    if (window_) return;
     if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
     picking_ = false;
     watcher_.reset();

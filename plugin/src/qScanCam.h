@@ -73,4 +73,5 @@ class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingLi
   std::unique_ptr<CloudWatcher> watcher_;
   scancam_cc::CloudScan cloud_scan_;
   bool picking_ = false;
+  bool opening_ = false;  // openCalibration is running
 };

@@ -111,7 +111,8 @@ const char* const kTraceTitles[4] = {"BA horizontal", "BA vertical", "BA +45\u00
 // ---- window -------------------------------------------------------------------------------
 
 CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
-  setWindowTitle(tr("ScanCam: camera / scanner calibration"));
+  title_base_ = tr("ScanCam: camera / scanner calibration");
+  setWindowTitle(title_base_);
   setObjectName("ScanCamCalibrationWindow");
   pairs_ = new PairsModel(this);
   undo_ = new QUndoStack(this);
@@ -1394,12 +1395,17 @@ int CalibrationWindow::reopenRememberedInputs() {
   return reopened.size();
 }
 
+void CalibrationWindow::setTitleBase(const QString& title) {
+  title_base_ = title;
+  refreshActiveInputs();
+}
+
 void CalibrationWindow::setSceneClosed(const QString& message) {
   if (scene_closed_) return;
   scene_closed_ = true;
   setPick3dAvailable(false);
   restore_available_ = false;
-  setWindowTitle(windowTitle() + tr(" [cloud closed]"));
+
   updateActions();
   refreshActiveInputs();
   reportInfo(message, kWarning);
@@ -1421,6 +1427,11 @@ void CalibrationWindow::refreshActiveInputs() {
                                 file(autosave_path_, tr("none (not saved until an image is "
                                                         "open)")));
   active_label_->setText(text);
+  // The title names the image too (what the window works on, also in the task bar).
+  QString title = title_base_;
+  if (!image_path_.isEmpty()) title += " - " + QFileInfo(image_path_).fileName();
+  if (scene_closed_) title += tr(" [cloud closed]");
+  setWindowTitle(title);
   QStringList tip;
   if (!scan_fingerprint_.isEmpty()) tip << tr("Scan fingerprint: %1").arg(scan_fingerprint_);
   if (!camera_path_.isEmpty()) tip << tr("Camera: %1").arg(camera_path_);

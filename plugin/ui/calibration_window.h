@@ -160,6 +160,9 @@ class CalibrationWindow : public QMainWindow {
   /// The line that shows the active scan, camera, image, mask and pairs file.
   QString activeInputsText() const;
   QUndoStack* undoStack() const { return undo_; }
+  /// The window's title is `title` (e.g. the cloud's name), then " - <image file>" while an
+  /// image is open, then " [cloud closed]" after setSceneClosed.
+  void setTitleBase(const QString& title);
   /// Reopens the camera file, image (with its pairs) and mask last used with this scan (same
   /// ScanFingerprint; QSettings group "qScanCam/scans/<fingerprint>"), says what it reopened,
   /// and from now on remembers them there whenever they change. Call after setScan. Returns
@@ -281,7 +284,8 @@ class CalibrationWindow : public QMainWindow {
   QString autosave_path_;
   QString scan_fingerprint_;
   bool scene_closed_ = false;
-  bool remembering_ = false;  // inputs are saved per scan (reopenRememberedInputs)
+  bool remembering_ = false;
+  QString title_base_;  // inputs are saved per scan (reopenRememberedInputs)
   QUndoStack* undo_ = nullptr;
   std::optional<Calibration> calibration_;
   QString calibration_source_;

@@ -798,7 +798,8 @@ class CalibrationWindowTest : public QObject {
     QVERIFY(w->colouringProblem().isEmpty());
     QSignalSpy apply(w.get(), &CalibrationWindow::applyColoursRequested);
     QSignalSpy restore(w.get(), &CalibrationWindow::restoreColoursRequested);
-    w->setWindowTitle("ScanCam calibration: sim scan");
+    w->setTitleBase("ScanCam calibration: sim scan");
+    QCOMPARE(w->windowTitle(), QString("ScanCam calibration: sim scan - photo.png"));
     w->setSceneClosed("The cloud sim scan was closed");
     QVERIFY(w->sceneClosed());
     QVERIFY(w->windowTitle().endsWith("[cloud closed]"));

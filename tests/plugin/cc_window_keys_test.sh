@@ -11,6 +11,9 @@
 #     "[cloud closed]"), and the DB tree looks the same, pixel for pixel, as before;
 #   - Delete in the table removes the selected pair (the autosaved pairs file loses it) and
 #     Ctrl+Z brings it back.
+# Then a second scan (another PTX loaded beside the first): the window opened on it gets
+# nothing of the first scan's (no image in its title; the first scan's pairs file unchanged),
+# and opened again on the first scan it gets that scan's image and pairs back.
 # Then the control, which shows both checks can fail: Delete in CloudCompare's main window
 # with the cloud selected deletes it, the window's title says "[cloud closed]" and the DB
 # tree changes.
@@ -24,9 +27,12 @@ rm -rf "$work"
 mkdir -p "$work/shots"
 trap cc_gui_stop EXIT
 "$cli" simulate --out "$work/sim" --supersample 1 --dropout 0 --quiet
+# A second scan (another seed: other points), loaded after the first one.
+"$cli" simulate --out "$work/sim2" --supersample 1 --dropout 0 --seed 2 --quiet
+cp "$work/sim2/scan.ptx" "$work/other.ptx"
 image="$work/sim/image.png"
 sidecar="$image.scancam-pairs.csv"
-cc_gui_start "$work" "$plugin" 2600x1000 "$work/sim/scan.ptx"
+cc_gui_start "$work" "$plugin" 2600x1000 "$work/sim/scan.ptx" "$work/other.ptx"
 
 fail() {
   echo "FAIL: $*"
@@ -74,9 +80,16 @@ done
 [ -n "$win" ] || fail "the calibration window did not open"
 xdotool windowmove "$win" 1150 0
 xdotool windowsize "$win" 1400 850
-sleep 2
+# Both files loaded: the DB tree no longer changes.
+tree_before="" same=0
+for _ in $(seq 120); do
+  d="$(tree_digest before)"
+  if [ "$d" = "$tree_before" ]; then same=$((same + 1)); else same=0; fi
+  tree_before="$d"
+  [ $same -ge 4 ] && break
+  sleep 0.5
+done
 shot_root "$work/shots/1_opened.png"
-tree_before="$(tree_digest before)"
 
 echo "== open the image (Ctrl+O in the window)"
 dlg=""
@@ -141,6 +154,36 @@ sleep 1
 shot_root "$work/shots/5_after_window_keys.png"
 expect_cloud "Ctrl+Z / Ctrl+Shift+Z in the window" after_undo
 echo "cloud still in the DB tree, title: $(window_title)"
+
+echo "== another scan: nothing of the first one's comes back"
+sidecar_sum="$(md5sum < "$sidecar")"
+# Opens the window on the cloud at DB-tree row y=$1 and waits for the title to match $2.
+open_on() {
+  local id=""
+  for _ in $(seq 60); do
+    xdotool windowactivate --sync "$main"
+    xdotool mousemove 175 "$1" click 1
+    sleep 0.3
+    xdotool mousemove 1219 61 click 1
+    sleep 0.7
+    id="$(xdotool search --onlyvisible --name "$2" 2>/dev/null | tail -1)" || true
+    [ -z "$id" ] || { echo "$id"; return 0; }
+  done
+  return 1
+}
+win="$(open_on 178 "ScanCam calibration: other")" || fail "no window on the second cloud"
+sleep 3
+shot_root "$work/shots/7_other_scan.png"
+case "$(window_title)" in *image.png*) fail "the second scan reopened the first one's image";; esac
+[ "$(md5sum < "$sidecar")" = "$sidecar_sum" ] || fail "the first scan's pairs file changed"
+echo "title on the other scan: $(window_title)"
+echo "== the first scan again: its image (and pairs) come back, and the title says which image"
+win="$(open_on 138 "ScanCam calibration: scan - Cloud - image.png")" ||
+  fail "the first scan did not get its image back"
+sleep 1
+shot_window "$win" "$work/shots/8_first_scan_again.png"
+[ "$(md5sum < "$sidecar")" = "$sidecar_sum" ] || fail "reopening changed the pairs file"
+echo "title on the first scan: $(window_title)"
 
 echo "== control: Delete in CloudCompare's main window deletes the cloud, and the window says so"
 xdotool windowactivate --sync "$main"
