@@ -5,6 +5,7 @@
 #include <ccPointCloud.h>
 #include <ccProgressDialog.h>
 
+#include <QDir>
 #include <QFileInfo>
 #include <QMap>
 #include <QStringList>
@@ -68,7 +69,7 @@ CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
   if (const ccGBLSensor* sensor = FindGblSensor(cloud)) {
     cmd.print(QString("[ScanCam] %1 has no scan grid: re-gridding about its sensor")
                   .arg(cloud.getName()));
-    return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), step_deg,
+    return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), step_deg, 0.0,
                             ToProgress(cmd.progressDialog()));
   }
   const QString origin = opts.value("ORIGIN", "ZERO").toUpper();
@@ -84,7 +85,7 @@ CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
                 .arg(o.x())
                 .arg(o.y())
                 .arg(o.z()));
-  return ScanByRegridding(cloud, Eigen::Isometry3d::Identity(), o, step_deg,
+  return ScanByRegridding(cloud, Eigen::Isometry3d::Identity(), o, step_deg, 0.0,
                           ToProgress(cmd.progressDialog()));
 }
 
@@ -168,6 +169,20 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
                       .arg(st.points_without_cell));
         for (const std::string& w : coloured.warnings)
           cmd.warning("[ScanCam] " + QString::fromStdString(w));
+        // -AUTO_SAVE ON (CloudCompare's default): save the coloured cloud like CloudCompare's
+        // own commands do (beside the input, suffix SCANCAM_COLORIZED), and say where.
+        if (cmd.autoSaveMode()) {
+          QString written;
+          const QString error = cmd.exportEntity(desc, "SCANCAM_COLORIZED", &written);
+          if (!error.isEmpty()) return cmd.error(QString("-%1: %2").arg(kColorizeKeyword, error));
+          // exportEntity gives the name; the file is in the input's folder (desc.path).
+          cmd.print(QString("[ScanCam] wrote %1 (-AUTO_SAVE OFF to only keep it in memory)")
+                        .arg(desc.path.isEmpty() ? written : QDir(desc.path).filePath(written)));
+        } else {
+          cmd.print(QString("[ScanCam] %1 coloured in memory (-AUTO_SAVE OFF): save it with "
+                            "-SAVE_CLOUDS")
+                        .arg(cloud.getName()));
+        }
       }
     } catch (const std::exception& e) {
       return cmd.error(QString("-%1: %2").arg(kColorizeKeyword, e.what()));
