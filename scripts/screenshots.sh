@@ -16,61 +16,20 @@ build="${1:-$root/build}"
 out="${2:-$root/docs/images}"
 plugin="$build/plugin/libQSCANCAM_PLUGIN.so"
 cli="$build/core/scancam"
-for tool in Xvfb openbox xdotool xwd CloudCompare; do
-  command -v "$tool" >/dev/null || { echo "screenshots: $tool is not installed"; exit 1; }
-done
-convert=/usr/bin/convert
-[ -x "$convert" ] || convert="$(command -v convert)" || { echo "screenshots: no convert"; exit 1; }
+source "$root/scripts/cc_gui_session.sh"
+[ -n "$cc_gui_convert" ] || { echo "screenshots: no convert"; exit 1; }
 [ -f "$plugin" ] || { echo "screenshots: $plugin not built"; exit 1; }
 [ -x "$cli" ] || { echo "screenshots: $cli not built"; exit 1; }
 mkdir -p "$out"
 
 work="$(mktemp -d /tmp/scancam-shots.XXXXXX)"
-mkdir -p "$work/home" "$work/xdg/CCCorp/CloudCompare/plugins" "$work/run"
-chmod 700 "$work/run"
-cp "$plugin" "$work/xdg/CCCorp/CloudCompare/plugins/"
-pids=()
-cleanup() {
-  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do kill "${pids[$i]}" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-  rm -rf "$work"
-}
-trap cleanup EXIT
+trap 'cc_gui_stop; rm -rf "$work"' EXIT
 
 echo "[shots] simulating the sample scene"
 # One planted wrong pair: the calibration flags it (red row).
 "$cli" simulate --out "$work/sim" --supersample 2 --dropout 0 --wrong-pairs 1 --quiet
+cc_gui_start "$work" "$plugin" 1600x1000 "$work/sim/scan.ptx"
 
-# A free display number.
-disp=91
-while [ -e "/tmp/.X${disp}-lock" ] || [ -e "/tmp/.X11-unix/X${disp}" ]; do disp=$((disp + 1)); done
-export DISPLAY=":$disp"
-Xvfb "$DISPLAY" -screen 0 1600x1000x24 -nolisten tcp >"$work/xvfb.log" 2>&1 &
-pids+=($!)
-for _ in $(seq 50); do xdotool getmouselocation >/dev/null 2>&1 && break; sleep 0.1; done
-HOME="$work/home" openbox >"$work/openbox.log" 2>&1 &
-pids+=($!)
-sleep 1
-
-export HOME="$work/home" XDG_DATA_HOME="$work/xdg" XDG_RUNTIME_DIR="$work/run"
-(cd "$work" && exec CloudCompare "$work/sim/scan.ptx") >"$work/cc.log" 2>&1 &
-pids+=($!)
-
-# Waits for a window whose title matches $1 (regex), prints its id.
-wait_window() {
-  local id=""
-  for _ in $(seq 100); do
-    id="$(xdotool search --onlyvisible --name "$1" 2>/dev/null | tail -1)" || true
-    [ -n "$id" ] && { echo "$id"; return 0; }
-    sleep 0.2
-  done
-  echo "screenshots: no window '$1' appeared" >&2
-  return 1
-}
-# Captures the whole screen (main window, 3D view).
-shot_root() { xwd -root -silent | "$convert" xwd:- "$@"; }
-# Captures one window by id (popups and Qt windows come out black in root captures).
-shot_window() { local id="$1"; shift; xwd -id "$id" -silent | "$convert" xwd:- "$@"; }
 # Opens a file through the Qt file dialog raised by a shortcut: types the path, Enter.
 open_file() {
   local win="$1" keys="$2" title="$3" path="$4" dlg

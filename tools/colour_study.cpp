@@ -7,8 +7,9 @@
 //
 // Usage: colour_study [--preset CAMERA/SCANNER]... [--seed S] [--list | --dump] [--lost N]
 //                     [--road DIR (scan.pcd, image.png, camera-intrinsic.json,
-//                     reference-extrinsic.json)]
+//                     reference-extrinsic.json) [--road-calib POSE.json]]
 //                     [--min-ba DEG] [--edge-fill F] [--isolated-fill F] [--strip-fill F]
+//                     [--ground-fill F]
 //                     [--depth-tol-m M] [--depth-tol-fraction F] [--slope-tol-px P]
 //                     [--planar-tol F] [--range-noise-m M] [--backface-deg D] [--footprint W]
 //                     [--no-ground] [--ground-tol-m M] [--ground-tol-fraction F]
@@ -22,6 +23,7 @@
 
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
+#include "scancam/colour/ground_view.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/sim/colour_truth.h"
 #include "scancam/sim/office_scene.h"
@@ -60,13 +62,23 @@ void Dump(const sim::Scene& scene, const sim::Simulation& s, const colour::Colou
 
 // A real scan with its reference extrinsic (no truth): how many of the cells in view come out
 // occluded, overall and per range band; over-occlusion shows as a high share on open ground.
-void RoadStudy(const std::string& dir, const colour::ColourOptions& o) {
+// With --road-calib, the pose comes from that file (e.g. a calibration from hand-picked pairs)
+// instead of the reference. road2-pinhole's intrinsic file says 1920 x 1080 for its 1920 x 1200
+// image (cy = 576): the camera is then taken with the image's size (the same K and distortion).
+// Also prints the false occlusions on ground in clear view (colour/ground_view.h).
+void RoadStudy(const std::string& dir, const std::string& calib, const colour::ColourOptions& o,
+               int lost) {
   const OrderedScan scan = LoadScan(dir + "/scan.pcd");
   colour::ColourView v;
   v.name = dir + "/image.png";
   v.camera = LoadCamera(dir + "/camera-intrinsic.json");
   v.image = cv::imread(v.name, cv::IMREAD_COLOR);
-  v.T_cam_scan = colour::LoadExtrinsic(dir + "/reference-extrinsic.json");
+  if (v.image.cols != v.camera.width() || v.image.rows != v.camera.height()) {
+    std::printf("note: camera file is %dx%d, image %dx%d: camera taken with the image's size\n",
+                v.camera.width(), v.camera.height(), v.image.cols, v.image.rows);
+    v.camera = CameraModel(v.camera.type(), v.camera.params(), v.image.cols, v.image.rows);
+  }
+  v.T_cam_scan = colour::LoadExtrinsic(calib.empty() ? dir + "/reference-extrinsic.json" : calib);
   const colour::ColouredScan res = colour::Colourise(scan, {v}, o);
   const double bands[] = {0, 10, 20, 40, 75, 1e9};
   std::size_t col[5] = {}, occ[5] = {};
@@ -85,6 +97,47 @@ void RoadStudy(const std::string& dir, const colour::ColourOptions& o) {
     std::printf(" %g-%g m: %zu, %.3f |", bands[b], std::min(bands[b + 1], 999.0), col[b] + occ[b],
                 col[b] + occ[b] ? double(occ[b]) / double(col[b] + occ[b]) : 0.0);
   std::printf("\n");
+  const colour::GroundViewStats g = colour::MeasureGroundFalseOcclusion(scan, v, res);
+  std::printf(
+      "ground cells %zu, in view %zu (occluded %zu), in clear view %zu: falsely occluded %zu "
+      "(%.4f); at 17-29 m: in view %zu (occluded %zu), in clear view %zu: falsely occluded %zu "
+      "(%.4f)\n",
+      g.ground, g.in_view, g.occluded, g.clear, g.false_occluded, g.share(), g.band_in_view,
+      g.band_occluded, g.band_clear, g.band_false_occluded, g.band_share());
+  // --lost N: N of the false occlusions at 17-29 m with the nearer cells whose projection lies
+  // within 6 px of theirs (the likely occluders): cell, range, pixel, state, height above the
+  // ground, continuity right (>) and down (v).
+  const std::vector<std::size_t>& f = g.false_occluded_cells;
+  std::vector<std::size_t> band;
+  for (std::size_t i : f)
+    if (scan.range_m[i] >= 17.f && scan.range_m[i] < 29.f) band.push_back(i);
+  std::vector<Eigen::Vector2d> uv(scan.size(), Eigen::Vector2d(-1e9, -1e9));
+  std::vector<double> depth(scan.size(), 0.0);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (!scan.valid(i)) continue;
+    const Eigen::Vector3d X = v.T_cam_scan * scan.point_m[i].cast<double>();
+    const auto p = v.camera.ProjectUnbounded(X);
+    if (p) uv[i] = *p;
+    depth[i] = X.norm();
+  }
+  const std::optional<colour::GroundPlane> gp =
+      res.ground ? res.ground : colour::EstimateGround(scan);
+  static const char* kState = "-OHC";
+  for (int j = 0; j < lost && !band.empty(); ++j) {
+    const std::size_t i = band[std::size_t(j) * band.size() / lost];
+    std::printf("  false occlusion: cell (%zu, %zu) %.2f m at (%.1f, %.1f), depth %.2f\n",
+                i / scan.cols, i % scan.cols, scan.range_m[i], uv[i].x(), uv[i].y(), depth[i]);
+    for (std::size_t k = 0; k < scan.size(); ++k) {
+      if (!scan.valid(k) || depth[k] >= depth[i] || (uv[k] - uv[i]).norm() > 6.0) continue;
+      const int r = int(k / scan.cols), c = int(k % scan.cols);
+      std::printf("    by (%d, %d) %.2f m at (%.1f, %.1f) depth %.2f %c h=%.2f %c%c\n", r, c,
+                  scan.range_m[k], uv[k].x(), uv[k].y(), depth[k],
+                  kState[static_cast<int>(res.state[k])],
+                  gp ? gp->height_m(scan.point_m[k].cast<double>()) : 0.0,
+                  colour::ContinuousNeighbours(scan, r, c, 0, 1, {}) ? '>' : ' ',
+                  colour::ContinuousNeighbours(scan, r, c, 1, 0, {}) ? 'v' : ' ');
+    }
+  }
 }
 
 }  // namespace
@@ -94,7 +147,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   bool list = false, dump = false;
   int lost = 0;
-  std::string road;
+  std::string road, road_calib;
   colour::ColourOptions o;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
@@ -118,6 +171,8 @@ int main(int argc, char** argv) {
       lost = std::stoi(v);
     else if (k == "--road")
       road = v;
+    else if (k == "--road-calib")
+      road_calib = v;
     else if (k == "--seed")
       seed = std::stoull(v);
     else if (k == "--min-ba")
@@ -132,6 +187,8 @@ int main(int argc, char** argv) {
       o.isolated_fill = std::stod(v);
     else if (k == "--strip-fill")
       o.strip_fill = std::stod(v);
+    else if (k == "--ground-fill")
+      o.ground_edge_fill = std::stod(v);
     else if (k == "--depth-tol-m")
       o.depth_tolerance_m = std::stod(v);
     else if (k == "--depth-tol-fraction")
@@ -154,7 +211,7 @@ int main(int argc, char** argv) {
     }
   }
   if (!road.empty()) {
-    RoadStudy(road, o);
+    RoadStudy(road, road_calib, o, lost);
     if (presets.empty()) return 0;
   }
   if (presets.empty())

@@ -15,6 +15,7 @@
 #include "scancam/io/pairs_csv.h"
 #include "scancam/output_file.h"
 #include "scancam/solve/calibrate.h"
+#include "valid_region_options.h"
 
 namespace scancam::cli {
 namespace {
@@ -57,7 +58,9 @@ int RunCalibrate(const Args& args) {
   const std::string out_path = args.required("--out");
   const bool quiet = args.has("--quiet");
   // Before any work: no output may overwrite an input (or another output).
-  CheckOutputs({{"--out", out_path}, {"--plot", args.get("--plot")}},
+  CheckOutputs({{"--out", out_path},
+                {"--plot", args.get("--plot")},
+                {"--valid-region-out", args.get("--valid-region-out")}},
                {{"--camera", camera_path},
                 {"--pairs", pairs_path},
                 {"--scan", args.get("--scan")},
@@ -69,9 +72,8 @@ int RunCalibrate(const Args& args) {
   cv::Mat image;
   if (args.has("--image")) {
     const std::string image_path = args.get("--image");
-    image = cv::imread(image_path, cv::IMREAD_COLOR);
-    if (image.empty()) throw Error(image_path + ": cannot read the image");
-    CheckImageSize(camera, image.cols, image.rows, image_path);
+    image = ReadImage(image_path, cv::IMREAD_COLOR, "image",
+                      [&](int w, int h) { CheckImageSize(camera, w, h, image_path); });
   }
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");
@@ -84,16 +86,9 @@ int RunCalibrate(const Args& args) {
   }
 
   CalibrateOptions opt;
-  if (args.has("--mask")) {
-    const std::string mask_path = args.get("--mask");
-    opt.image_mask = cv::imread(mask_path, cv::IMREAD_GRAYSCALE);
-    if (opt.image_mask.empty()) throw Error(mask_path + ": cannot read the mask image");
-    if (opt.image_mask.cols != camera.width() || opt.image_mask.rows != camera.height()) {
-      throw Error(mask_path + ": the mask is " + std::to_string(opt.image_mask.cols) + "x" +
-                  std::to_string(opt.image_mask.rows) + " px but the camera is " +
-                  std::to_string(camera.width()) + "x" + std::to_string(camera.height()));
-    }
-  }
+  // A mask file wins; else the valid region found from the camera (and the image, if given).
+  std::string region_how;
+  opt.image_mask = ChooseValidRegion(args, camera, image, args.get("--mask"), &region_how);
   opt.suggest_picks = args.get_int("--suggest", opt.suggest_picks);
   opt.method = args.get("--method", opt.method);
   opt.refine = !args.has("--no-refine");
@@ -155,6 +150,14 @@ int RunCalibrate(const Args& args) {
     WritePng(plot_path, PlotPairs(image, cal));
     if (!quiet) std::cout << "wrote " << plot_path << "\n";
   }
+  if (args.has("--valid-region-out")) {
+    const std::string p = args.get("--valid-region-out");
+    WriteValidRegion(p, opt.image_mask, camera,
+                     {camera_path, pairs_path, args.get("--scan"), args.get("--image"),
+                      args.get("--mask"), out_path, args.get("--plot")});
+    if (!quiet) std::cout << "wrote " << p << "\n";
+  }
+  if (!quiet) std::cout << "valid region: " << region_how << "\n";
   if (!quiet) std::cout << FormatCalibrationSummary(cal) << "wrote " << out_path << "\n";
   return 0;
 }
@@ -197,7 +200,8 @@ Command MakeCalibrateCommand() {
           {"--image", "FILE", "The camera image: checked against the camera file's size."},
           {"--mask", "FILE",
            "Image mask (black = unusable, e.g. outside an omni mirror): pick suggestions "
-           "avoid it; pairs on it are warned about."},
+           "avoid it; pairs on it are warned about. Without it the valid region is found "
+           "from the camera and the --image (see --no-auto-mask)."},
           {"--plot", "FILE.png",
            "Draw the pairs on the --image: picked pixel (circle), projected laser point "
            "(cross), residual line; green inliers, red flagged; magenta squares: where to pick "
@@ -231,7 +235,7 @@ Command MakeCalibrateCommand() {
            "and store the error against it."},
           {"--quiet", "", "Print nothing but errors."},
       },
-      ScanLoadOptionSpecs());
+      Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));
   c.run = RunCalibrate;
   return c;
 }

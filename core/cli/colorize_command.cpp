@@ -18,6 +18,7 @@
 #include "scancam/image_io.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
+#include "valid_region_options.h"
 
 namespace scancam::cli {
 namespace {
@@ -143,11 +144,12 @@ int RunColorize(const Args& args) {
   const std::string overlay = args.get("--overlay");
   const std::string edge_overlay = args.get("--edge-overlay");
   const std::string grid_image = args.get("--grid-image");
+  const std::string region_out = args.get("--valid-region-out");
   if (out_ply.empty() && out_pcd.empty() && meshes.empty() && overlay.empty() &&
-      edge_overlay.empty() && grid_image.empty())
+      edge_overlay.empty() && grid_image.empty() && region_out.empty())
     throw Error(
-        "nothing to write: give --out, --pcd, --mesh, --overlay, --edge-overlay or "
-        "--grid-image (see --help)");
+        "nothing to write: give --out, --pcd, --mesh, --overlay, --edge-overlay, "
+        "--grid-image or --valid-region-out (see --help)");
   if (!out_ply.empty() && Ext(out_ply) != ".ply")
     throw Error("option --out: '" + out_ply + "' must end in .ply (use --pcd for PCD)");
   if (!out_pcd.empty() && Ext(out_pcd) != ".pcd")
@@ -174,6 +176,8 @@ int RunColorize(const Args& args) {
       }
     }
     for (std::size_t k = 0; k < n; ++k) {
+      if (!region_out.empty())
+        outs.push_back({"--valid-region-out", PerImage(region_out, k, n)});
       if (!overlay.empty()) outs.push_back({"--overlay", PerImage(overlay, k, n)});
       if (!edge_overlay.empty()) outs.push_back({"--edge-overlay", PerImage(edge_overlay, k, n)});
     }
@@ -223,28 +227,37 @@ int RunColorize(const Args& args) {
   const int row_scale = args.get_int("--grid-row-scale", 0);
 
   const Progress progress(StderrProgress(quiet));
-  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
-
   std::vector<ColourView> views(n);
+  std::vector<std::string> region_how(n);
   for (std::size_t k = 0; k < n; ++k) {
     ColourView& v = views[k];
     v.name = images[k];
     v.camera = LoadCamera(cameras[k]);
-    v.image = cv::imread(images[k], cv::IMREAD_COLOR);
-    if (v.image.empty())
-      throw FileError(images[k], "", "cannot read the image (missing or not an image file)");
-    CheckImageSize(v.camera, v.image.cols, v.image.rows, images[k]);
+    v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
+                        [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
     v.T_cam_scan = LoadExtrinsic(calibs[k]);
-    if (!masks[k].empty()) {
-      v.mask = cv::imread(masks[k], cv::IMREAD_GRAYSCALE);
-      if (v.mask.empty()) throw FileError(masks[k], "", "cannot read the mask image");
-    }
+    // A mask file wins; else the valid region found from the camera and the image.
+    v.mask = ChooseValidRegion(args, v.camera, v.image, masks[k], &region_how[k]);
     CheckView(v);
+  }
+  // The scan after the views: a bad camera, image, mask or pose file fails before a long scan
+  // import.
+  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
+  std::vector<std::string> written;
+  if (!region_out.empty()) {
+    std::vector<std::string> inputs = images;
+    for (const auto* list : {&cameras, &calibs, &masks})
+      inputs.insert(inputs.end(), list->begin(), list->end());
+    inputs.push_back(scan_path);
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::string p = PerImage(region_out, k, n);
+      WriteValidRegion(p, views[k].mask, views[k].camera, inputs);
+      written.push_back(p);
+    }
   }
 
   const ColouredScan coloured = Colourise(scan, views, co, progress);
   mo.continuity.ground = coloured.ground;  // the mesh joins what the colouring joined
-  std::vector<std::string> written;
   if (!out_ply.empty()) {
     WriteColouredPly(out_ply, scan, coloured, eo);
     written.push_back(out_ply);
@@ -303,8 +316,8 @@ int RunColorize(const Args& args) {
         << s.occluded << " (" << Pct(s.occluded, coloured.valid) << "), out of view "
         << s.out_of_view << " (" << Pct(s.out_of_view, coloured.valid) << "; behind the camera "
         << s.behind_camera;
-      if (!views[k].mask.empty()) o << ", outside the mask " << s.outside_mask;
-      o << ")\n";
+      if (!views[k].mask.empty()) o << ", outside the valid region " << s.outside_mask;
+      o << ")\n  valid region: " << region_how[k] << "\n";
       if (!edge_cells.empty()) PrintAlignment(o, scan, views[k], coloured, k, edge_cells);
     }
     if (coloured.ground) {
@@ -340,13 +353,21 @@ Command MakeColorizeCommand() {
       "Projects every valid scan point into the image(s) with CALIB's T_cam_scan (X_cam =\n"
       "R X_scan + t) and the camera model, and gives it the image's colour there (bilinear,\n"
       "OpenCV pixel convention). Points behind the camera, outside the model's field of view,\n"
-      "the image or the mask get no colour. Occlusion: an image-space depth buffer with splats\n"
-      "sized by the scan's local point spacing; a point farther than the nearest surface at its\n"
-      "pixel (beyond a tolerance growing with range and grazing angle) is 'occluded' and keeps\n"
-      "no colour instead of taking the occluder's. Several images: repeat --image (with one\n"
+      "the image or the valid region get no colour. Occlusion: an image-space depth buffer with\n"
+      "splats sized by the scan's local point spacing; a point farther than the nearest\n"
+      "surface at its pixel (beyond a tolerance growing with range and grazing angle) is\n"
+      "'occluded' and keeps no colour instead of taking the occluder's. Several images: repeat "
+      "--image (with one\n"
       "--camera/--calib/--mask for all or one per image); each point takes the colour of the\n"
       "image that sees it best (most image pixels per metre of surface), or a weighted mean\n"
       "(--blend weighted).\n"
+      "\n"
+      "Valid region: without --mask, the pixels that show the scene are found from the camera\n"
+      "and the image (camera/valid_region.h): the model's own domain, the near-black border\n"
+      "around a fisheye's image circle or beyond a mirror's rim, a catadioptric camera's central\n"
+      "blind spot (its own reflection), and --max-view-angle-deg. Points projecting outside it\n"
+      "are out of view: no colour, no mesh texture. --mask always wins; --no-auto-mask uses\n"
+      "every pixel; --valid-region-out shows the region in use.\n"
       "\n"
       "--calib accepts this tool's calib.json, any JSON with a 4x4 \"T_cam_scan\" (e.g. the\n"
       "simulator's ground_truth.json) and OpenCalib extrinsic files (<name>.param.sensor_calib\n"
@@ -386,7 +407,8 @@ Command MakeColorizeCommand() {
            "images or once per --image.",
            true},
           {"--mask", "MASK",
-           "Optional mask image (0 = unusable pixel, e.g. outside a mirror). Once or per image.",
+           "Mask image (0 = unusable pixel, e.g. outside a mirror). Once or per image. Without "
+           "it the valid region is found automatically (see --no-auto-mask).",
            true},
           {"--out", "X.ply", "Coloured cloud, binary PLY."},
           {"--pcd", "X.pcd", "Coloured organised cloud, PCD (pcl::PointXYZRGB)."},
@@ -422,7 +444,7 @@ Command MakeColorizeCommand() {
           {"--jpeg-quality", "Q", "Mesh textures as JPEG of quality Q (1-100); default 0 = PNG."},
           {"--quiet", "", "No progress and no summary (warnings and errors still printed)."},
       },
-      ScanLoadOptionSpecs());
+      Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));
   c.run = RunColorize;
   return c;
 }

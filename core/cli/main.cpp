@@ -177,7 +177,8 @@ int main(int argc, char** argv) {
   auto& reg = scancam::cli::Registry();
   auto it = reg.find(args[0]);
   if (it == reg.end()) {
-    std::cerr << "scancam: unknown command '" << args[0] << "' (see scancam --help)\n";
+    std::cerr << "scancam: unknown command '" << scancam::PrintableText(args[0])
+              << "' (see scancam --help)\n";
     return 2;
   }
   const auto& cmd = it->second;
@@ -198,10 +199,14 @@ int main(int argc, char** argv) {
     if (rc == 0) outputs.Commit();
     return rc;
   } catch (const scancam::Cancelled& e) {
-    std::cerr << "scancam " << cmd.name << ": " << e.what() << "\n";
+    std::cerr << "scancam " << cmd.name << ": " << scancam::PlainErrorMessage(e) << "\n";
     return 130;
   } catch (const std::exception& e) {
-    std::cerr << "scancam " << cmd.name << ": error: " << e.what() << "\n";
+    // One plain line: no library framing, no raw bytes from a damaged file (PlainErrorMessage).
+    std::cerr << "scancam " << cmd.name << ": error: " << scancam::PlainErrorMessage(e) << "\n";
+    return 1;
+  } catch (...) {
+    std::cerr << "scancam " << cmd.name << ": error: unexpected failure (unknown exception)\n";
     return 1;
   }
 }

@@ -53,6 +53,7 @@ int RunSimulate(const Args& args) {
   o.lidar.azimuth_step_deg = args.get_double("--azimuth-step-deg", o.lidar.azimuth_step_deg);
   o.supersample = args.get_int("--supersample", o.supersample);
   o.image_noise_sigma = args.get_double("--image-noise", o.image_noise_sigma);
+  o.image_circle_px = args.get_double("--image-circle-px", o.image_circle_px);
   if (args.has("--scanner-position-m"))
     o.scanner_position_m = args.get_vector3("--scanner-position-m");
   o.scanner_yaw_deg = args.get_double("--scanner-yaw-deg", o.scanner_yaw_deg);
@@ -111,7 +112,7 @@ Command MakeSimulateCommand() {
       "  scan.ptx             the same ordered scan as Leica PTX\n"
       "  image.png            the rendered image\n"
       "  camera.txt           omni: OCamCalib calib_results.txt (camera.yaml for the others)\n"
-      "  mask.png             omni: the useful image area (mirror annulus)\n"
+      "  mask.png             omni or --image-circle-px: the useful image area\n"
       "  ground_truth.json    T_cam_scan (4x4 row-major), rotation_rpy_deg, translation_m,\n"
       "                       scanner / camera parameters, seed, every pair's truth\n"
       "  truth.csv            per scan cell: row,col,valid,x,y,z (exact hit, scan frame),\n"
@@ -148,6 +149,10 @@ Command MakeSimulateCommand() {
        "Rays per pixel: N x N (1..16). Default: 4 for omni (640x480), 3 for pinhole and fisheye "
        "(1024x768), 2 for equirect (1440x720)."},
       {"--image-noise", "SIGMA", "Image noise, grey levels. Default 1."},
+      {"--image-circle-px", "R",
+       "The lens' image circle ends R px from the principal point: black beyond (also in "
+       "truth.csv's visibility; writes mask.png). E.g. a fisheye showing less than its model "
+       "projects. Default: none (omni: the mirror rim)."},
       {"--rotation-rpy-deg", "R,P,Y",
        "Rig rotation of T_cam_scan (roll, pitch, yaw in degrees, OpenCV camera frame). Default: "
        "the preset's (omni: the paper's Table I rig, converted from OCamCalib's frame)."},

@@ -2,8 +2,12 @@
 #include "scancam/image_io.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -49,7 +53,377 @@ std::vector<float> Percentiles(const cv::Mat& image, const std::vector<double>& 
   return out;
 }
 
+// ---- image headers ----------------------------------------------------------------------------
+
+// Random access to a file's bytes for the header readers; reads past the end fail.
+class ByteFile {
+ public:
+  explicit ByteFile(const std::string& path) : path_(path), in_(path, std::ios::binary) {
+    if (!in_) throw FileError(path, "", "cannot open the file for reading");
+    in_.seekg(0, std::ios::end);
+    size_ = static_cast<std::uint64_t>(std::max<std::streamoff>(0, in_.tellg()));
+  }
+  std::uint64_t size() const { return size_; }
+  // n bytes at `offset` into buf; false when the file is shorter.
+  bool Read(std::uint64_t offset, void* buf, std::size_t n) {
+    if (offset > size_ || n > size_ - offset) return false;
+    in_.clear();
+    in_.seekg(static_cast<std::streamoff>(offset));
+    return static_cast<bool>(in_.read(static_cast<char*>(buf), static_cast<std::streamsize>(n)));
+  }
+  [[noreturn]] void Fail(std::uint64_t offset, const std::string& what) const {
+    throw FileError(path_, "byte " + std::to_string(offset), what);
+  }
+
+ private:
+  std::string path_;
+  std::ifstream in_;
+  std::uint64_t size_ = 0;
+};
+
+std::uint32_t Be32(const unsigned char* b) {
+  return std::uint32_t(b[0]) << 24 | std::uint32_t(b[1]) << 16 | std::uint32_t(b[2]) << 8 | b[3];
+}
+std::uint16_t Be16(const unsigned char* b) { return std::uint16_t(b[0] << 8 | b[1]); }
+
+// CRC-32 (ISO-HDLC, as PNG uses), table-driven.
+std::uint32_t Crc32Update(std::uint32_t crc, const unsigned char* p, std::size_t n) {
+  static const std::array<std::uint32_t, 256> kTable = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t i = 0; i < 256; ++i) {
+      std::uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  for (std::size_t i = 0; i < n; ++i) crc = kTable[(crc ^ p[i]) & 0xFF] ^ (crc >> 8);
+  return crc;
+}
+
+const unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+
+std::string ChunkName(const unsigned char* t) {
+  std::string s;
+  for (int i = 0; i < 4; ++i) {
+    const bool letter = (t[i] >= 'A' && t[i] <= 'Z') || (t[i] >= 'a' && t[i] <= 'z');
+    s += letter ? std::string(1, static_cast<char>(t[i])) : "?";
+  }
+  return s;
+}
+
+ImageFileInfo PngHeader(ByteFile& f) {
+  unsigned char b[24];
+  if (!f.Read(0, b, 24)) f.Fail(f.size(), "PNG file ends inside its header (truncated)");
+  if (Be32(b + 8) != 13 || std::string(reinterpret_cast<char*>(b + 12), 4) != "IHDR") {
+    f.Fail(8, "damaged PNG: the first chunk is not a 13-byte IHDR");
+  }
+  const std::uint32_t w = Be32(b + 16), h = Be32(b + 20);
+  if (w == 0 || h == 0 || w > 0x7FFFFFFFu || h > 0x7FFFFFFFu) {
+    f.Fail(16, "damaged PNG header: image size " + std::to_string(w) + "x" + std::to_string(h));
+  }
+  return {"PNG", static_cast<int>(std::min<std::uint32_t>(w, 0x7FFFFFFF)),
+          static_cast<int>(std::min<std::uint32_t>(h, 0x7FFFFFFF))};
+}
+
+// Walks every chunk of a PNG, checking lengths and CRCs, up to IEND (libpng would print its own
+// text, e.g. "IDAT: CRC error", for these; we name the byte and the chunk instead).
+void CheckPngChunks(ByteFile& f) {
+  std::uint64_t pos = 8;
+  std::vector<unsigned char> buf(1 << 16);
+  while (true) {
+    unsigned char head[8];
+    if (!f.Read(pos, head, 8)) {
+      f.Fail(pos, "PNG file ends before its IEND chunk (truncated)");
+    }
+    const std::uint32_t len = Be32(head);
+    const std::string name = ChunkName(head + 4);
+    if (len > 0x7FFFFFFFu || name.find('?') != std::string::npos) {
+      f.Fail(pos, "damaged PNG: no valid chunk starts here (bytes inserted, removed or changed)");
+    }
+    if (pos + 12 + len > f.size()) {
+      f.Fail(pos, "PNG chunk '" + name + "' runs past the end of the file (truncated)");
+    }
+    std::uint32_t crc = Crc32Update(0xFFFFFFFFu, head + 4, 4);
+    for (std::uint64_t done = 0; done < len;) {
+      const std::size_t n =
+          static_cast<std::size_t>(std::min<std::uint64_t>(buf.size(), len - done));
+      if (!f.Read(pos + 8 + done, buf.data(), n)) f.Fail(pos, "read error");
+      crc = Crc32Update(crc, buf.data(), n);
+      done += n;
+    }
+    unsigned char stored[4];
+    if (!f.Read(pos + 8 + len, stored, 4)) f.Fail(pos, "read error");
+    if ((crc ^ 0xFFFFFFFFu) != Be32(stored)) {
+      f.Fail(pos, "PNG chunk '" + name + "' is damaged (CRC mismatch: bytes changed)");
+    }
+    pos += 12 + std::uint64_t(len);
+    if (name == "IEND") return;
+  }
+}
+
+// Walks a JPEG's segments from SOI to the first SOS: the size from the frame header (SOFn),
+// and in `scan_start` the byte after the SOS header, where the compressed data begin.
+ImageFileInfo JpegHeader(ByteFile& f, std::uint64_t* scan_start = nullptr) {
+  ImageFileInfo info;
+  std::uint64_t pos = 2;
+  while (true) {
+    unsigned char m[2];
+    if (!f.Read(pos, m, 2)) f.Fail(pos, "JPEG file ends before its image data (truncated)");
+    if (m[0] != 0xFF) f.Fail(pos, "damaged JPEG: expected a marker (0xFF), found another byte");
+    if (m[1] == 0xFF) {  // fill byte
+      ++pos;
+      continue;
+    }
+    const unsigned char t = m[1];
+    pos += 2;
+    if (t == 0x01 || (t >= 0xD0 && t <= 0xD8)) continue;  // markers without a length
+    if (t == 0xD9) f.Fail(pos - 2, "damaged JPEG: end marker before the image data");
+    unsigned char l[2];
+    if (!f.Read(pos, l, 2)) f.Fail(pos, "JPEG file ends inside a segment (truncated)");
+    const std::uint16_t len = Be16(l);
+    if (len < 2) f.Fail(pos, "damaged JPEG: segment length " + std::to_string(len));
+    if (t == 0xDA) {
+      if (info.format.empty())
+        f.Fail(pos - 2, "damaged JPEG: no frame header (SOF) before the image data");
+      if (scan_start) *scan_start = pos + len;
+      return info;
+    }
+    const bool sof = t >= 0xC0 && t <= 0xCF && t != 0xC4 && t != 0xC8 && t != 0xCC;
+    if (sof && info.format.empty()) {
+      unsigned char b[5];
+      if (len < 7 || !f.Read(pos + 2, b, 5)) f.Fail(pos, "damaged JPEG frame header");
+      const int h = Be16(b + 1), w = Be16(b + 3);
+      if (w == 0 || h == 0) {
+        f.Fail(pos, "JPEG frame header gives an image size of " + std::to_string(w) + "x" +
+                        std::to_string(h) + " px");
+      }
+      info = {"JPEG", w, h};
+    }
+    pos += len;
+  }
+}
+
+// A JPEG must end with its EOI marker after the compressed data: libjpeg decodes a truncated
+// file anyway (grey lower part, "Premature end of JPEG file" on stderr). Looks for FF D9 after
+// the data start, searching from the end (some cameras append trailers after EOI).
+void CheckJpegEnd(ByteFile& f) {
+  std::uint64_t pos = 0;
+  JpegHeader(f, &pos);
+  std::vector<unsigned char> buf(1 << 16);
+  std::uint64_t end = f.size();
+  while (end > pos) {
+    const std::uint64_t begin = end - std::min<std::uint64_t>(end - pos, buf.size());
+    const std::size_t n = static_cast<std::size_t>(end - begin);
+    if (!f.Read(begin, buf.data(), n)) f.Fail(begin, "read error");
+    for (std::size_t i = n; i-- > 1;) {
+      if (buf[i - 1] == 0xFF && buf[i] == 0xD9) return;
+    }
+    if (begin == pos) break;
+    end = begin + 1;  // keep one byte of overlap for a marker split between blocks
+  }
+  f.Fail(f.size(), "JPEG file ends before its end marker (truncated)");
+}
+
+ImageFileInfo TiffHeader(ByteFile& f, bool little) {
+  auto u = [&](const unsigned char* b, int n) {
+    std::uint64_t v = 0;
+    for (int i = 0; i < n; ++i) v |= std::uint64_t(b[little ? i : n - 1 - i]) << (8 * i);
+    return v;
+  };
+  unsigned char h[16];
+  if (!f.Read(0, h, 8)) f.Fail(0, "TIFF file ends inside its header (truncated)");
+  const bool big = u(h + 2, 2) == 43;
+  std::uint64_t ifd;
+  if (big) {
+    if (!f.Read(0, h, 16)) f.Fail(0, "TIFF file ends inside its header (truncated)");
+    ifd = u(h + 8, 8);
+  } else {
+    ifd = u(h + 4, 4);
+  }
+  const int count_size = big ? 8 : 2, entry_size = big ? 20 : 12, value_size = big ? 8 : 4;
+  unsigned char c[8];
+  if (!f.Read(ifd, c, count_size)) f.Fail(ifd, "damaged TIFF: the first IFD lies outside the file");
+  const std::uint64_t n = u(c, count_size);
+  if (n == 0 || n > 4096) f.Fail(ifd, "damaged TIFF: IFD with " + std::to_string(n) + " entries");
+  std::uint64_t w = 0, hgt = 0;
+  std::vector<unsigned char> e(static_cast<std::size_t>(n) * entry_size);
+  if (!f.Read(ifd + count_size, e.data(), e.size())) f.Fail(ifd, "damaged TIFF: IFD cut short");
+  for (std::uint64_t k = 0; k < n; ++k) {
+    const unsigned char* p = e.data() + k * entry_size;
+    const std::uint64_t tag = u(p, 2), type = u(p + 2, 2);
+    const unsigned char* val = p + 4 + value_size;
+    std::uint64_t v = 0;
+    if (type == 3)
+      v = u(val, 2);  // SHORT
+    else if (type == 4)
+      v = u(val, 4);  // LONG
+    else if (type == 16 && big)
+      v = u(val, 8);  // LONG8
+    else if (tag == 256 || tag == 257)
+      f.Fail(ifd, "damaged TIFF: image size of an unknown type");
+    if (tag == 256) w = v;
+    if (tag == 257) hgt = v;
+  }
+  if (w == 0 || hgt == 0) f.Fail(ifd, "damaged TIFF: no image width / length in the first IFD");
+  return {"TIFF", static_cast<int>(std::min<std::uint64_t>(w, 0x7FFFFFFF)),
+          static_cast<int>(std::min<std::uint64_t>(hgt, 0x7FFFFFFF))};
+}
+
+ImageFileInfo BmpHeader(ByteFile& f) {
+  unsigned char b[26];
+  if (!f.Read(0, b, 26)) f.Fail(0, "BMP file ends inside its header (truncated)");
+  auto le = [&](int o, int n) {
+    std::uint32_t v = 0;
+    for (int i = 0; i < n; ++i) v |= std::uint32_t(b[o + i]) << (8 * i);
+    return v;
+  };
+  long long w, h;
+  if (le(14, 4) == 12) {
+    w = le(18, 2), h = le(20, 2);
+  } else {
+    w = static_cast<std::int32_t>(le(18, 4)), h = static_cast<std::int32_t>(le(22, 4));
+  }
+  w = std::llabs(w), h = std::llabs(h);
+  if (w == 0 || h == 0)
+    f.Fail(18, "damaged BMP header: image size " + std::to_string(w) + "x" + std::to_string(h));
+  return {"BMP", static_cast<int>(std::min<long long>(w, 0x7FFFFFFF)),
+          static_cast<int>(std::min<long long>(h, 0x7FFFFFFF))};
+}
+
+ImageFileInfo PnmHeader(ByteFile& f) {
+  unsigned char b[512];
+  const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(sizeof b, f.size()));
+  f.Read(0, b, n);
+  std::size_t i = 2;
+  long long v[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    while (i < n && (std::isspace(b[i]) || b[i] == '#')) {
+      if (b[i] == '#') {
+        while (i < n && b[i] != '\n') ++i;
+      } else {
+        ++i;
+      }
+    }
+    if (i >= n || !std::isdigit(b[i])) f.Fail(i, "damaged PNM header: expected the image size");
+    while (i < n && std::isdigit(b[i]) && v[k] < 1000000000) v[k] = v[k] * 10 + (b[i++] - '0');
+  }
+  if (v[0] == 0 || v[1] == 0) f.Fail(2, "damaged PNM header: image size 0");
+  return {"PNM", static_cast<int>(v[0]), static_cast<int>(v[1])};
+}
+
+ImageFileInfo WebpHeader(ByteFile& f) {
+  unsigned char b[30];
+  if (!f.Read(0, b, 30)) f.Fail(f.size(), "WebP file ends inside its header (truncated)");
+  const std::string chunk(reinterpret_cast<char*>(b + 12), 4);
+  auto le = [&](int o, int n) {
+    std::uint32_t v = 0;
+    for (int i = 0; i < n; ++i) v |= std::uint32_t(b[o + i]) << (8 * i);
+    return v;
+  };
+  if (chunk == "VP8 ") {  // lossy: key frame start code, then 14-bit width and height
+    if (b[23] != 0x9D || b[24] != 0x01 || b[25] != 0x2A) f.Fail(23, "damaged WebP (VP8) header");
+    return {"WebP", static_cast<int>(le(26, 2) & 0x3FFF), static_cast<int>(le(28, 2) & 0x3FFF)};
+  }
+  if (chunk == "VP8L") {  // lossless: signature 0x2F, then 14-bit width - 1 and height - 1
+    if (b[20] != 0x2F) f.Fail(20, "damaged WebP (VP8L) header");
+    const std::uint32_t v = le(21, 4);
+    return {"WebP", static_cast<int>((v & 0x3FFF) + 1), static_cast<int>(((v >> 14) & 0x3FFF) + 1)};
+  }
+  if (chunk == "VP8X") {  // extended: 24-bit canvas width - 1 and height - 1
+    return {"WebP", static_cast<int>(le(24, 3) + 1), static_cast<int>(le(27, 3) + 1)};
+  }
+  f.Fail(12, "damaged WebP: unknown first chunk");
+}
+
 }  // namespace
+
+ImageFileInfo ReadImageHeader(const std::string& path) {
+  ByteFile f(path);
+  unsigned char m[8] = {0};
+  const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(8, f.size()));
+  f.Read(0, m, n);
+  if (n == 8 && std::equal(m, m + 8, kPngSignature)) return PngHeader(f);
+  if (n >= 3 && m[0] == 0xFF && m[1] == 0xD8 && m[2] == 0xFF) return JpegHeader(f);
+  if (n >= 4 && ((m[0] == 'I' && m[1] == 'I' && (m[2] == 42 || m[2] == 43) && m[3] == 0) ||
+                 (m[0] == 'M' && m[1] == 'M' && m[2] == 0 && (m[3] == 42 || m[3] == 43)))) {
+    return TiffHeader(f, m[0] == 'I');
+  }
+  if (n >= 2 && m[0] == 'B' && m[1] == 'M') return BmpHeader(f);
+  if (n == 8 && std::equal(m, m + 4, "RIFF") && f.size() >= 16) {
+    unsigned char w[4];
+    if (f.Read(8, w, 4) && std::equal(w, w + 4, "WEBP")) return WebpHeader(f);
+  }
+  if (n >= 3 && m[0] == 'P' && m[1] >= '1' && m[1] <= '6' && std::isspace(m[2])) {
+    return PnmHeader(f);
+  }
+  return {};
+}
+
+cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
+                  const std::function<void(int, int)>& check_size) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw FileError(path, "", what + " not found (or not a regular file)");
+  }
+  auto check = [&](long long w, long long h, const char* when) {
+    // The caller's size first: "not the camera's size" is the more useful message. Before
+    // decoding, the header's size may still be turned by an EXIF orientation (cv::imread applies
+    // it): the swapped size passes too, the decoded size is then checked exactly.
+    if (check_size) {
+      try {
+        check_size(static_cast<int>(w), static_cast<int>(h));
+      } catch (const Error&) {
+        bool swapped_ok = false;
+        if (std::string(when) != "(decoded)") {
+          try {
+            check_size(static_cast<int>(h), static_cast<int>(w));
+            swapped_ok = true;
+          } catch (const Error&) {
+          }
+        }
+        if (!swapped_ok) throw;
+      }
+    }
+    if (w > kMaxImageSidePx || h > kMaxImageSidePx || w * h > kMaxImagePixels) {
+      throw FileError(path, "",
+                      what + " is " + std::to_string(w) + "x" + std::to_string(h) + " px " + when +
+                          ", beyond ScanCam's limit of " + std::to_string(kMaxImageSidePx) +
+                          " px per side and " + std::to_string(kMaxImagePixels) + " px in all");
+    }
+  };
+  // Only formats whose size is known before decoding: OpenCV's own limit (2^30 px) is fixed
+  // when its library loads and would let a small file allocate gigabytes.
+  const ImageFileInfo info = ReadImageHeader(path);
+  if (info.format.empty()) {
+    throw FileError(path, "",
+                    "not a PNG, JPEG, TIFF, BMP, WebP or PNM " + what +
+                        " (the formats whose size ScanCam checks before decoding)");
+  }
+  check(info.width, info.height, "(from its header, not decoded)");
+  {
+    ByteFile f(path);
+    if (info.format == "PNG") CheckPngChunks(f);
+    if (info.format == "JPEG") CheckJpegEnd(f);
+  }
+  cv::Mat image;
+  try {
+    image = cv::imread(path, flags);
+  } catch (const cv::Exception& e) {
+    const std::string msg = e.what();
+    if (msg.find("MAX_IMAGE_PIXELS") != std::string::npos) {  // OpenCV's limit, as a sentence
+      throw FileError(path, "", what + " is larger than OpenCV's pixel limit (not decoded)");
+    }
+    throw FileError(path, "", "cannot decode the " + what + ": " + PlainErrorMessage(e));
+  } catch (const std::bad_alloc&) {
+    throw FileError(path, "", "not enough memory to decode the " + what);
+  }
+  if (image.empty()) {
+    throw FileError(path, "", "cannot decode the " + what + " (damaged " + info.format + " data)");
+  }
+  check(image.cols, image.rows, "(decoded)");
+  return image;
+}
 
 void WriteFloatTiff(const std::string& path, const cv::Mat& image) {
   if (image.type() != CV_32FC1 || image.empty())
@@ -70,15 +444,7 @@ void WriteFloatTiff(const std::string& path, const cv::Mat& image) {
 }
 
 cv::Mat ReadFloatTiff(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw FileError(path, "", "no such file");
-  cv::Mat image;
-  try {
-    image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw FileError(path, "", std::string("cannot read the image: ") + e.what());
-  }
-  if (image.empty()) throw FileError(path, "", "not an image OpenCV can read");
+  const cv::Mat image = ReadImage(path, cv::IMREAD_UNCHANGED, "image");
   if (image.type() != CV_32FC1)
     throw FileError(path, "",
                     "expected a one-channel 32-bit float TIFF, found " +

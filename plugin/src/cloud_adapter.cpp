@@ -131,7 +131,7 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
 
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
                            const Eigen::Vector3d& origin_scan, double step_deg,
-                           const scancam::Progress& progress) {
+                           double elevation_step_deg, const scancam::Progress& progress) {
   const unsigned size = cloud.size();
   if (size == 0) throw scancam::Error(CloudName(cloud) + ": the cloud is empty");
   const Eigen::Isometry3d T_scan_cloud = T_cloud_scan.inverse();
@@ -146,6 +146,13 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
   }
   scancam::RegridOptions opt;
   opt.step_deg = step_deg;
+  opt.elevation_step_deg = elevation_step_deg;
+  if (step_deg == 0.0 && elevation_step_deg == 0.0) {
+    // Estimate both: an anisotropic scan (e.g. 1 x 0.5 deg) on one step leaves cells empty.
+    const scancam::AngularSteps est = scancam::EstimateAngularStepsDeg(points, origin_scan);
+    opt.step_deg = est.azimuth_deg;
+    opt.elevation_step_deg = est.elevation_deg;
+  }
   opt.source = CloudName(cloud);
   CloudScan cs;
   cs.scan = std::make_shared<scancam::OrderedScan>(
@@ -189,7 +196,12 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
     cs.point_to_cell[static_cast<std::size_t>(it->second)] = static_cast<int>(k);
   }
   for (unsigned i = 0; i < size; ++i) cs.points_not_in_grid += cs.point_to_cell[i] < 0 ? 1 : 0;
-  cs.description = QString("re-gridded %1 x %2 cells").arg(scan.rows).arg(scan.cols);
+  cs.description =
+      QString("re-gridded %1 x %2 cells (azimuth step %3 deg, elevation %4 deg)")
+          .arg(scan.rows)
+          .arg(scan.cols)
+          .arg(opt.step_deg, 0, 'g', 4)
+          .arg(opt.elevation_step_deg > 0 ? opt.elevation_step_deg : opt.step_deg, 0, 'g', 4);
   progress(1.0, "done");
   return cs;
 }

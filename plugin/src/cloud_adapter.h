@@ -66,10 +66,12 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
 
 /// Re-gridded: `T_cloud_scan` is the scan frame in the cloud (identity: the cloud's frame),
 /// `origin_scan` the sensor origin in the scan frame, `step_deg` the angular cell size
-/// (0 = estimate). Throws scancam::Error (e.g. no point, grid too large).
+/// (azimuth; 0 = estimate), `elevation_step_deg` the elevation cell size (0 = same as the
+/// azimuth step; io/regrid.h RegridOptions). Throws scancam::Error (e.g. no point, grid too
+/// large).
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
                            const Eigen::Vector3d& origin_scan, double step_deg,
-                           const scancam::Progress& progress = {});
+                           double elevation_step_deg, const scancam::Progress& progress = {});
 
 /// The sensor pose (scan frame in the cloud) of a ccGBLSensor.
 Eigen::Isometry3d SensorPose(const ccGBLSensor& sensor);

@@ -5,6 +5,7 @@
 #include <ccPointCloud.h>
 #include <ccProgressDialog.h>
 
+#include <QDir>
 #include <QFileInfo>
 #include <QMap>
 #include <QStringList>
@@ -15,6 +16,7 @@
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/error.h"
+#include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
@@ -67,7 +69,7 @@ CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
   if (const ccGBLSensor* sensor = FindGblSensor(cloud)) {
     cmd.print(QString("[ScanCam] %1 has no scan grid: re-gridding about its sensor")
                   .arg(cloud.getName()));
-    return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), step_deg,
+    return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), step_deg, 0.0,
                             ToProgress(cmd.progressDialog()));
   }
   const QString origin = opts.value("ORIGIN", "ZERO").toUpper();
@@ -83,7 +85,7 @@ CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
                 .arg(o.x())
                 .arg(o.y())
                 .arg(o.z()));
-  return ScanByRegridding(cloud, Eigen::Isometry3d::Identity(), o, step_deg,
+  return ScanByRegridding(cloud, Eigen::Isometry3d::Identity(), o, step_deg, 0.0,
                           ToProgress(cmd.progressDialog()));
 }
 
@@ -99,9 +101,9 @@ struct CalibCommand : public ccCommandLineInterface::Command {
     try {
       const scancam::CameraModel camera = scancam::LoadCamera(o["CAMERA"].toStdString());
       if (o.contains("IMAGE")) {
-        const cv::Mat img = cv::imread(o["IMAGE"].toStdString(), cv::IMREAD_UNCHANGED);
-        if (img.empty()) throw scancam::Error(o["IMAGE"].toStdString() + ": cannot read the image");
-        scancam::CheckImageSize(camera, img.cols, img.rows, o["IMAGE"].toStdString());
+        const std::string image = o["IMAGE"].toStdString();
+        scancam::ReadImage(image, cv::IMREAD_UNCHANGED, "image",
+                           [&](int w, int h) { scancam::CheckImageSize(camera, w, h, image); });
       }
       const std::vector<scancam::PointPair> pairs = scancam::ReadPairsCsv(o["PAIRS"].toStdString());
       CloudScan cs;
@@ -143,15 +145,12 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
       scancam::colour::ColourView view;
       view.name = o["IMAGE"].toStdString();
       view.camera = scancam::LoadCamera(o["CAMERA"].toStdString());
-      view.image = cv::imread(view.name, cv::IMREAD_COLOR);
-      if (view.image.empty())
-        throw scancam::Error(view.name + ": cannot read the image (missing or not an image)");
-      scancam::CheckImageSize(view.camera, view.image.cols, view.image.rows, view.name);
+      view.image = scancam::ReadImage(view.name, cv::IMREAD_COLOR, "image", [&](int w, int h) {
+        scancam::CheckImageSize(view.camera, w, h, view.name);
+      });
       view.T_cam_scan = scancam::colour::LoadExtrinsic(o["CALIB"].toStdString());
       if (o.contains("MASK")) {
-        view.mask = cv::imread(o["MASK"].toStdString(), cv::IMREAD_GRAYSCALE);
-        if (view.mask.empty())
-          throw scancam::Error(o["MASK"].toStdString() + ": cannot read the mask image");
+        view.mask = scancam::ReadImage(o["MASK"].toStdString(), cv::IMREAD_GRAYSCALE, "mask");
       }
       scancam::colour::CheckView(view);
       for (CLCloudDesc& desc : cmd.clouds()) {
@@ -170,6 +169,20 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
                       .arg(st.points_without_cell));
         for (const std::string& w : coloured.warnings)
           cmd.warning("[ScanCam] " + QString::fromStdString(w));
+        // -AUTO_SAVE ON (CloudCompare's default): save the coloured cloud like CloudCompare's
+        // own commands do (beside the input, suffix SCANCAM_COLORIZED), and say where.
+        if (cmd.autoSaveMode()) {
+          QString written;
+          const QString error = cmd.exportEntity(desc, "SCANCAM_COLORIZED", &written);
+          if (!error.isEmpty()) return cmd.error(QString("-%1: %2").arg(kColorizeKeyword, error));
+          // exportEntity gives the name; the file is in the input's folder (desc.path).
+          cmd.print(QString("[ScanCam] wrote %1 (-AUTO_SAVE OFF to only keep it in memory)")
+                        .arg(desc.path.isEmpty() ? written : QDir(desc.path).filePath(written)));
+        } else {
+          cmd.print(QString("[ScanCam] %1 coloured in memory (-AUTO_SAVE OFF): save it with "
+                            "-SAVE_CLOUDS")
+                        .arg(cloud.getName()));
+        }
       }
     } catch (const std::exception& e) {
       return cmd.error(QString("-%1: %2").arg(kColorizeKeyword, e.what()));

@@ -15,15 +15,20 @@
 //       2 occluded, 3 coloured) and "ScanCam quality" (image px per metre of surface). The
 //       original colours are kept in the cloud's metadata (restorable in the GUI). -CALIB
 //       takes scancam's calib.json, any JSON with a 4x4 "T_cam_scan", or an OpenCalib
-//       extrinsic file.
+//       extrinsic file. With -AUTO_SAVE ON (CloudCompare's default) each coloured cloud is
+//       saved like CloudCompare's own commands save theirs (beside the input file, name
+//       suffix _SCANCAM_COLORIZED, the -C_EXPORT_FMT format, a timestamp unless -NO_TIMESTAMP)
+//       and the file written is printed; with -AUTO_SAVE OFF nothing is written (save with
+//       -SAVE_CLOUDS). -SCANCAM_CALIB changes no cloud: it writes only -OUT, and prints it.
 //
 //   The scan grid: a cloud read from an ordered format (PTX) keeps CloudCompare's scan grid,
 //   which is used as is (the scanner's frame). Other clouds are re-gridded about their
 //   ccGBLSensor (if any), else about -ORIGIN (default ZERO: the cloud's (0,0,0); BOX_CENTER:
 //   its bounding-box centre), with -GRID_STEP degrees per cell (default: estimated).
 //
-//   Example (headless):
-//     CloudCompare -SILENT -AUTO_SAVE OFF -O scan.ptx
+//   Example (headless; without an X display CloudCompare needs QT_QPA_PLATFORM=offscreen, it
+//   aborts otherwise):
+//     QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O scan.ptx
 //         -SCANCAM_COLORIZE -CAMERA camera.txt -IMAGE image.png -CALIB calib.json
 //         -C_EXPORT_FMT PLY -SAVE_CLOUDS
 //   Any error (missing file, size mismatch, bad calibration) is printed and makes

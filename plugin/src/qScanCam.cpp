@@ -9,7 +9,6 @@
 #include <QIcon>
 #include <QMainWindow>
 #include <QMessageBox>
-#include <QSettings>
 
 #include "cc_compat.h"
 #include "cc_progress.h"
@@ -39,9 +38,26 @@ ccPointCloud* SingleSelectedCloud(const ccHObject::Container& selected) {
   return static_cast<ccPointCloud*>(selected.front());
 }
 
-constexpr char kSettingsGroup[] = "qScanCam";
-
 }  // namespace
+
+// Watches one cloud: CloudCompare calls onDeletionOf from the cloud's destructor (a
+// DP_NOTIFY_OTHER_ON_DELETE dependency). Never part of the DB tree.
+class CloudWatcher : public ccHObject {
+ public:
+  CloudWatcher(ccHObject* cloud, std::function<void()> on_deleted)
+      : ccHObject("ScanCam cloud watcher"), on_deleted_(std::move(on_deleted)) {
+    cloud->addDependency(this, DP_NOTIFY_OTHER_ON_DELETE);
+  }
+
+ protected:
+  void onDeletionOf(const ccHObject* obj) override {
+    ccHObject::onDeletionOf(obj);
+    if (on_deleted_) on_deleted_();
+  }
+
+ private:
+  std::function<void()> on_deleted_;
+};
 
 qScanCam::qScanCam(QObject* parent)
     : QObject(parent), ccStdPluginInterface(":/CC/plugin/qScanCam/info.json") {}
@@ -49,6 +65,23 @@ qScanCam::qScanCam(QObject* parent)
 qScanCam::~qScanCam() {
   // Never leave a dangling listener in CloudCompare's picking hub.
   if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
+}
+
+void qScanCam::cloudClosed(const QString& name) {
+  cloud_id_ = 0;
+  watcher_.reset();
+  if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
+  picking_ = false;
+  if (window_)
+    window_->setSceneClosed(
+        tr("The cloud %1 was closed or deleted in CloudCompare: this window no longer acts on it "
+           "(Apply / Restore colours and picking in the 3D view are off; the pairs stay saved in "
+           "%2). Open the window again on a loaded cloud to go on.")
+            .arg(name,
+                 window_->autosavePath().isEmpty() ? tr("no file yet") : window_->autosavePath()));
+  else if (m_app)
+    m_app->dispToConsole(tr("[ScanCam] the cloud %1 was closed").arg(name),
+                         ccMainAppInterface::STD_CONSOLE_MESSAGE);
 }
 
 template <typename F>
@@ -129,12 +162,14 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
     return true;
   }
   if (const ccGBLSensor* sensor = scancam_cc::FindGblSensor(*cloud)) {
-    const double step_deg = std::min(sensor->getYawStep(), sensor->getPitchStep()) * 180.0 / M_PI;
+    // The sensor's own steps: yaw = azimuth (columns), pitch = elevation (rows).
+    const double az_deg = sensor->getYawStep() * 180.0 / M_PI;
+    const double el_deg = sensor->getPitchStep() * 180.0 / M_PI;
     scancam_cc::RunWithCcProgress(
         parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
           *out = scancam_cc::ScanByRegridding(*cloud, scancam_cc::SensorPose(*sensor),
-                                              Eigen::Vector3d::Zero(),
-                                              step_deg > 0 ? step_deg : 0.0, p);
+                                              Eigen::Vector3d::Zero(), az_deg > 0 ? az_deg : 0.0,
+                                              az_deg > 0 && el_deg > 0 ? el_deg : 0.0, p);
         });
     return true;
   }
@@ -144,24 +179,34 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
     const CCVector3* P = cloud->getPoint(i);
     pts[i] = Eigen::Vector3f(P->x, P->y, P->z);
   }
-  const double estimated = scancam::EstimateAngularStepDeg(pts, Eigen::Vector3d::Zero());
-  scancam::ui::RegridDialog dlg(cloud->getName(), estimated, parent);
+  const scancam::AngularSteps estimated =
+      scancam::EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
+  scancam::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg, estimated.elevation_deg,
+                                parent);
   if (dlg.exec() != QDialog::Accepted) return false;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   if (dlg.useBoxCentre()) {
     const CCVector3 c = cloud->getOwnBB().getCenter();
     origin = Eigen::Vector3d(c.x, c.y, c.z);
   }
-  const double step = dlg.stepDeg();
+  const double az_step = dlg.azimuthStepDeg(), el_step = dlg.elevationStepDeg();
   scancam_cc::RunWithCcProgress(
       parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
-        *out = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(), origin, step, p);
+        *out = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(), origin, az_step,
+                                            el_step, p);
       });
   return true;
 }
 
 void qScanCam::openCalibration() {
-  if (!m_app) return;
+  // Progress dialogs run the event loop: a second click on the action meanwhile must not open
+  // a second window (or replace the first one half-built).
+  if (!m_app || opening_) return;
+  opening_ = true;
+  struct Done {
+    bool& flag;
+    ~Done() { flag = false; }
+  } done{opening_};
   ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
   if (!cloud) {
     log("select one point cloud first", scancam::ui::CalibrationWindow::kError);
@@ -182,6 +227,14 @@ void qScanCam::openCalibration() {
   if (!buildScan(cloud, &cs)) return;
   cloud_scan_ = std::move(cs);
   cloud_id_ = cloud->getUniqueID();
+  {
+    const QString name = cloud->getName();
+    watcher_ = std::make_unique<CloudWatcher>(cloud, [this, name] {
+      // Inside the cloud's destructor: act once CloudCompare is done deleting.
+      QMetaObject::invokeMethod(
+          this, [this, name] { cloudClosed(name); }, Qt::QueuedConnection);
+    });
+  }
   log(QString("%1: %2, %3 points%4")
           .arg(cloud->getName(), cloud_scan_.description)
           .arg(cloud->size())
@@ -197,7 +250,7 @@ void qScanCam::openCalibration() {
   w->setWindowFlag(Qt::Window, true);
   w->setErrorDialogsEnabled(false);  // CloudCompare's console pops up errors itself
   w->setAttribute(Qt::WA_DeleteOnClose);
-  w->setWindowTitle(tr("ScanCam calibration: %1").arg(cloud->getName()));
+  w->setTitleBase(tr("ScanCam calibration: %1").arg(cloud->getName()));
   w->setWindowIcon(getIcon());
   QWidget* main_window = m_app->getMainWindow();
   w->setProgressRunner([main_window](const QString& title,
@@ -215,8 +268,12 @@ void qScanCam::openCalibration() {
   connect(w, &scancam::ui::CalibrationWindow::pick3dToggled, this,
           [this](bool on) { guarded("Picking in the 3D view", [this, on] { setPicking(on); }); });
   connect(w, &QObject::destroyed, this, [this] {
+    // A window replaced by one on another cloud is destroyed later: then window_ is already
+    // the new one, whose picking and watcher stay.
+    if (window_) return;
     if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
     picking_ = false;
+    watcher_.reset();
   });
   window_ = w;
   w->setPick3dAvailable(m_app->pickingHub() != nullptr);
@@ -224,23 +281,8 @@ void qScanCam::openCalibration() {
   w->show();
   if (!w->setScan(cloud_scan_.scan, cloud->getName())) return;
 
-  // Start where the user left off (the image's pairs file is reloaded with it).
-  QSettings settings;
-  settings.beginGroup(kSettingsGroup);
-  const QString camera = settings.value("camera").toString();
-  const QString image = settings.value("image").toString();
-  const QString mask = settings.value("mask").toString();
-  if (!camera.isEmpty() && QFileInfo::exists(camera)) w->loadCamera(camera);
-  if (!image.isEmpty() && QFileInfo::exists(image)) w->loadImage(image);
-  if (!mask.isEmpty() && QFileInfo::exists(mask)) w->loadMask(mask);
-  // Remember the files for the next time.
-  connect(w, &scancam::ui::CalibrationWindow::inputsChanged, this, [w] {
-    QSettings s;
-    s.beginGroup(kSettingsGroup);
-    s.setValue("camera", w->cameraPath());
-    s.setValue("image", w->imagePath());
-    s.setValue("mask", w->maskPath());
-  });
+  // The files last used with THIS scan (never another scan's) come back, with a message.
+  w->reopenRememberedInputs();
 }
 
 void qScanCam::applyColours() {

@@ -8,6 +8,13 @@
 //   "Restore colours (ScanCam)"        one cloud that ScanCam coloured: puts its original
 //                                      colours back.
 // Command-line keywords: commands.h.
+//
+// The user's data: the plugin changes the cloud only when asked (Apply / Restore colours).
+// The window's keys never reach CloudCompare's shortcuts (calibration_window.h). When the
+// window's cloud is deleted or closed in CloudCompare the window is told (a CloudWatcher: a
+// ccHObject dependency, notified from the cloud's destructor) and stops acting on it. Inputs
+// (camera file, image, mask) are remembered per scan (CalibrationWindow::ScanFingerprint) and
+// reopened, with a message, only for that same scan.
 #pragma once
 
 #include <QObject>
@@ -20,6 +27,7 @@
 
 class QAction;
 class ccPointCloud;
+class CloudWatcher;
 
 namespace scancam::ui {
 class CalibrationWindow;
@@ -48,6 +56,8 @@ class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingLi
   void restoreSelected();
   void setPicking(bool on);
   void log(const QString& text, int level);
+  /// The window's cloud was deleted (called from the event loop after the deletion).
+  void cloudClosed(const QString& name);
   /// The cloud the window works on, looked up by its unique ID (null when it was deleted).
   ccPointCloud* windowCloud() const;
   /// Builds the scan of `cloud` (its grid, its sensor's re-gridding, or asks the user).
@@ -60,6 +70,8 @@ class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingLi
   QAction* restore_action_ = nullptr;
   QPointer<scancam::ui::CalibrationWindow> window_;
   unsigned cloud_id_ = 0;
+  std::unique_ptr<CloudWatcher> watcher_;
   scancam_cc::CloudScan cloud_scan_;
   bool picking_ = false;
+  bool opening_ = false;  // openCalibration is running
 };

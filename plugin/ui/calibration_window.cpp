@@ -1,27 +1,34 @@
 #include "ui/calibration_window.h"
 
+#include <QAbstractSpinBox>
 #include <QAction>
 #include <QApplication>
 #include <QCloseEvent>
 #include <QComboBox>
+#include <QCryptographicHash>
 #include <QDir>
 #include <QDockWidget>
 #include <QFileDialog>
 #include <QFileInfo>
 #include <QHeaderView>
 #include <QItemSelectionModel>
+#include <QKeyEvent>
 #include <QKeySequence>
 #include <QLabel>
+#include <QLineEdit>
 #include <QMenuBar>
 #include <QMessageBox>
+#include <QPlainTextEdit>
 #include <QProgressDialog>
+#include <QPushButton>
 #include <QSaveFile>
-#include <QShortcut>
+#include <QSettings>
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QTableView>
 #include <QTextEdit>
 #include <QToolBar>
+#include <QUndoStack>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -104,10 +111,15 @@ const char* const kTraceTitles[4] = {"BA horizontal", "BA vertical", "BA +45\u00
 // ---- window -------------------------------------------------------------------------------
 
 CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
-  setWindowTitle(tr("ScanCam: camera / scanner calibration"));
+  title_base_ = tr("ScanCam: camera / scanner calibration");
+  setWindowTitle(title_base_);
   setObjectName("ScanCamCalibrationWindow");
   pairs_ = new PairsModel(this);
+  undo_ = new QUndoStack(this);
+  pairs_->setUndoStack(undo_);
   buildUi();
+  // Keys pressed in this window never reach the host's shortcuts (eventFilter).
+  qApp->installEventFilter(this);
   connect(pairs_, &PairsModel::pairsEdited, this, [this] {
     refreshMarkers();
     autosave();
@@ -117,7 +129,13 @@ CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
   resize(1400, 850);
 }
 
-CalibrationWindow::~CalibrationWindow() = default;
+CalibrationWindow::~CalibrationWindow() {
+  // The child widgets outlive this body (a label editor still open commits its text while
+  // the table is destroyed): nothing may reach this window's members any more.
+  qApp->removeEventFilter(this);
+  pairs_->setUndoStack(nullptr);
+  pairs_->disconnect(this);
+}
 
 template <typename F>
 bool CalibrationWindow::guarded(const QString& what, F&& f) {
@@ -221,6 +239,27 @@ void CalibrationWindow::buildUi() {
                          [this] { choosePairsToSave(); });
   act_delete_ = make(tr("Delete pair"), tr("Delete the selected pair (Delete key)"),
                      [this] { deleteSelectedPair(); });
+  // Fixed texts (the toolbar does not move); what would be undone is in the tooltip.
+  act_undo_ = make(tr("Undo"), tr("Nothing to undo"), [this] { undo_->undo(); });
+  act_undo_->setShortcuts({QKeySequence::Undo});
+  act_undo_->setEnabled(false);
+  act_redo_ = make(tr("Redo"), tr("Nothing to redo"), [this] { undo_->redo(); });
+  act_redo_->setShortcuts({QKeySequence(tr("Ctrl+Shift+Z")), QKeySequence(tr("Ctrl+Y"))});
+  act_redo_->setEnabled(false);
+  connect(undo_, &QUndoStack::canUndoChanged, act_undo_, &QAction::setEnabled);
+  connect(undo_, &QUndoStack::canRedoChanged, act_redo_, &QAction::setEnabled);
+  connect(undo_, &QUndoStack::undoTextChanged, this, [this](const QString& text) {
+    act_undo_->setToolTip(text.isEmpty() ? tr("Nothing to undo")
+                                         : tr("Undo: %1 (Ctrl+Z)").arg(text));
+  });
+  connect(undo_, &QUndoStack::redoTextChanged, this, [this](const QString& text) {
+    act_redo_->setToolTip(text.isEmpty() ? tr("Nothing to redo")
+                                         : tr("Redo: %1 (Ctrl+Shift+Z)").arg(text));
+  });
+  connect(act_undo_, &QAction::triggered, this,
+          [this] { setStatus(tr("Undone: %1").arg(undo_->redoText()), kInfo); });
+  connect(act_redo_, &QAction::triggered, this,
+          [this] { setStatus(tr("Redone: %1").arg(undo_->undoText()), kInfo); });
   act_calibrate_ = make(tr("Calibrate"), tr("Solve T_cam_scan from the complete pairs"),
                         [this] { calibrate(); });
   act_save_calib_ = make(tr("Save calibration..."), tr("Write the calibration JSON"),
@@ -230,6 +269,7 @@ void CalibrationWindow::buildUi() {
            [this] { chooseCalibrationToLoad(); });
   act_apply_ = make(tr("Apply colours"),
                     tr("Colour the cloud from the camera image with this calibration"), [this] {
+                      if (scene_closed_) return;  // the cloud is gone
                       const QString problem = colouringProblem();
                       if (!problem.isEmpty()) {
                         reportError(tr("Cannot apply colours: ") + problem);
@@ -238,8 +278,9 @@ void CalibrationWindow::buildUi() {
                       emit applyColoursRequested();
                     });
   act_restore_ = make(tr("Restore colours"),
-                      tr("Put back the colours the cloud had before ScanCam coloured it"),
-                      [this] { emit restoreColoursRequested(); });
+                      tr("Put back the colours the cloud had before ScanCam coloured it"), [this] {
+                        if (!scene_closed_) emit restoreColoursRequested();
+                      });
   act_export_ = make(tr("Export..."),
                      tr("Colour the scan and write a textured mesh (OBJ, glTF) or a coloured "
                         "cloud (PLY)"),
@@ -257,11 +298,16 @@ void CalibrationWindow::buildUi() {
   act_apply_->setShortcut(QKeySequence(tr("Ctrl+Shift+A")));
   act_export_->setShortcut(QKeySequence(tr("Ctrl+E")));
   act_mask_->setShortcut(QKeySequence(tr("Ctrl+M")));
+  act_delete_->setShortcuts({QKeySequence(Qt::Key_Delete), QKeySequence(Qt::Key_Backspace)});
   act_pick3d_ = new QAction(tr("Pick in 3D view"), this);
   act_pick3d_->setCheckable(true);
   act_pick3d_->setToolTip(tr("Pick the laser side of pairs on the cloud in the 3D view"));
   act_pick3d_->setEnabled(false);
   connect(act_pick3d_, &QAction::toggled, this, [this](bool on) {
+    if (on && scene_closed_) {  // the cloud is gone: nothing to pick on
+      act_pick3d_->setChecked(false);
+      return;
+    }
     if (on) setStatus(tr("Picking in the 3D view: click a point of the cloud"), kInfo);
     emit pick3dToggled(on);
   });
@@ -302,7 +348,7 @@ void CalibrationWindow::buildUi() {
   tb->addSeparator();
   tb->addAction(act_load_pairs_);
   tb->addAction(act_save_pairs_);
-  tb->addAction(act_delete_);
+  tb->addAction(act_delete_);  // Undo / Redo: Pairs menu and Ctrl+Z (the toolbar stays short)
   tb->addAction(act_pick3d_);
   tb->addSeparator();
   tb->addWidget(method_combo_);
@@ -312,6 +358,16 @@ void CalibrationWindow::buildUi() {
   tb->addAction(act_apply_);
   tb->addAction(act_restore_);
   tb->addAction(act_export_);
+  // What is active, always in sight (refreshActiveInputs).
+  addToolBarBreak();
+  auto* active_bar = addToolBar(tr("Active inputs"));
+  active_bar->setObjectName("activeInputsBar");
+  active_bar->setMovable(false);
+  active_label_ = new QLabel(this);
+  active_label_->setObjectName("activeInputsLabel");
+  active_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  active_label_->setContentsMargins(6, 2, 6, 2);
+  active_bar->addWidget(active_label_);
 
   QMenu* file = menuBar()->addMenu(tr("&File"));
   file->addAction(act_camera_);
@@ -328,6 +384,9 @@ void CalibrationWindow::buildUi() {
   file->addSeparator();
   file->addAction(tr("Close"), this, &QWidget::close);
   QMenu* pairs = menuBar()->addMenu(tr("&Pairs"));
+  pairs->addAction(act_undo_);
+  pairs->addAction(act_redo_);
+  pairs->addSeparator();
   pairs->addAction(act_delete_);
   pairs->addAction(act_pick3d_);
   pairs->addAction(tr("Deselect"), this, [this] { table_->clearSelection(); });
@@ -347,22 +406,17 @@ void CalibrationWindow::buildUi() {
     for (ImageView* v : scan_views_) v->fitImage();
   });
 
-  auto* esc = new QShortcut(QKeySequence(Qt::Key_Escape), this);
-  connect(esc, &QShortcut::activated, this, [this] {
-    table_->clearSelection();
-    setStatus(tr("No pair selected: clicks add pairs"), kInfo);
-  });
-  auto* del = new QShortcut(QKeySequence::Delete, table_);
-  del->setContext(Qt::WidgetShortcut);
-  connect(del, &QShortcut::activated, this, [this] { deleteSelectedPair(); });
+  // Esc and Delete are handled with the other keys in handleKey (window only).
+  // Shortcuts shown in the menus act in this window only (handleKey dispatches them; the
+  // context keeps Qt from matching them anywhere else).
+  for (QAction* a : findChildren<QAction*>())
+    if (!a->shortcuts().isEmpty()) a->setShortcutContext(Qt::WidgetWithChildrenShortcut);
 
   status_label_ = new QLabel(this);
   status_label_->setObjectName("statusLabel");
   status_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
-  autosave_label_ = new QLabel(this);
-  autosave_label_->setObjectName("autosaveLabel");
   statusBar()->addWidget(status_label_, 1);
-  statusBar()->addPermanentWidget(autosave_label_);
+  refreshActiveInputs();
   setStatus(tr("Choose the camera file and the image, then click matching points: on the "
                "camera image and on a scan view"),
             kInfo);
@@ -451,6 +505,8 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
     });
     scan_ = std::move(scan);
     scan_name_ = name;
+    scan_fingerprint_ = ScanFingerprint(*scan_);
+    pairs_->setScan(scan_);
     ba_ = ba;
     range_ = range;
     edge_points_ = std::move(edges);
@@ -466,6 +522,7 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
     for (ImageView* v : scan_views_) v->fitImage();
     refreshMarkers();
     refreshOverlay();
+    refreshActiveInputs();
     reportInfo(tr("Scan %1: %2 x %3 cells, %4 % with a return")
                    .arg(name)
                    .arg(scan_->rows)
@@ -514,6 +571,7 @@ bool CalibrationWindow::loadCamera(const QString& path) {
     refreshOverlay();
     refreshMarkers();
     updateActions();
+    refreshActiveInputs();
     emit inputsChanged();
     reportInfo(tr("Camera %1: %2")
                    .arg(QFileInfo(path).fileName(), QString::fromStdString(camera_.Describe())));
@@ -529,52 +587,73 @@ bool CalibrationWindow::loadCamera(const QString& path) {
 
 bool CalibrationWindow::loadImage(const QString& path) {
   return guarded(tr("Image"), [&] {
-    cv::Mat img = cv::imread(path.toStdString(), cv::IMREAD_COLOR);
-    if (img.empty())
-      throw Error(path.toStdString() + ": cannot read the image (missing or not an image)");
-    const bool had_image = !image_bgr_.empty();
+    cv::Mat img = ReadImage(path.toStdString(), cv::IMREAD_COLOR, "image");
     const bool same_image = QFileInfo(path) == QFileInfo(image_path_);
+    const bool had_image = !image_path_.isEmpty();
     image_bgr_ = img;
     image_path_ = path;
     image_edge_distance_.release();
     camera_view_->setImage(BgrToQImage(img));
     camera_view_->fitImage();
-    if (!same_image) autosave_path_ = SidecarPath(path);
-    autosave_label_->setText(tr("Autosave: %1").arg(QFileInfo(autosave_path_).fileName()));
-    autosave_label_->setToolTip(autosave_path_);
     QString msg =
         tr("Image %1: %2 x %3 px").arg(QFileInfo(path).fileName()).arg(img.cols).arg(img.rows);
+    int level = kInfo;
     if (!same_image) {
-      if (QFileInfo::exists(autosave_path_)) {
-        loading_pairs_ = true;
-        try {
-          pairs_->setPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
-          restoreIncompletePair(autosave_path_);
-        } catch (...) {
+      // Nothing of the previous image carries over: its mask, its pose, its pairs (they are in
+      // its own pairs file), its undo history.
+      if (!mask_.empty()) {
+        msg += tr("; the mask %1 belonged to the previous image and is no longer used (Mask... "
+                  "to choose one for this image)")
+                   .arg(QFileInfo(mask_path_).fileName());
+        level = kWarning;
+        mask_.release();
+        mask_path_.clear();
+      }
+      autosave_path_ = sidecarFor(path);
+      try {
+        if (had_image || pairs_->size() == 0) {
+          loading_pairs_ = true;
+          if (pairs_->size() > 0) pairs_->clear();
+          msg += reloadSidecarPairs();
           loading_pairs_ = false;
-          throw;
+          undo_->clear();
+        } else if (QFileInfo::exists(autosave_path_)) {
+          // Pairs made (or loaded) before any image: kept, and the image's pairs added to them.
+          const int before = pairs_->size();
+          pairs_->appendPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+          msg += tr("; kept the %1 pairs made before the image and appended the %2 pairs of %3 "
+                    "(Ctrl+Z takes them out)")
+                     .arg(before)
+                     .arg(pairs_->size() - before)
+                     .arg(QFileInfo(autosave_path_).fileName());
+        } else {
+          msg += tr("; the %1 pairs made before the image are kept (saved to %2)")
+                     .arg(pairs_->size())
+                     .arg(QFileInfo(autosave_path_).fileName());
+          autosave();
         }
+      } catch (const std::exception& e) {
+        // An unreadable pairs file is never overwritten by the next autosave.
         loading_pairs_ = false;
-        msg += tr("; reloaded %1 pairs%2 from %3")
-                   .arg(pairs_->completeCount())
-                   .arg(pairs_->size() > pairs_->completeCount() ? tr(" and a half-picked one")
-                                                                 : QString())
-                   .arg(QFileInfo(autosave_path_).fileName());
-      } else if (had_image && pairs_->size() > 0) {
-        // The pairs belong to the previous image (and are in its pairs file).
-        loading_pairs_ = true;
-        pairs_->clear();
-        loading_pairs_ = false;
+        undo_->clear();
+        autosave_path_.clear();
+        refreshActiveInputs();
+        throw Error(std::string(e.what()) +
+                    " (that file is left as it is; new pairs are not saved until you choose "
+                    "Save pairs as)");
       }
       calibration_.reset();
+      calibration_source_.clear();
       coloured_.reset();
       result_view_->clear();
     }
     refreshMarkers();
     refreshOverlay();
     updateActions();
+    refreshActiveInputs();
     emit inputsChanged();
-    reportInfo(msg);
+    reportInfo(msg, level);
+    if (!same_image) reportPairProblems(QFileInfo(autosave_path_).fileName());
     if (camera_.valid()) {
       try {
         CheckImageSize(camera_, img.cols, img.rows, path.toStdString());
@@ -589,18 +668,136 @@ QString CalibrationWindow::SidecarPath(const QString& image_path) {
   return image_path + ".scancam-pairs.csv";
 }
 
-bool CalibrationWindow::loadPairs(const QString& path) {
+QString CalibrationWindow::sidecarFor(const QString& image_path) const {
+  const QString primary = SidecarPath(image_path);
+  if (scan_fingerprint_.isEmpty() || !QFileInfo::exists(primary)) return primary;
+  const QString owner = PairsFileScan(primary);
+  // A file without the line predates it: it is taken (and marked) for this scan.
+  if (owner.isEmpty() || owner.section(' ', 0, 0) == scan_fingerprint_) return primary;
+  return image_path + ".scancam-pairs." + scan_fingerprint_ + ".csv";
+}
+
+QString CalibrationWindow::reloadSidecarPairs() {
+  if (!QFileInfo::exists(autosave_path_)) return {};
+  const QString owner = PairsFileScan(autosave_path_);
+  pairs_->setPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+  restoreIncompletePair(autosave_path_);
+  return tr("; reloaded %1 pairs%2 from %3%4")
+      .arg(pairs_->completeCount())
+      .arg(pairs_->size() > pairs_->completeCount() ? tr(" and a half-picked one") : QString())
+      .arg(QFileInfo(autosave_path_).fileName())
+      .arg(owner.isEmpty() ? tr(" (the file does not say which scan it was made with: check "
+                                "the pairs)")
+                           : tr(" (made with this scan and this image)"));
+}
+
+QString CalibrationWindow::ScanFingerprint(const OrderedScan& scan) {
+  QCryptographicHash h(QCryptographicHash::Sha1);
+  const std::int64_t size[2] = {scan.rows, scan.cols};
+  h.addData(reinterpret_cast<const char*>(size), sizeof(size));
+  // At most ~1 M points: enough to tell scans apart, fast on any scan.
+  const std::size_t n = scan.point_m.size();
+  const std::size_t stride = std::max<std::size_t>(1, n / 1000000);
+  for (std::size_t i = 0; i < n; i += stride)
+    h.addData(reinterpret_cast<const char*>(scan.point_m[i].data()), 3 * sizeof(float));
+  return QString::fromLatin1(h.result().toHex().left(16));
+}
+
+namespace {
+constexpr char kScanTag[] = "# scancam-scan:";
+}  // namespace
+
+QString CalibrationWindow::PairsFileScan(const QString& pairs_path) {
+  std::ifstream in(pairs_path.toStdString());
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(kScanTag, 0) == 0)
+      return QString::fromStdString(line.substr(sizeof(kScanTag) - 1)).trimmed();
+    if (!line.empty() && line[0] != '#') break;  // the tag comes before the header
+  }
+  return {};
+}
+
+bool CalibrationWindow::loadPairs(const QString& path, PairsLoad how) {
   return guarded(tr("Pairs file"), [&] {
-    std::vector<PointPair> pairs = ReadPairsCsv(path.toStdString());
+    const std::vector<PointPair> pairs = ReadPairsCsv(path.toStdString());
+    const QString owner = PairsFileScan(path);
     // Autosave goes on to the current target (the file read is not overwritten by edits).
-    pairs_->setPointPairs(pairs);
-    restoreIncompletePair(path);
+    // One undo step brings the previous pairs back.
+    undo_->beginMacro(how == PairsLoad::kReplace
+                          ? tr("Load pairs from %1").arg(QFileInfo(path).fileName())
+                          : tr("Append pairs from %1").arg(QFileInfo(path).fileName()));
+    try {
+      if (how == PairsLoad::kReplace) {
+        pairs_->setPointPairs(pairs);
+        restoreIncompletePair(path);
+      } else {
+        pairs_->appendPointPairs(pairs);
+      }
+    } catch (...) {
+      undo_->endMacro();
+      throw;
+    }
+    undo_->endMacro();
     calibration_.reset();
     coloured_.reset();
     result_view_->clear();
     refreshOverlay();
-    reportInfo(tr("Loaded %1 pairs from %2").arg(pairs.size()).arg(QFileInfo(path).fileName()));
+    updateActions();
+    QString msg = how == PairsLoad::kReplace
+                      ? tr("Loaded %1 pairs from %2 (Ctrl+Z brings the previous pairs back)")
+                      : tr("Appended %1 pairs from %2 (Ctrl+Z takes them out again)");
+    msg = msg.arg(pairs.size()).arg(QFileInfo(path).fileName());
+    const QString owner_fp = owner.section(' ', 0, 0);
+    if (!owner_fp.isEmpty() && !scan_fingerprint_.isEmpty() && owner_fp != scan_fingerprint_)
+      msg += tr("; the file says it was made with another scan (%1)").arg(owner.section(' ', 1));
+    reportInfo(msg,
+               !owner_fp.isEmpty() && !scan_fingerprint_.isEmpty() && owner_fp != scan_fingerprint_
+                   ? kWarning
+                   : kInfo);
+    reportPairProblems(QFileInfo(path).fileName());
   });
+}
+
+bool CalibrationWindow::loadPairsAsking(const QString& path) {
+  if (pairs_->size() == 0) return loadPairs(path, PairsLoad::kReplace);
+  QMessageBox box(QMessageBox::Question, tr("Load pairs"),
+                  tr("There are %1 pairs already. Replace them by the pairs of %2, or append "
+                     "those to them?\n(Either can be undone with Ctrl+Z.)")
+                      .arg(pairs_->size())
+                      .arg(QFileInfo(path).fileName()),
+                  QMessageBox::NoButton, this);
+  QPushButton* replace = box.addButton(tr("Replace"), QMessageBox::DestructiveRole);
+  QPushButton* append = box.addButton(tr("Append"), QMessageBox::AcceptRole);
+  QPushButton* cancel = box.addButton(QMessageBox::Cancel);
+  replace->setObjectName("replaceButton");
+  append->setObjectName("appendButton");
+  cancel->setObjectName("cancelButton");
+  box.setDefaultButton(cancel);
+  box.exec();
+  if (box.clickedButton() == replace) return loadPairs(path, PairsLoad::kReplace);
+  if (box.clickedButton() == append) return loadPairs(path, PairsLoad::kAppend);
+  setStatus(tr("Pairs not loaded (cancelled): the %1 pairs are unchanged").arg(pairs_->size()),
+            kInfo);
+  return false;
+}
+
+void CalibrationWindow::reportPairProblems(const QString& source) {
+  const std::vector<int> rows = pairs_->rowsWithScanProblems();
+  if (rows.empty()) return;
+  QStringList numbers;
+  for (std::size_t k = 0; k < rows.size() && k < 12; ++k) numbers << QString::number(rows[k] + 1);
+  if (rows.size() > 12) numbers << "...";
+  reportInfo(tr("%1: %2 of %3 pairs do not fit scan %4 (marked orange in the table; the tooltip "
+                "says why): %5. First: pair %6 %7")
+                 .arg(source)
+                 .arg(rows.size())
+                 .arg(pairs_->size())
+                 .arg(scan_name_)
+                 .arg(numbers.join(", "))
+                 .arg(rows.front() + 1)
+                 .arg(pairs_->scanProblem(rows.front())),
+             kWarning);
 }
 
 void CalibrationWindow::restoreIncompletePair(const QString& path) {
@@ -612,8 +809,11 @@ void CalibrationWindow::restoreIncompletePair(const QString& path) {
 
 bool CalibrationWindow::writePairsFile(const QString& path) {
   // The half-picked pair too, as a comment line (pairs_model.h).
-  const std::string text =
-      FormatPairsCsv(pairs_->completePointPairs()) + pairs_->incompletePairComment();
+  std::string text;
+  if (!scan_fingerprint_.isEmpty())
+    text += std::string(kScanTag) + " " + scan_fingerprint_.toStdString() + " " +
+            scan_name_.simplified().toStdString() + "\n";
+  text += FormatPairsCsv(pairs_->completePointPairs()) + pairs_->incompletePairComment();
   QSaveFile file(path);  // writes a temporary file and renames it over `path` on commit
   if (!file.open(QIODevice::WriteOnly) ||
       file.write(text.data(), static_cast<qint64>(text.size())) !=
@@ -629,8 +829,7 @@ bool CalibrationWindow::savePairs(const QString& path) {
   return guarded(tr("Save pairs"), [&] {
     writePairsFile(path);
     autosave_path_ = path;
-    autosave_label_->setText(tr("Autosave: %1").arg(QFileInfo(path).fileName()));
-    autosave_label_->setToolTip(path);
+    refreshActiveInputs();
     reportInfo(tr("Saved %1 pairs to %2 (later changes are saved there automatically)")
                    .arg(pairs_->completeCount())
                    .arg(path));
@@ -718,7 +917,7 @@ void CalibrationWindow::deleteSelectedPair() {
   }
   pairs_->removePair(row);
   table_->clearSelection();
-  setStatus(tr("Pair %1 deleted").arg(row + 1), kInfo);
+  setStatus(tr("Pair %1 deleted (Ctrl+Z brings it back)").arg(row + 1), kInfo);
 }
 
 void CalibrationWindow::refreshMarkers() {
@@ -731,9 +930,10 @@ void CalibrationWindow::refreshMarkers() {
     Marker m;
     m.id = static_cast<int>(i) + 1;
     m.selected = static_cast<int>(i) == selected;
-    m.colour = !p.complete()             ? QColor(0, 220, 255)
-               : (p.solved && !p.inlier) ? QColor(255, 40, 40)
-                                         : QColor(255, 220, 0);
+    m.colour = !p.complete()                                         ? QColor(0, 220, 255)
+               : (p.solved && !p.inlier)                             ? QColor(255, 40, 40)
+               : !pairs_->scanProblem(static_cast<int>(i)).isEmpty() ? QColor(255, 140, 0)
+                                                                     : QColor(255, 220, 0);
     if (p.image_px) {
       m.px = *p.image_px;
       image_markers.push_back(m);
@@ -962,6 +1162,9 @@ void CalibrationWindow::refreshOverlay() {
     }
   }
   camera_view_->setOverlayPoints(px, QColor(0, 255, 80));
+  // VALID IMAGE REGION (issue 13 section 2, not done here): once core computes the valid
+  // region of a fisheye / omni image (a CV_8UC1 mask from camera + image), draw its outline on
+  // camera_view_ at this spot; a mask file still wins when given.
 }
 
 void CalibrationWindow::poseChanged() {
@@ -1038,7 +1241,7 @@ void CalibrationWindow::choosePairsToLoad() {
   const QString path =
       QFileDialog::getOpenFileName(this, tr("Load pairs"), QFileInfo(autosave_path_).path(),
                                    tr("Pairs CSV (*.csv);;All files (*)"));
-  if (!path.isEmpty()) loadPairs(path);
+  if (!path.isEmpty()) loadPairsAsking(path);
 }
 
 void CalibrationWindow::choosePairsToSave() {
@@ -1074,10 +1277,10 @@ void CalibrationWindow::chooseMask() {
 
 bool CalibrationWindow::loadMask(const QString& path) {
   return guarded(tr("Mask"), [&] {
-    cv::Mat m = cv::imread(path.toStdString(), cv::IMREAD_GRAYSCALE);
-    if (m.empty()) throw Error(path.toStdString() + ": cannot read the mask image");
+    cv::Mat m = ReadImage(path.toStdString(), cv::IMREAD_GRAYSCALE, "mask");
     mask_ = m;
     mask_path_ = path;
+    refreshActiveInputs();
     emit inputsChanged();
     poseChanged();
     reportInfo(tr("Mask %1: %2 x %3 px").arg(QFileInfo(path).fileName()).arg(m.cols).arg(m.rows));
@@ -1094,6 +1297,7 @@ bool CalibrationWindow::loadMask(const QString& path) {
 void CalibrationWindow::clearMask() {
   mask_.release();
   mask_path_.clear();
+  refreshActiveInputs();
   emit inputsChanged();
   poseChanged();
   reportInfo(tr("No mask: every pixel of the image may colour the scan"));
@@ -1146,13 +1350,166 @@ bool CalibrationWindow::exportModel(const QString& path) {
 // ---- state --------------------------------------------------------------------------------
 
 void CalibrationWindow::setPick3dAvailable(bool available) {
-  if (!available) act_pick3d_->setChecked(false);
-  act_pick3d_->setEnabled(available);
+  if (!available || scene_closed_) act_pick3d_->setChecked(false);
+  act_pick3d_->setEnabled(available && !scene_closed_);
 }
 
 void CalibrationWindow::setRestoreAvailable(bool available) {
   restore_available_ = available;
   updateActions();
+}
+
+int CalibrationWindow::reopenRememberedInputs() {
+  if (scan_fingerprint_.isEmpty()) return 0;
+  const QString group = QString("qScanCam/scans/%1").arg(scan_fingerprint_);
+  QSettings settings;
+  settings.beginGroup(group);
+  const QString camera = settings.value("camera").toString();
+  const QString image = settings.value("image").toString();
+  const QString mask = settings.value("mask").toString();
+  settings.endGroup();
+  QStringList reopened;
+  if (!camera.isEmpty() && QFileInfo::exists(camera) && loadCamera(camera))
+    reopened << tr("camera %1").arg(camera);
+  if (!image.isEmpty() && QFileInfo::exists(image) && loadImage(image))
+    reopened << tr("image %1").arg(image);
+  if (!mask.isEmpty() && QFileInfo::exists(mask) && !image_path_.isEmpty() && loadMask(mask))
+    reopened << tr("mask %1").arg(mask);
+  if (!reopened.isEmpty())
+    reportInfo(tr("Reopened what was last used with this scan: %1 (File menu to change; the "
+                  "line under the toolbar shows what is active)")
+                   .arg(reopened.join(", ")));
+  if (!remembering_) {
+    remembering_ = true;
+    connect(this, &CalibrationWindow::inputsChanged, this, [this, group] {
+      QSettings s;
+      s.beginGroup(group);
+      s.setValue("camera", camera_path_);
+      s.setValue("image", image_path_);
+      s.setValue("mask", mask_path_);
+    });
+  }
+  return reopened.size();
+}
+
+void CalibrationWindow::setTitleBase(const QString& title) {
+  title_base_ = title;
+  refreshActiveInputs();
+}
+
+void CalibrationWindow::setSceneClosed(const QString& message) {
+  if (scene_closed_) return;
+  scene_closed_ = true;
+  setPick3dAvailable(false);
+  restore_available_ = false;
+
+  updateActions();
+  refreshActiveInputs();
+  reportInfo(message, kWarning);
+}
+
+QString CalibrationWindow::activeInputsText() const { return active_label_->text(); }
+
+void CalibrationWindow::refreshActiveInputs() {
+  auto file = [](const QString& path, const QString& none) {
+    return path.isEmpty() ? none : QFileInfo(path).fileName();
+  };
+  QString scan = tr("none");
+  if (scan_) scan = tr("%1 (%2 x %3)").arg(scan_name_).arg(scan_->rows).arg(scan_->cols);
+  if (scene_closed_) scan += tr(" - its cloud was closed");
+  const QString text = tr("Scan: %1   |   Camera: %2   |   Image: %3   |   Mask: %4   |   Pairs "
+                          "file: %5")
+                           .arg(scan, file(camera_path_, tr("none")), file(image_path_, tr("none")),
+                                file(mask_path_, tr("none")),
+                                file(autosave_path_, tr("none (not saved until an image is "
+                                                        "open)")));
+  active_label_->setText(text);
+  // The title names the image too (what the window works on, also in the task bar).
+  QString title = title_base_;
+  if (!image_path_.isEmpty()) title += " - " + QFileInfo(image_path_).fileName();
+  if (scene_closed_) title += tr(" [cloud closed]");
+  setWindowTitle(title);
+  QStringList tip;
+  if (!scan_fingerprint_.isEmpty()) tip << tr("Scan fingerprint: %1").arg(scan_fingerprint_);
+  if (!camera_path_.isEmpty()) tip << tr("Camera: %1").arg(camera_path_);
+  if (!image_path_.isEmpty()) tip << tr("Image: %1").arg(image_path_);
+  if (!mask_path_.isEmpty()) tip << tr("Mask: %1").arg(mask_path_);
+  if (!autosave_path_.isEmpty()) tip << tr("Pairs (autosaved): %1").arg(autosave_path_);
+  active_label_->setToolTip(tip.join('\n'));
+}
+
+// ---- keys ---------------------------------------------------------------------------------
+
+CalibrationWindow::KeyTarget CalibrationWindow::keyTarget(QWidget* w) const {
+  // Up the parents to this window; a dock (floating: a window of its own) belongs to it, and so
+  // does a popup opened from it (a menu, the solver list); any other window (a dialog, the
+  // host's windows) does not.
+  bool popup = false;
+  for (QWidget* x = w; x; x = x->parentWidget()) {
+    if (x == this) return popup ? KeyTarget::kPopup : KeyTarget::kWindow;
+    if (x->isWindow() && x->windowType() == Qt::Popup) {
+      popup = true;
+      continue;
+    }
+    if (x->isWindow() && !qobject_cast<QDockWidget*>(x)) return KeyTarget::kNone;
+  }
+  return KeyTarget::kNone;
+}
+
+namespace {
+// Widgets that edit text keep every key (a pair's label being edited, a spin box).
+bool EditsText(QWidget* w) {
+  if (qobject_cast<QLineEdit*>(w) || qobject_cast<QAbstractSpinBox*>(w)) return true;
+  if (auto* t = qobject_cast<QTextEdit*>(w)) return !t->isReadOnly();
+  if (auto* t = qobject_cast<QPlainTextEdit*>(w)) return !t->isReadOnly();
+  return false;
+}
+}  // namespace
+
+bool CalibrationWindow::eventFilter(QObject* watched, QEvent* event) {
+  if (event->type() != QEvent::ShortcutOverride && event->type() != QEvent::KeyPress)
+    return QMainWindow::eventFilter(watched, event);
+  auto* w = qobject_cast<QWidget*>(watched);
+  const KeyTarget target = w ? keyTarget(w) : KeyTarget::kNone;
+  if (target == KeyTarget::kNone) return false;
+  auto* key = static_cast<QKeyEvent*>(event);
+  if (event->type() == QEvent::ShortcutOverride) {
+    // Accepting the override keeps Qt from matching the key against shortcuts, among them
+    // the host's application-wide ones: the key press then comes here (or to the editor).
+    key->accept();
+    return true;
+  }
+  // A popup (menu, list) and text being edited use their keys themselves.
+  if (target == KeyTarget::kPopup || EditsText(w)) return false;
+  return handleKey(key);
+}
+
+bool CalibrationWindow::handleKey(QKeyEvent* event) {
+  const int key = event->key();
+  if (key == Qt::Key_unknown || key == Qt::Key_Shift || key == Qt::Key_Control ||
+      key == Qt::Key_Alt || key == Qt::Key_Meta)
+    return false;
+  if (key == Qt::Key_Escape && event->modifiers() == Qt::NoModifier) {
+    table_->clearSelection();
+    setStatus(tr("No pair selected: clicks add pairs"), kInfo);
+    return true;
+  }
+  const QKeySequence pressed(
+      key | static_cast<int>(event->modifiers() & ~(Qt::KeypadModifier | Qt::GroupSwitchModifier)));
+  for (QAction* a : findChildren<QAction*>()) {
+    for (const QKeySequence& seq : a->shortcuts()) {
+      if (seq.isEmpty() || pressed.matches(seq) != QKeySequence::ExactMatch) continue;
+      if (a->isEnabled()) a->trigger();
+      return true;  // taken even when disabled: nothing else may act on it
+    }
+  }
+  if (key == Qt::Key_Return || key == Qt::Key_Enter) {
+    if (event->modifiers() & Qt::ControlModifier) {  // keypad Enter with Ctrl too
+      if (act_calibrate_->isEnabled()) act_calibrate_->trigger();
+      return true;
+    }
+  }
+  return false;  // the focused widget's own keys (arrows, Tab, ...)
 }
 
 void CalibrationWindow::updateActions() {
@@ -1162,9 +1519,13 @@ void CalibrationWindow::updateActions() {
   act_apply_->setToolTip(colouringProblem().isEmpty()
                              ? tr("Colour the cloud from the camera image with this calibration")
                              : tr("Apply colours: %1").arg(colouringProblem()));
-  act_restore_->setEnabled(restore_available_);
+  act_restore_->setEnabled(restore_available_ && !scene_closed_);
   act_export_->setEnabled(colouringProblem().isEmpty());
   act_delete_->setEnabled(pairs_->size() > 0);
+  if (scene_closed_) {
+    act_apply_->setEnabled(false);
+    act_apply_->setToolTip(tr("The cloud was closed in CloudCompare: nothing to colour"));
+  }
 }
 
 void CalibrationWindow::closeEvent(QCloseEvent* event) {

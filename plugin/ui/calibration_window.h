@@ -7,14 +7,28 @@
 //
 // Picking: a click on a scan view or on the camera image places that half of a pair by the
 // rule of PairsModel (pairs_model.h): with a pair selected in the table the click moves that
-// half; otherwise it completes the last pair, or starts a new one. Esc deselects, Delete
-// removes the selected pair. A click on a scan cell without a laser return, or on a pixel
-// outside the camera's field of view, is refused with a message.
+// half; otherwise it completes the last pair, or starts a new one. Esc deselects, Delete (or
+// Backspace) removes the selected pair. A click on a scan cell without a laser return, or on a
+// pixel outside the camera's field of view, is refused with a message. Every edit of the pairs
+// (including loading a file) can be undone: Ctrl+Z, redo Ctrl+Shift+Z / Ctrl+Y. "Load pairs"
+// over existing pairs asks: replace, append or cancel (loadPairsAsking). Pairs that do not fit
+// the scan (a cell outside the grid, or far from the pair's x,y,z) are marked orange.
+//
+// Keys: while the focus is anywhere in this window (its docks too, floating or not, and its
+// menus), the window takes every key itself: no shortcut of the host application fires
+// (CloudCompare's main-window Delete has an application-wide shortcut and would delete the selected
+// cloud), and the window's own shortcuts act only here (eventFilter). Text being edited (a pair's
+// label) keeps its keys.
 //
 // Autosave: every change is written at once (atomically: temporary file + rename) to the
-// pairs file of the current image, by default the sidecar `<image>.scancam-pairs.csv`
-// (SidecarPath), or the file last chosen with "Save pairs as". Opening an image whose sidecar
-// exists reloads its pairs; a half-picked pair is kept too (as a comment line, pairs_model.h).
+// pairs file of the current image and scan: the sidecar `<image>.scancam-pairs.csv`
+// (SidecarPath), or, when that file belongs to another scan, `<image>.scancam-pairs.<scan
+// fingerprint>.csv`; or the file last chosen with "Save pairs as". The file records the scan
+// it belongs to in a comment line `# scancam-scan: <fingerprint> <name>` (ScanFingerprint).
+// Opening an image reloads the pairs of that image AND this scan only; a half-picked pair is
+// kept too (as a comment line, pairs_model.h). A new image drops the previous image's mask and
+// calibration. The line under the toolbar always shows what is active: scan, camera file,
+// image, mask, pairs file.
 //
 // Scan views: pixel (x, y) of an unrotated view is cell (row = y, col = x) (ba_image.h). The
 // View menu can transpose / flip the pictures (e.g. PTX grids are transposed panoramas,
@@ -45,6 +59,8 @@
 
 class QAction;
 class QComboBox;
+class QKeyEvent;
+class QUndoStack;
 class QLabel;
 class QTabWidget;
 class QTableView;
@@ -94,7 +110,14 @@ class CalibrationWindow : public QMainWindow {
   bool loadCamera(const QString& path);
   /// Loads the camera image (8/16-bit, any format OpenCV reads) and reloads its pairs file.
   bool loadImage(const QString& path);
-  bool loadPairs(const QString& path);
+  enum class PairsLoad { kReplace, kAppend };
+  /// Reads a pairs file; kReplace replaces the pairs (one undo step brings them back),
+  /// kAppend adds them after the complete pairs. Pairs that do not fit the scan are reported
+  /// (PairsModel::scanProblem).
+  bool loadPairs(const QString& path, PairsLoad how = PairsLoad::kReplace);
+  /// Like loadPairs, but with pairs already there asks first: replace, append or cancel
+  /// (buttons named "replaceButton", "appendButton", "cancelButton"). False when cancelled.
+  bool loadPairsAsking(const QString& path);
   /// Writes the complete pairs (atomically) and makes `path` the autosave target.
   bool savePairs(const QString& path);
   /// Solves with the current pairs; fills residuals, result text and the edge overlay.
@@ -112,6 +135,12 @@ class CalibrationWindow : public QMainWindow {
 
   /// `<image>.scancam-pairs.csv`.
   static QString SidecarPath(const QString& image_path);
+  /// The pairs file for `image_path` and this window's scan (see Autosave above).
+  QString sidecarFor(const QString& image_path) const;
+  /// A short hex digest of the scan's size and laser points: the same for the same scan data.
+  static QString ScanFingerprint(const OrderedScan& scan);
+  /// The scan a pairs file says it belongs to (its `# scancam-scan:` line); empty if none.
+  static QString PairsFileScan(const QString& pairs_path);
 
   // ---- state -----------------------------------------------------------------------------
   std::shared_ptr<const OrderedScan> scan() const { return scan_; }
@@ -127,6 +156,22 @@ class CalibrationWindow : public QMainWindow {
   QString cameraPath() const { return camera_path_; }
   QString imagePath() const { return image_path_; }
   QString autosavePath() const { return autosave_path_; }
+  QString scanFingerprint() const { return scan_fingerprint_; }
+  /// The line that shows the active scan, camera, image, mask and pairs file.
+  QString activeInputsText() const;
+  QUndoStack* undoStack() const { return undo_; }
+  /// The window's title is `title` (e.g. the cloud's name), then " - <image file>" while an
+  /// image is open, then " [cloud closed]" after setSceneClosed.
+  void setTitleBase(const QString& title);
+  /// Reopens the camera file, image (with its pairs) and mask last used with this scan (same
+  /// ScanFingerprint; QSettings group "qScanCam/scans/<fingerprint>"), says what it reopened,
+  /// and from now on remembers them there whenever they change. Call after setScan. Returns
+  /// how many files it reopened.
+  int reopenRememberedInputs();
+  /// The host's cloud is gone: the window says so (title, status, that line) and stops asking
+  /// the host to act (apply / restore colours, 3D picking are disabled for good).
+  void setSceneClosed(const QString& message);
+  bool sceneClosed() const { return scene_closed_; }
   /// The last solve (or loaded calibration).
   const std::optional<Calibration>& calibration() const { return calibration_; }
   std::optional<Eigen::Isometry3d> pose() const;
@@ -170,6 +215,7 @@ class CalibrationWindow : public QMainWindow {
 
  protected:
   void closeEvent(QCloseEvent* event) override;
+  bool eventFilter(QObject* watched, QEvent* event) override;
 
  private:
   void buildUi();
@@ -186,6 +232,17 @@ class CalibrationWindow : public QMainWindow {
   void restoreIncompletePair(const QString& path);
   bool writePairsFile(const QString& path);
   void setStatus(const QString& text, int level);
+  /// Whose keys a widget's are: this window's (itself, its children, its docks), a popup of
+  /// it (a menu: no host shortcut, but the popup handles its keys), or not ours.
+  enum class KeyTarget { kNone, kWindow, kPopup };
+  KeyTarget keyTarget(QWidget* w) const;
+  /// A key pressed in the window: its own shortcuts, Delete, Esc. True when used.
+  bool handleKey(QKeyEvent* event);
+  void refreshActiveInputs();
+  /// Reloads the pairs file of the current image and scan, if any; returns the message part.
+  QString reloadSidecarPairs();
+  /// Warns about pairs that do not fit the scan (after a load).
+  void reportPairProblems(const QString& source);
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   template <typename F>
   bool guarded(const QString& what, F&& f);
@@ -225,6 +282,11 @@ class CalibrationWindow : public QMainWindow {
   cv::Mat mask_;
   QString mask_path_;
   QString autosave_path_;
+  QString scan_fingerprint_;
+  bool scene_closed_ = false;
+  bool remembering_ = false;
+  QString title_base_;  // inputs are saved per scan (reopenRememberedInputs)
+  QUndoStack* undo_ = nullptr;
   std::optional<Calibration> calibration_;
   QString calibration_source_;
 
@@ -235,7 +297,7 @@ class CalibrationWindow : public QMainWindow {
   std::array<ImageView*, 5> scan_views_{};
   QTextEdit* result_view_ = nullptr;
   QLabel* status_label_ = nullptr;
-  QLabel* autosave_label_ = nullptr;
+  QLabel* active_label_ = nullptr;
   QComboBox* method_combo_ = nullptr;
 
   QAction* act_camera_ = nullptr;
@@ -243,6 +305,8 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_load_pairs_ = nullptr;
   QAction* act_save_pairs_ = nullptr;
   QAction* act_delete_ = nullptr;
+  QAction* act_undo_ = nullptr;
+  QAction* act_redo_ = nullptr;
   QAction* act_calibrate_ = nullptr;
   QAction* act_save_calib_ = nullptr;
   QAction* act_load_calib_ = nullptr;

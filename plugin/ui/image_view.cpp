@@ -7,7 +7,9 @@
 #include <QGraphicsSimpleTextItem>
 #include <QMouseEvent>
 #include <QPainter>
+#include <QResizeEvent>
 #include <QScrollBar>
+#include <QShowEvent>
 #include <QWheelEvent>
 #include <algorithm>
 #include <cmath>
@@ -74,17 +76,26 @@ void ImageView::setImage(const QImage& image) {
   image_ = image;
   pixmap_item_->setPixmap(QPixmap::fromImage(image));
   scene()->setSceneRect(QRectF(0, 0, image.width(), image.height()));
-  if (!fitted_ && !image.isNull()) {
-    fitImage();
-    fitted_ = true;
-  }
+  if (auto_fit_ && !image.isNull()) fitInView(pixmap_item_, Qt::KeepAspectRatio);
   rebuildMarkers();
 }
 
 void ImageView::fitImage() {
+  auto_fit_ = true;
   if (image_.isNull()) return;
   fitInView(pixmap_item_, Qt::KeepAspectRatio);
   rebuildMarkers();
+}
+
+void ImageView::showEvent(QShowEvent* event) {
+  QGraphicsView::showEvent(event);
+  // A view first shown (e.g. a tab opened later) gets its real size only now.
+  if (auto_fit_ && !image_.isNull()) fitImage();
+}
+
+void ImageView::resizeEvent(QResizeEvent* event) {
+  QGraphicsView::resizeEvent(event);
+  if (auto_fit_ && !image_.isNull()) fitImage();
 }
 
 void ImageView::setPlaceholderText(const QString& text) {
@@ -180,6 +191,7 @@ void ImageView::wheelEvent(QWheelEvent* event) {
   // last mouse-move position, not the wheel event's, so anchor by hand).
   const QPoint cursor = event->position().toPoint();
   const QPointF scene_before = mapToScene(cursor);
+  auto_fit_ = false;  // the user's zoom stays
   scale(factor, factor);
   const QPoint moved = mapFromScene(scene_before) - cursor;
   horizontalScrollBar()->setValue(horizontalScrollBar()->value() + moved.x());
@@ -205,6 +217,7 @@ void ImageView::mouseMoveEvent(QMouseEvent* event) {
       setCursor(Qt::ClosedHandCursor);
     }
     if (dragging_) {
+      auto_fit_ = false;
       const QPoint d = event->pos() - last_pos_;
       horizontalScrollBar()->setValue(horizontalScrollBar()->value() - d.x());
       verticalScrollBar()->setValue(verticalScrollBar()->value() - d.y());

@@ -31,8 +31,9 @@ class ImageView : public QGraphicsView {
  public:
   explicit ImageView(QWidget* parent = nullptr);
 
-  /// Shows `image` (replacing any previous one); keeps markers. Fits it to the view
-  /// the first time an image is shown.
+  /// Shows `image` (replacing any previous one); keeps markers. The view keeps the whole
+  /// image fitted (also when it is first shown or resized) until the user zooms or pans;
+  /// fitImage() goes back to that.
   void setImage(const QImage& image);
   const QImage& image() const { return image_; }
   /// Replaces the markers.
@@ -41,8 +42,10 @@ class ImageView : public QGraphicsView {
   void setOverlayPoints(const QVector<QPointF>& px, const QColor& colour);
   int overlayPointCount() const { return overlay_count_; }
   const QVector<Marker>& markers() const { return markers_; }
-  /// Zoom so the whole image is visible.
+  /// Zoom so the whole image is visible, and keep it so on resizes (until the user zooms).
   void fitImage();
+  /// True while the view keeps the image fitted.
+  bool autoFit() const { return auto_fit_; }
   /// Text shown in the middle of the view while it has no image (e.g. what to open).
   void setPlaceholderText(const QString& text);
   /// Current zoom (view pixels per image pixel).
@@ -60,6 +63,8 @@ class ImageView : public QGraphicsView {
   void mouseMoveEvent(QMouseEvent* event) override;
   void mouseReleaseEvent(QMouseEvent* event) override;
   void drawForeground(QPainter* painter, const QRectF& rect) override;
+  void showEvent(QShowEvent* event) override;
+  void resizeEvent(QResizeEvent* event) override;
 
  private:
   void rebuildMarkers();
@@ -71,7 +76,7 @@ class ImageView : public QGraphicsView {
   QVector<Marker> markers_;
   int overlay_count_ = 0;
   QString placeholder_;
-  bool fitted_ = false;
+  bool auto_fit_ = true;
   bool dragging_ = false;
   QPoint press_pos_;
   QPoint last_pos_;

@@ -2,8 +2,12 @@
 
 #include <QBrush>
 #include <QColor>
+#include <QUndoCommand>
+#include <QUndoStack>
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <type_traits>
 
 namespace scancam::ui {
 
@@ -11,9 +15,98 @@ namespace {
 QString Number(double v, int decimals) {
   return std::isfinite(v) ? QString::number(v, 'f', decimals) : QStringLiteral("-");
 }
+
+// One edit of the pairs: the set before and after (pairs are few: copies are cheap and undo
+// restores exactly what was there).
+class PairsEditCommand : public QUndoCommand {
+ public:
+  PairsEditCommand(PairsModel* model, std::vector<EditablePair> before,
+                   std::vector<EditablePair> after, const QString& text)
+      : QUndoCommand(text), model_(model), before_(std::move(before)), after_(std::move(after)) {}
+  void redo() override {
+    if (first_) {  // pushed after the edit was made
+      first_ = false;
+      return;
+    }
+    model_->restoreSnapshot(after_);
+  }
+  void undo() override { model_->restoreSnapshot(before_); }
+
+ private:
+  PairsModel* model_;
+  std::vector<EditablePair> before_, after_;
+  bool first_ = true;
+};
+
+bool SamePairs(const std::vector<EditablePair>& a, const std::vector<EditablePair>& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].image_px != b[i].image_px || a[i].scan_cell != b[i].scan_cell ||
+        a[i].point_m.has_value() != b[i].point_m.has_value() || a[i].label != b[i].label)
+      return false;
+    if (a[i].point_m && *a[i].point_m != *b[i].point_m) return false;
+  }
+  return true;
+}
 }  // namespace
 
 PairsModel::PairsModel(QObject* parent) : QAbstractTableModel(parent) {}
+
+template <typename F>
+auto PairsModel::recorded(const QString& text, F&& f) {
+  std::vector<EditablePair> before;
+  if (undo_) before = pairs_;
+  auto push = [&] {
+    if (undo_ && !SamePairs(before, pairs_))
+      undo_->push(new PairsEditCommand(this, std::move(before), pairs_, text));
+  };
+  if constexpr (std::is_void_v<decltype(f())>) {
+    f();
+    push();
+  } else {
+    auto result = f();
+    push();
+    return result;
+  }
+}
+
+void PairsModel::setScan(std::shared_ptr<const OrderedScan> scan) {
+  scan_ = std::move(scan);
+  if (size() > 0) emit dataChanged(index(0, 0), index(size() - 1, kColumnCount - 1));
+}
+
+QString PairsModel::scanProblem(int row) const {
+  if (!scan_ || row < 0 || row >= size()) return {};
+  const EditablePair& p = pairs_[static_cast<std::size_t>(row)];
+  if (!p.scan_cell) return {};
+  const double r = p.scan_cell->y(), c = p.scan_cell->x();
+  if (!(r >= -0.5 && r <= scan_->rows - 0.5 && c >= -0.5 && c <= scan_->cols - 0.5))
+    return tr("its cell (row %1, col %2) lies outside the scan grid (%3 rows x %4 columns): "
+              "was the file made for another scan, or numbered another way?")
+        .arg(r, 0, 'f', 1)
+        .arg(c, 0, 'f', 1)
+        .arg(scan_->rows)
+        .arg(scan_->cols);
+  if (!p.point_m) return {};
+  const std::optional<Eigen::Vector3d> at_cell = InterpolatePoint(*scan_, r, c);
+  if (!at_cell) return {};  // no return there: the file's x,y,z is used, nothing to compare
+  const double d = (*at_cell - *p.point_m).norm();
+  const double tolerance = std::max(0.1, 0.02 * p.point_m->norm());
+  if (d > tolerance)
+    return tr("its cell (row %1, col %2) holds a laser point %3 m away from its x,y,z (the x,y,z "
+              "is used): was the file made for another scan, or numbered another way?")
+        .arg(r, 0, 'f', 1)
+        .arg(c, 0, 'f', 1)
+        .arg(d, 0, 'f', 2);
+  return {};
+}
+
+std::vector<int> PairsModel::rowsWithScanProblems() const {
+  std::vector<int> rows;
+  for (int i = 0; i < size(); ++i)
+    if (!scanProblem(i).isEmpty()) rows.push_back(i);
+  return rows;
+}
 
 int PairsModel::rowCount(const QModelIndex& parent) const { return parent.isValid() ? 0 : size(); }
 
@@ -32,12 +125,15 @@ QVariant PairsModel::data(const QModelIndex& index, int role) const {
   const EditablePair& p = pairs_[static_cast<std::size_t>(index.row())];
   if (role == Qt::BackgroundRole) {
     if (p.solved && !p.inlier) return QBrush(QColor(255, 150, 150));
+    if (!scanProblem(index.row()).isEmpty()) return QBrush(QColor(255, 190, 110));
     if (!p.complete()) return QBrush(QColor(255, 245, 200));
     return {};
   }
   if (role == Qt::ToolTipRole) {
     if (p.solved && !p.inlier)
       return tr("Flagged as an outlier by the last solve: re-pick or delete this pair");
+    const QString problem = scanProblem(index.row());
+    if (!problem.isEmpty()) return tr("Does not fit the scan: %1").arg(problem);
     if (!p.image_px) return tr("Missing the image point: click on the camera image");
     if (!p.has_scan_half()) return tr("Missing the scan point: click on a scan view");
     return {};
@@ -107,9 +203,12 @@ Qt::ItemFlags PairsModel::flags(const QModelIndex& index) const {
 bool PairsModel::setData(const QModelIndex& index, const QVariant& value, int role) {
   if (!index.isValid() || index.row() >= size() || index.column() != kLabel || role != Qt::EditRole)
     return false;
-  pairs_[static_cast<std::size_t>(index.row())].label = value.toString();
-  emit dataChanged(index, index);
-  emit pairsEdited();
+  if (pairs_[static_cast<std::size_t>(index.row())].label == value.toString()) return true;
+  recorded(tr("Edit the label of pair %1").arg(index.row() + 1), [&] {
+    pairs_[static_cast<std::size_t>(index.row())].label = value.toString();
+    emit dataChanged(index, index);
+    emit pairsEdited();
+  });
   return true;
 }
 
@@ -118,73 +217,103 @@ void PairsModel::rowChanged(int row) {
   emit pairsEdited();
 }
 
+int PairsModel::rowForPick(int selected) {
+  if (selected >= 0 && selected < size()) return selected;
+  if (!pairs_.empty() && !pairs_.back().complete()) return size() - 1;
+  beginInsertRows(QModelIndex(), size(), size());
+  pairs_.emplace_back();
+  endInsertRows();
+  return size() - 1;
+}
+
 int PairsModel::placeImageHalf(const QPointF& px, int selected) {
-  int row = -1;
-  if (selected >= 0 && selected < size()) {
-    row = selected;
-  } else if (!pairs_.empty() && !pairs_.back().complete()) {
-    row = size() - 1;
-  } else {
-    beginInsertRows(QModelIndex(), size(), size());
-    pairs_.emplace_back();
-    endInsertRows();
-    row = size() - 1;
-  }
-  EditablePair& p = pairs_[static_cast<std::size_t>(row)];
-  p.image_px = px;
-  p.solved = false;
-  rowChanged(row);
-  return row;
+  const bool moving = selected >= 0 && selected < size();
+  return recorded(
+      moving ? tr("Move the image point of pair %1").arg(selected + 1) : tr("Pick an image point"),
+      [&] {
+        const int row = rowForPick(selected);
+        EditablePair& p = pairs_[static_cast<std::size_t>(row)];
+        p.image_px = px;
+        p.solved = false;
+        rowChanged(row);
+        return row;
+      });
 }
 
 int PairsModel::placeScanHalf(double scan_row, double scan_col, int selected) {
-  int row = -1;
-  if (selected >= 0 && selected < size()) {
-    row = selected;
-  } else if (!pairs_.empty() && !pairs_.back().complete()) {
-    row = size() - 1;
-  } else {
-    beginInsertRows(QModelIndex(), size(), size());
-    pairs_.emplace_back();
-    endInsertRows();
-    row = size() - 1;
-  }
-  EditablePair& p = pairs_[static_cast<std::size_t>(row)];
-  p.scan_cell = QPointF(scan_col, scan_row);
-  p.point_m.reset();  // the new cell defines the laser point now
-  p.solved = false;
-  rowChanged(row);
-  return row;
+  const bool moving = selected >= 0 && selected < size();
+  return recorded(
+      moving ? tr("Move the scan point of pair %1").arg(selected + 1) : tr("Pick a scan point"),
+      [&] {
+        const int row = rowForPick(selected);
+        EditablePair& p = pairs_[static_cast<std::size_t>(row)];
+        p.scan_cell = QPointF(scan_col, scan_row);
+        p.point_m.reset();  // the new cell defines the laser point now
+        p.solved = false;
+        rowChanged(row);
+        return row;
+      });
 }
 
 void PairsModel::removePair(int row) {
   if (row < 0 || row >= size()) return;
-  beginRemoveRows(QModelIndex(), row, row);
-  pairs_.erase(pairs_.begin() + row);
-  endRemoveRows();
-  // Numbers of the following rows change.
-  if (row < size()) emit dataChanged(index(row, kNumber), index(size() - 1, kNumber));
-  emit pairsEdited();
+  recorded(tr("Delete pair %1").arg(row + 1), [&] {
+    beginRemoveRows(QModelIndex(), row, row);
+    pairs_.erase(pairs_.begin() + row);
+    endRemoveRows();
+    // Numbers of the following rows change.
+    if (row < size()) emit dataChanged(index(row, kNumber), index(size() - 1, kNumber));
+    emit pairsEdited();
+  });
 }
 
 void PairsModel::clear() {
-  beginResetModel();
-  pairs_.clear();
-  endResetModel();
-  emit pairsEdited();
+  recorded(tr("Clear the pairs"), [&] {
+    beginResetModel();
+    pairs_.clear();
+    endResetModel();
+    emit pairsEdited();
+  });
 }
 
+namespace {
+EditablePair FromPointPair(const PointPair& in) {
+  EditablePair p;
+  p.image_px = QPointF(in.image_u, in.image_v);
+  if (in.has_scan_cell()) p.scan_cell = QPointF(in.scan_col, in.scan_row);
+  p.point_m = in.point_m;
+  p.label = QString::fromStdString(in.label);
+  return p;
+}
+}  // namespace
+
 void PairsModel::setPointPairs(const std::vector<PointPair>& pairs) {
+  recorded(tr("Replace the pairs"), [&] {
+    beginResetModel();
+    pairs_.clear();
+    for (const PointPair& in : pairs) pairs_.push_back(FromPointPair(in));
+    endResetModel();
+    emit pairsEdited();
+  });
+}
+
+void PairsModel::appendPointPairs(const std::vector<PointPair>& pairs) {
+  recorded(tr("Append pairs"), [&] {
+    beginResetModel();
+    // Before a half-picked last pair: only the last pair may be incomplete.
+    const auto at = !pairs_.empty() && !pairs_.back().complete() ? pairs_.end() - 1 : pairs_.end();
+    std::vector<EditablePair> added;
+    for (const PointPair& in : pairs) added.push_back(FromPointPair(in));
+    pairs_.insert(at, added.begin(), added.end());
+    endResetModel();
+    emit pairsEdited();
+  });
+}
+
+void PairsModel::restoreSnapshot(const std::vector<EditablePair>& pairs) {
   beginResetModel();
-  pairs_.clear();
-  for (const PointPair& in : pairs) {
-    EditablePair p;
-    p.image_px = QPointF(in.image_u, in.image_v);
-    if (in.has_scan_cell()) p.scan_cell = QPointF(in.scan_col, in.scan_row);
-    p.point_m = in.point_m;
-    p.label = QString::fromStdString(in.label);
-    pairs_.push_back(p);
-  }
+  pairs_ = pairs;
+  for (auto& p : pairs_) p.solved = false;
   endResetModel();
   emit pairsEdited();
 }
@@ -253,10 +382,12 @@ bool PairsModel::restoreIncompletePair(const std::string& line) {
   if (num(2, &a) && num(3, &b)) p.scan_cell = QPointF(b, a);
   if (!p.image_px && !p.scan_cell) return false;
   if (f.size() > 4) p.label = f.mid(4).join(',').trimmed();
-  beginInsertRows(QModelIndex(), size(), size());
-  pairs_.push_back(p);
-  endInsertRows();
-  emit pairsEdited();
+  recorded(tr("Restore the half-picked pair"), [&] {
+    beginInsertRows(QModelIndex(), size(), size());
+    pairs_.push_back(p);
+    endInsertRows();
+    emit pairsEdited();
+  });
   return true;
 }
 

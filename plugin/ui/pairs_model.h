@@ -22,19 +22,30 @@
 // Editing a pair clears its residuals (they belonged to the old position).
 //
 // Columns: #, image u, image v, scan row, scan col, err px, err deg, inlier, label (editable).
-// Rows flagged as outliers by the last solve are drawn with a red background.
+// Rows flagged as outliers by the last solve are drawn with a red background; pairs that do not
+// fit the scan (ScanProblem: a cell outside the grid, or a cell whose laser point is far from
+// the pair's x,y,z) with an orange one and the reason as tooltip.
+//
+// Undo: with an undo stack set (setUndoStack), every edit of the pairs (a placed half, a
+// removal, a label, clear, a set read from a file, an appended set) pushes one command that
+// holds the pairs before and after, so undo / redo restore them exactly (residuals are cleared:
+// they belonged to a solve of other pairs).
 // Pure Qt + core (no CloudCompare).
 #pragma once
 
 #include <Eigen/Core>
 #include <QAbstractTableModel>
 #include <QPointF>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "scancam/io/pairs_csv.h"
+#include "scancam/ordered_scan.h"
 #include "scancam/solve/calibrate.h"
+
+class QUndoStack;
 
 namespace scancam::ui {
 
@@ -71,6 +82,17 @@ class PairsModel : public QAbstractTableModel {
 
   explicit PairsModel(QObject* parent = nullptr);
 
+  /// Edits push undo commands onto `stack` (null: no undo).
+  void setUndoStack(QUndoStack* stack) { undo_ = stack; }
+  /// The scan the cells refer to (for ScanProblem; null: not checked).
+  void setScan(std::shared_ptr<const OrderedScan> scan);
+  /// Why a pair does not fit the scan, in plain words; empty when it fits (or has no scan
+  /// half, or there is no scan). A cell more than half a cell outside the grid, or a cell whose
+  /// laser point lies more than max(0.1 m, 2 % of the range) from the pair's x,y,z.
+  QString scanProblem(int row) const;
+  /// Rows with a ScanProblem.
+  std::vector<int> rowsWithScanProblems() const;
+
   int rowCount(const QModelIndex& parent = QModelIndex()) const override;
   int columnCount(const QModelIndex& parent = QModelIndex()) const override;
   QVariant data(const QModelIndex& index, int role) const override;
@@ -93,6 +115,10 @@ class PairsModel : public QAbstractTableModel {
 
   /// Replaces everything with pairs read from a file (all complete, residuals cleared).
   void setPointPairs(const std::vector<PointPair>& pairs);
+  /// Adds pairs read from a file after the complete ones (a half-picked last pair stays last).
+  void appendPointPairs(const std::vector<PointPair>& pairs);
+  /// Puts back a set of pairs exactly (undo / redo); not itself recorded.
+  void restoreSnapshot(const std::vector<EditablePair>& pairs);
   /// The complete pairs, in table order, for solving or saving; `rows` (optional) receives the
   /// table row of each.
   std::vector<PointPair> completePointPairs(std::vector<int>* rows = nullptr) const;
@@ -113,8 +139,16 @@ class PairsModel : public QAbstractTableModel {
 
  private:
   void rowChanged(int row);
+  /// The row a pick goes to by the picking rule (file comment); appends an empty pair when
+  /// the rule starts a new one.
+  int rowForPick(int selected);
+  /// Runs the edit `f` and records it on the undo stack as `text`.
+  template <typename F>
+  auto recorded(const QString& text, F&& f);
 
   std::vector<EditablePair> pairs_;
+  QUndoStack* undo_ = nullptr;
+  std::shared_ptr<const OrderedScan> scan_;
 };
 
 }  // namespace scancam::ui

@@ -9,14 +9,16 @@
 
 namespace scancam::ui {
 
-RegridDialog::RegridDialog(const QString& cloud_name, double estimated_step_deg, QWidget* parent)
+RegridDialog::RegridDialog(const QString& cloud_name, double estimated_azimuth_step_deg,
+                           double estimated_elevation_step_deg, QWidget* parent)
     : QDialog(parent) {
   setWindowTitle(tr("ScanCam: scan grid"));
   auto* layout = new QVBoxLayout(this);
   auto* info = new QLabel(
       tr("<b>%1</b> has no scan grid and no sensor. ScanCam orders its points on a spherical "
          "grid as seen from the scanner's position; choose that position and the angular "
-         "size of a grid cell (about the scanner's angular resolution).")
+         "size of a grid cell, across (azimuth) and up (elevation): about the scanner's angular "
+         "resolution.")
           .arg(cloud_name.toHtmlEscaped()),
       this);
   info->setWordWrap(true);
@@ -29,21 +31,34 @@ RegridDialog::RegridDialog(const QString& cloud_name, double estimated_step_deg,
   origin_box->addWidget(zero_);
   origin_box->addWidget(centre_);
   form->addRow(tr("Scanner position:"), origin_box);
-  step_ = new QDoubleSpinBox(this);
-  step_->setObjectName("stepSpin");
-  step_->setDecimals(4);
-  step_->setRange(0.001, 10.0);
-  step_->setSingleStep(0.01);
-  step_->setSuffix(tr(" deg"));
-  step_->setValue(estimated_step_deg > 0 ? estimated_step_deg : 0.2);
-  form->addRow(tr("Angular step:"), step_);
+  auto make_step = [this](const char* name, double estimated) {
+    auto* spin = new QDoubleSpinBox(this);
+    spin->setObjectName(name);
+    spin->setDecimals(4);
+    spin->setRange(0.001, 10.0);
+    spin->setSingleStep(0.01);
+    spin->setSuffix(tr(" deg"));
+    spin->setValue(estimated > 0 ? estimated : 0.2);
+    return spin;
+  };
+  azimuth_step_ = make_step("azimuthStepSpin", estimated_azimuth_step_deg);
+  elevation_step_ = make_step("elevationStepSpin", estimated_elevation_step_deg);
+  form->addRow(tr("Azimuth step (columns):"), azimuth_step_);
+  form->addRow(tr("Elevation step (rows):"), elevation_step_);
   layout->addLayout(form);
-  if (estimated_step_deg > 0) {
-    auto* est = new QLabel(
-        tr("Estimated from the cloud (from its origin): %1 deg").arg(estimated_step_deg, 0, 'f', 4),
-        this);
-    layout->addWidget(est);
-  }
+  auto* est = new QLabel(this);
+  est->setObjectName("estimateLabel");
+  est->setWordWrap(true);
+  if (estimated_azimuth_step_deg > 0 && estimated_elevation_step_deg > 0)
+    est->setText(tr("Estimated from the cloud (seen from its origin): azimuth %1 deg, "
+                    "elevation %2 deg")
+                     .arg(estimated_azimuth_step_deg, 0, 'f', 4)
+                     .arg(estimated_elevation_step_deg, 0, 'f', 4));
+  else
+    est->setText(
+        tr("The steps could not be estimated from the cloud: give the scanner's "
+           "angular resolution"));
+  layout->addWidget(est);
   auto* buttons = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel, this);
   connect(buttons, &QDialogButtonBox::accepted, this, &QDialog::accept);
   connect(buttons, &QDialogButtonBox::rejected, this, &QDialog::reject);
@@ -52,6 +67,8 @@ RegridDialog::RegridDialog(const QString& cloud_name, double estimated_step_deg,
 
 bool RegridDialog::useBoxCentre() const { return centre_->isChecked(); }
 
-double RegridDialog::stepDeg() const { return step_->value(); }
+double RegridDialog::azimuthStepDeg() const { return azimuth_step_->value(); }
+
+double RegridDialog::elevationStepDeg() const { return elevation_step_->value(); }
 
 }  // namespace scancam::ui

@@ -1,6 +1,7 @@
 // qScanCam UI: asks how to grid a cloud that has no scan grid and no sensor: the sensor origin
-// (the cloud's (0,0,0) or its bounding-box centre) and the angular cell size (io/regrid.h).
-// Pure Qt.
+// (the cloud's (0,0,0) or its bounding-box centre) and the angular cell size, azimuth and
+// elevation separately (io/regrid.h; a scanner's two steps often differ, e.g. 1 x 0.5 deg, and
+// one step for both would leave every other row or column of cells empty). Pure Qt.
 #pragma once
 
 #include <QDialog>
@@ -13,18 +14,21 @@ namespace scancam::ui {
 class RegridDialog : public QDialog {
   Q_OBJECT
  public:
-  /// `estimated_step_deg`: EstimateAngularStepDeg of the cloud (0 if unknown), shown as the
-  /// default step.
-  RegridDialog(const QString& cloud_name, double estimated_step_deg, QWidget* parent = nullptr);
+  /// `estimated_*_deg`: EstimateAngularStepsDeg of the cloud (0 if unknown), shown and used as
+  /// the defaults.
+  RegridDialog(const QString& cloud_name, double estimated_azimuth_step_deg,
+               double estimated_elevation_step_deg, QWidget* parent = nullptr);
 
   bool useBoxCentre() const;
-  /// Degrees per cell (> 0).
-  double stepDeg() const;
+  /// Degrees per cell (> 0), along azimuth (columns) and elevation (rows).
+  double azimuthStepDeg() const;
+  double elevationStepDeg() const;
 
  private:
   QRadioButton* zero_ = nullptr;
   QRadioButton* centre_ = nullptr;
-  QDoubleSpinBox* step_ = nullptr;
+  QDoubleSpinBox* azimuth_step_ = nullptr;
+  QDoubleSpinBox* elevation_step_ = nullptr;
 };
 
 }  // namespace scancam::ui

@@ -14,7 +14,6 @@
 #include <vector>
 
 #include "scancam/error.h"
-#include "scancam/io/json_util.h"
 #include "scancam/io/pcd.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
@@ -263,21 +262,6 @@ TEST(OutputFile, AWriterThatFailsLeavesThePreviousFile) {
   ExpectNoTemporaries(d);
   WriteFileAtomically(path, std::string("new"));
   EXPECT_EQ(ReadFile(path), "new");
-  ExpectNoTemporaries(d);
-}
-
-// Issue 13: an invalid UTF-8 byte in a label gave an error naming no file and truncated the
-// existing --out file to 0 bytes.
-TEST(OutputFile, JsonThatCannotBeEncodedNamesTheFileAndKeepsTheExistingOne) {
-  const std::string d = test::TempDir();
-  const std::string path = d + "/calib.json";
-  WriteFile(path, "{\"previous\": 1}\n");
-  test::ExpectError(
-      [&] {
-        WriteJsonFile(path, {{"label", std::string("bad \xff byte")}});
-      },
-      {path + ": not written", "UTF-8"});
-  EXPECT_EQ(ReadFile(path), "{\"previous\": 1}\n");
   ExpectNoTemporaries(d);
 }
 

@@ -241,6 +241,43 @@ TEST(Regrid, SphericalRegridRecoversATerrestrialGrid) {
   }
 }
 
+// An anisotropic grid (1 deg in azimuth, 0.5 deg in elevation): one step for both left every
+// other column empty; the separate estimates give a grid with every cell filled.
+TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> range(2.0, 40.0);
+  std::vector<Eigen::Vector3f> pts;
+  for (int r = 0; r <= 60; ++r) {
+    for (int c = 0; c <= 80; ++c) {
+      const double el = (20.0 - 0.5 * r) * kDeg, az = (40.0 - 1.0 * c) * kDeg, rho = range(rng);
+      pts.emplace_back(float(rho * std::cos(el) * std::cos(az)),
+                       float(rho * std::cos(el) * std::sin(az)), float(rho * std::sin(el)));
+    }
+  }
+  std::shuffle(pts.begin(), pts.end(), rng);
+  const AngularSteps steps = EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
+  EXPECT_NEAR(steps.azimuth_deg, 1.0, 1e-3);
+  EXPECT_NEAR(steps.elevation_deg, 0.5, 1e-3);
+  EXPECT_NEAR(EstimateAngularStepDeg(pts, Eigen::Vector3d::Zero()), 0.5, 1e-3);  // the finer
+  RegridOptions o;
+  o.step_deg = steps.azimuth_deg;
+  o.elevation_step_deg = steps.elevation_deg;
+  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  EXPECT_EQ(s.rows, 61);
+  EXPECT_EQ(s.cols, 81);
+  EXPECT_EQ(s.valid_count(), pts.size());
+  // One 0.5 deg step for both: twice the columns, half of them empty.
+  RegridOptions single;
+  single.step_deg = 0.5;
+  const OrderedScan t = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), single);
+  EXPECT_GE(t.cols, 160);
+  EXPECT_LE(t.valid_fraction(), 0.51);
+  // Too few points: nothing to tell.
+  const AngularSteps none = EstimateAngularStepsDeg({pts[0]}, Eigen::Vector3d::Zero());
+  EXPECT_EQ(none.azimuth_deg, 0.0);
+  EXPECT_EQ(none.elevation_deg, 0.0);
+}
+
 TEST(Regrid, FullTurnStartsBehindAndLooksForwardInTheMiddle) {
   std::vector<Eigen::Vector3f> pts;
   for (int c = 0; c < 360; ++c) {

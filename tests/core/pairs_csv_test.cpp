@@ -323,7 +323,7 @@ TEST(JsonUtil, BadPosesAndFilesAreNamed) {
     ReadJsonFile(bad);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("bad.json:3: invalid JSON"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("bad.json:3:14: invalid JSON"), std::string::npos)
         << e.what();
   }
   EXPECT_THROW(ReadJsonFile(TempDir() + "/none.json"), Error);

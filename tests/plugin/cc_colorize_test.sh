@@ -2,7 +2,8 @@
 # Headless end to end: the real CloudCompare (-SILENT, no X server) opens the simulator's PTX,
 # calibrates with -SCANCAM_CALIB from the simulator's pairs, colours the cloud with
 # -SCANCAM_COLORIZE and saves it; the colours are checked against the simulator's truth.
-# Then the error paths: a camera / image size mismatch and a missing option make CloudCompare
+# -AUTO_SAVE ON saves the coloured cloud (and names the file), OFF writes nothing. Then the
+# error paths: a camera / image size mismatch and a missing option make CloudCompare
 # exit 1 with a message naming the problem (and nothing crashes).
 # Usage: cc_colorize_test.sh SCANCAM_CLI PLUGIN.so CHECKER WORKDIR
 set -euo pipefail
@@ -38,6 +39,28 @@ if [ $rc -ne 0 ] || [ ! -s "$work/coloured.ply" ] || [ ! -s "$work/calib.json" ]
 fi
 # Colours right on >= 90 % of the truly visible points also means the calibration is right.
 "$checker" "$work/coloured.ply" "$sim/truth.csv" 0.9 30
+
+echo "== -AUTO_SAVE ON: the coloured cloud is saved beside the input and the file is named"
+ptx_sum=$(md5sum < "$sim/scan.ptx")
+set +e
+out=$(cc -AUTO_SAVE ON -C_EXPORT_FMT PLY -O "$sim/scan.ptx" \
+  -SCANCAM_COLORIZE -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" -CALIB "$work/calib.json" 2>&1)
+rc=$?
+set -e
+written=$(echo "$out" | sed -n 's/.*\[ScanCam\] wrote \(.*\) (-AUTO_SAVE OFF.*/\1/p' | head -1)
+if [ $rc -ne 0 ] || [ -z "$written" ] || [ ! -s "$written" ]; then
+  echo "$out"; echo "FAIL: expected '[ScanCam] wrote FILE' naming a saved file (exit $rc)"; exit 1
+fi
+case "$written" in *SCANCAM_COLORIZED*) ;; *) echo "FAIL: unexpected name $written"; exit 1;; esac
+[ "$(md5sum < "$sim/scan.ptx")" = "$ptx_sum" ] || { echo "FAIL: the input PTX changed"; exit 1; }
+echo "wrote $written"
+echo "== -AUTO_SAVE OFF: nothing written, and it says so"
+before=$(ls "$sim" | wc -l)
+out=$(cc -O "$sim/scan.ptx" \
+  -SCANCAM_COLORIZE -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" -CALIB "$work/calib.json" 2>&1)
+echo "$out" | grep -q "coloured in memory (-AUTO_SAVE OFF)" || {
+  echo "$out"; echo "FAIL: no message about -AUTO_SAVE OFF"; exit 1; }
+[ "$(ls "$sim" | wc -l)" = "$before" ] || { echo "FAIL: a file was written with -AUTO_SAVE OFF"; exit 1; }
 
 echo "== size mismatch: an error, exit 1"
 printf 'P5\n4 3\n255\n%012d' 0 > "$work/small.pgm"

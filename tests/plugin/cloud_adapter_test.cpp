@@ -148,7 +148,7 @@ class CloudAdapterTest : public QObject {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     cloud->removeGrids();
     const CloudScan cs = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(),
-                                                      Eigen::Vector3d::Zero(), 2.0);
+                                                      Eigen::Vector3d::Zero(), 2.0, 0.0);
     const scancam::OrderedScan& s = *cs.scan;
     std::size_t mapped = 0;
     for (std::size_t k = 0; k < s.size(); ++k) {

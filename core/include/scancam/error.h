@@ -7,8 +7,10 @@
 // what is wrong, e.g. "scan.ptx:12: expected 4 numbers, found 3".
 #pragma once
 
+#include <exception>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace scancam {
 
@@ -17,9 +19,23 @@ class Error : public std::runtime_error {
   explicit Error(const std::string& what) : std::runtime_error(what) {}
 };
 
-/// Builds "FILE:WHERE: WHAT" (WHERE may be empty, giving "FILE: WHAT").
+/// `text` made safe for a terminal and a one-line message: control bytes, DEL and bytes that
+/// are not valid UTF-8 become "\xNN" (newlines and tabs become spaces); valid UTF-8 is kept.
+std::string PrintableText(std::string_view text);
+
+/// Offset of the first byte of `text` that is not part of valid UTF-8, or std::string::npos.
+std::size_t FirstInvalidUtf8(std::string_view text);
+
+/// Builds "FILE:WHERE: WHAT" (WHERE may be empty, giving "FILE: WHAT"), through PrintableText:
+/// bytes quoted from a damaged file never reach the terminal raw.
 inline Error FileError(const std::string& file, const std::string& where, const std::string& what) {
-  return Error(file + (where.empty() ? std::string() : ":" + where) + ": " + what);
+  return Error(PrintableText(file + (where.empty() ? std::string() : ":" + where) + ": " + what));
 }
+
+/// One plain line for any exception that reached the top level: scancam::Error as is, library
+/// text reduced to its message (nlohmann's "[json.exception.type_error.316] " prefix, OpenCV's
+/// "OpenCV(4.x) file.cpp:N: error: (-215:Assertion failed) ... in function 'f'" framing),
+/// std::bad_alloc as "out of memory ...", always through PrintableText.
+std::string PlainErrorMessage(const std::exception& e);
 
 }  // namespace scancam

@@ -20,18 +20,56 @@
 //     green low), so a hole can never be mistaken for data.
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 
 namespace scancam {
+
+/// Largest image (and camera image size) ScanCam accepts: per side, and in total (2^28 pixels,
+/// 768 MiB as 8-bit BGR). Bigger files are refused from their header, before any decoding.
+constexpr int kMaxImageSidePx = 100000;
+constexpr long long kMaxImagePixels = 1LL << 28;
+
+/// What an image file's header says, read without decoding the pixels.
+struct ImageFileInfo {
+  std::string format;  ///< "PNG", "JPEG", "TIFF", "BMP", "WebP", "PNM"; "" for other formats
+  int width = 0;       ///< px (0 when format is "")
+  int height = 0;
+};
+
+/// Reads the image size from the header of a PNG (IHDR), JPEG (SOFn), TIFF (first IFD, classic
+/// and BigTIFF), BMP, WebP or PNM file: a few hundred bytes, no pixel is decoded. Throws
+/// FileError naming the file and the byte when the header is damaged; format "" for other
+/// formats.
+ImageFileInfo ReadImageHeader(const std::string& path);
+
+/// Reads an image for ScanCam (cv::imread `flags`), refusing bad input BEFORE decoding:
+///   - formats ReadImageHeader does not know (their size cannot be checked before decoding);
+///   - the size from the header beyond kMaxImageSidePx / kMaxImagePixels;
+///   - `check_size(width, height)`, when given, throws for a size the caller cannot use (e.g.
+///     CheckImageSize against the camera); called with the header's size before decoding and
+///     again with the decoded size;
+///   - a PNG whose chunk structure or CRCs are damaged (truncated, bytes inserted or changed):
+///     "FILE:byte N: PNG chunk 'IDAT' is damaged (CRC mismatch)" instead of libpng's text;
+///   - a JPEG without its end marker after the image data (truncated).
+/// (Before decoding, the header's size with width and height swapped also passes check_size:
+/// cv::imread turns images by their EXIF orientation; the decoded size is checked exactly.)
+/// Decoding errors (also OpenCV's own pixel limit for other formats) become plain FileErrors
+/// naming the file; `what` ("image", "mask") names the role in messages.
+cv::Mat ReadImage(const std::string& path, int flags = cv::IMREAD_COLOR,
+                  const std::string& what = "image",
+                  const std::function<void(int width, int height)>& check_size = {});
 
 /// Writes a CV_32FC1 image as a lossless 32-bit float TIFF (any extension OpenCV maps to
 /// TIFF: .tif, .tiff). Throws scancam::Error naming the file on a wrong type or a failed
 /// write.
 void WriteFloatTiff(const std::string& path, const cv::Mat& image);
 
-/// Reads a one-channel 32-bit float TIFF written by WriteFloatTiff (or any such TIFF).
-/// Throws scancam::Error naming the file when it is missing, unreadable or not 1 x float.
+/// Reads a one-channel 32-bit float TIFF written by WriteFloatTiff (or any such TIFF), through
+/// ReadImage. Throws scancam::Error naming the file when it is missing, unreadable or not
+/// 1 x float.
 cv::Mat ReadFloatTiff(const std::string& path);
 
 /// The p-th percentile (p in [0, 100]) of the finite values of a CV_32FC1 image, by nearest

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <functional>
 #include <iomanip>
+#include <iostream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -14,6 +15,8 @@
 #include <tuple>
 
 #include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/json_util.h"
 #include "scancam/output_file.h"
 
 namespace scancam {
@@ -23,6 +26,15 @@ std::string ReadText(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     throw FileError(path, "", "camera file not found (or not a regular file)");
+  }
+  // Camera files are a few kB (OpenCV's calibration output with every view's points: a few MB).
+  constexpr std::uintmax_t kMaxCameraFileBytes = 64u << 20;
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxCameraFileBytes) {
+    throw FileError(path, "",
+                    "not a camera file: " + std::to_string(size) +
+                        " bytes (camera files are "
+                        "at most a few MB)");
   }
   std::ifstream f(path, std::ios::binary);
   if (!f) throw FileError(path, "", "cannot open camera file for reading");
@@ -96,6 +108,10 @@ class YamlReader {
 
   YNode Parse() {
     if (lines_.empty()) throw FileError(file_, "", "empty YAML document");
+    if (lines_.size() > kMaxLines) {
+      Fail(lines_[kMaxLines].no,
+           "more than " + std::to_string(kMaxLines) + " lines: not a Kalibr / ROS camera file");
+    }
     std::size_t i = 0;
     YNode root = ParseBlock(&i, lines_[0].indent);
     if (i < lines_.size()) {
@@ -156,8 +172,20 @@ class YamlReader {
     return s;
   }
 
+  // Limits that keep a hostile file from exhausting the stack or time.
+  static constexpr std::size_t kMaxLines = 20000;
+  static constexpr int kMaxDepth = 64;
+  struct DepthGuard {
+    DepthGuard(const YamlReader& r, int line) : r_(r) {
+      if (++r_.depth_ > kMaxDepth) r_.Fail(line, "nesting deeper than 64 levels");
+    }
+    ~DepthGuard() { --r_.depth_; }
+    const YamlReader& r_;
+  };
+
   // A block (map or sequence) whose lines have exactly `indent`.
   YNode ParseBlock(std::size_t* i, int indent) {
+    const DepthGuard guard(*this, lines_[*i].no);
     YNode node;
     node.line = lines_[*i].no;
     const bool is_seq = lines_[*i].text == "-" || lines_[*i].text.rfind("- ", 0) == 0;
@@ -266,6 +294,7 @@ class YamlReader {
   }
 
   YNode Flow(const std::string& t, std::size_t* p, int line) {
+    const DepthGuard guard(*this, line);
     SkipSpaces(t, p);
     YNode n;
     n.line = line;
@@ -325,6 +354,7 @@ class YamlReader {
 
   std::string file_;
   std::vector<Line> lines_;
+  mutable int depth_ = 0;
 };
 
 // Field access with errors naming file, line and field.
@@ -414,29 +444,70 @@ void CheckK(const std::string& file, const std::string& where, const std::vector
   }
 }
 
-// Builds a camera, re-throwing model validation errors with the file name.
+// Where a camera's values sit in its file ("camera_matrix", "line 5: camera_matrix.data",
+// "cam0.intrinsics"), so that CameraModel's parameter errors name the key.
+struct Keys {
+  std::string width = "image_width", height = "image_height";
+  std::string matrix = "camera_matrix";  // fx fy cx cy (s)
+  std::string dist = "distortion_coefficients";
+  std::string xi = "xi";
+  std::string pol = "ocam_pol", invpol = "ocam_invpol";
+  std::string centre = "ocam_center_uv", affine = "ocam_affine";
+
+  std::string For(CameraType type, int param) const {
+    if (param == CameraParamError::kWidth) return width;
+    if (param == CameraParamError::kHeight) return height;
+    switch (type) {
+      case CameraType::kPinhole:
+      case CameraType::kFisheye:
+        return param < 4 ? matrix : dist;
+      case CameraType::kOmni:
+        return param < 5 ? matrix : param == 5 ? xi : dist;
+      case CameraType::kOCam:
+        return param < 2 ? centre : param < 5 ? affine : param < OCamModel::kIdxNInv ? pol : invpol;
+      case CameraType::kEquirect:
+        break;
+    }
+    return matrix;
+  }
+};
+
+// Builds a camera of `type`, re-throwing model validation errors with the file name and the
+// key the bad value came from.
 template <typename F>
-CameraModel Build(const std::string& file, const std::string& where, F&& f) {
+CameraModel Build(const std::string& file, CameraType type, const Keys& keys, F&& f) {
   try {
     return f();
+  } catch (const CameraParamError& e) {
+    throw FileError(file, keys.For(type, e.param()), e.what());
   } catch (const Error& e) {
-    throw FileError(file, where, e.what());
+    throw FileError(file, "", e.what());
   }
 }
 
-CameraModel PinholeFromK(const std::string& file, const std::string& where,
-                         const std::vector<double>& K, const std::vector<double>& dist, int w,
-                         int h, const std::string& name) {
-  CheckK(file, where, K, false);
-  return Build(file, where,
+// An image side read from a file as a number: a whole number of pixels in 1..kMaxImageSidePx
+// (checked before any conversion to int, so 1e20 or 2^31 cannot overflow).
+int ImageSide(const std::string& file, const std::string& where, double v,
+              const std::string& what = "image size") {
+  if (!(v >= 1.0 && v <= kMaxImageSidePx) || v != std::floor(v)) {
+    throw FileError(file, where,
+                    what + " must be an integer number of pixels from 1 to " +
+                        std::to_string(kMaxImageSidePx) + ", found " + Num(v));
+  }
+  return static_cast<int>(v);
+}
+
+CameraModel PinholeFromK(const std::string& file, const Keys& keys, const std::vector<double>& K,
+                         const std::vector<double>& dist, int w, int h, const std::string& name) {
+  CheckK(file, keys.matrix, K, false);
+  return Build(file, CameraType::kPinhole, keys,
                [&] { return CameraModel::Pinhole(K[0], K[4], K[2], K[5], dist, w, h, name); });
 }
 
-CameraModel FisheyeFromK(const std::string& file, const std::string& where,
-                         const std::vector<double>& K, const std::vector<double>& d, int w, int h,
-                         const std::string& name) {
-  CheckK(file, where, K, false);
-  return Build(file, where, [&] {
+CameraModel FisheyeFromK(const std::string& file, const Keys& keys, const std::vector<double>& K,
+                         const std::vector<double>& d, int w, int h, const std::string& name) {
+  CheckK(file, keys.matrix, K, false);
+  return Build(file, CameraType::kFisheye, keys, [&] {
     return CameraModel::Fisheye(K[0], K[4], K[2], K[5], {d[0], d[1], d[2], d[3]}, w, h, name);
   });
 }
@@ -535,15 +606,17 @@ CameraModel LoadOCam(const std::string& path, const std::string& text) {
   o.center_v = lines[2].v[0];
   o.center_u = lines[2].v[1];
   o.c = lines[3].v[0], o.d = lines[3].v[1], o.e = lines[3].v[2];
-  const double hh = lines[4].v[0], ww = lines[4].v[1];
-  if (hh != std::floor(hh) || ww != std::floor(ww) || hh < 1 || ww < 1 || hh > 1e6 || ww > 1e6) {
-    throw FileError(
-        path, "line " + std::to_string(lines[4].no),
-        "image size 'height width' must be positive integers, found " + Num(hh) + " " + Num(ww));
-  }
-  return Build(path, "", [&] {
-    return CameraModel::OCam(o, static_cast<int>(ww), static_cast<int>(hh), FileStem(path));
-  });
+  const std::string w_size = "line " + std::to_string(lines[4].no);
+  const int hh = ImageSide(path, w_size, lines[4].v[0], kWhat[4]);
+  const int ww = ImageSide(path, w_size, lines[4].v[1], kWhat[4]);
+  Keys keys;
+  keys.width = keys.height = w_size;
+  keys.pol = "line " + std::to_string(lines[0].no);
+  keys.invpol = "line " + std::to_string(lines[1].no);
+  keys.centre = "line " + std::to_string(lines[2].no);
+  keys.affine = "line " + std::to_string(lines[3].no);
+  return Build(path, CameraType::kOCam, keys,
+               [&] { return CameraModel::OCam(o, ww, hh, FileStem(path)); });
 }
 
 void SaveOCam(const CameraModel& c, std::ostream& out) {
@@ -599,7 +672,7 @@ std::vector<double> FsNumbers(const std::string& path, const cv::FileNode& n,
       throw FileError(path, key, "expected a number, a list or a matrix");
     }
   } catch (const cv::Exception& e) {
-    throw FileError(path, key, std::string("cannot read: ") + e.msg);
+    throw FileError(path, key, "cannot read: " + e.err);
   }
   for (double v : out) {
     if (!std::isfinite(v)) throw FileError(path, key, "non-finite value");
@@ -607,25 +680,48 @@ std::vector<double> FsNumbers(const std::string& path, const cv::FileNode& n,
   return out;
 }
 
-int FsInt(const std::string& path, const cv::FileNode& root, const std::string& key) {
+int FsSide(const std::string& path, const cv::FileNode& root, const std::string& key) {
   const cv::FileNode n = root[key];
   if (n.isNone() || n.empty()) throw FileError(path, key, "missing field");
-  if (!n.isInt()) {
-    if (n.isReal() && static_cast<double>(n) == std::floor(static_cast<double>(n))) {
-      return static_cast<int>(static_cast<double>(n));
-    }
-    throw FileError(path, key, "expected an integer");
-  }
-  return static_cast<int>(n);
+  if (!n.isInt() && !n.isReal()) throw FileError(path, key, "expected a whole number of pixels");
+  return ImageSide(path, key,
+                   n.isInt() ? static_cast<double>(static_cast<int>(n)) : static_cast<double>(n));
 }
 
-CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool json) {
+// OpenCV FileStorage's parse errors as "FILE:line N: what": e.err is "NAME(LINE): what" (the
+// line counted in the text given to OpenCV, which has `added_lines` more at its start).
+// OpenCV FileStorage's parse errors as "FILE:line N: what". OpenCV 4.6 puts "NAME(LINE): what"
+// into the exception's func field (and the function name into err): look in both. LINE counts
+// the text given to OpenCV, which has `added_lines` more at its start.
+[[noreturn]] void ThrowFsError(const std::string& path, const cv::Exception& e, int added_lines) {
+  std::string what = e.err;
+  std::string where;
+  for (const std::string& text : {e.func, e.err}) {
+    const std::size_t close = text.find("): ");
+    const std::size_t open = text.rfind('(', close);
+    if (close == std::string::npos || open == std::string::npos) continue;
+    const std::string num = text.substr(open + 1, close - open - 1);
+    if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos) {
+      continue;
+    }
+    where = "line " + std::to_string(std::max(1, std::stoi(num) - added_lines));
+    what = text.substr(close + 3);
+    break;
+  }
+  const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
+  throw FileError(
+      path, where,
+      std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") + " file: " + what);
+}
+
+CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool json,
+                       int added_lines) {
   cv::FileStorage fs;
   try {
     fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY |
                       (json ? cv::FileStorage::FORMAT_JSON : cv::FileStorage::FORMAT_YAML));
   } catch (const cv::Exception& e) {
-    throw FileError(path, "", std::string("not a valid OpenCV FileStorage file: ") + e.msg);
+    ThrowFsError(path, e, added_lines);
   }
   if (!fs.isOpened()) throw FileError(path, "", "not a valid OpenCV FileStorage file");
   const cv::FileNode root = fs.root();
@@ -646,16 +742,23 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
   std::string name = FileStem(path);
   const cv::FileNode cn = root["camera_name"];
   if (cn.isString() && !static_cast<std::string>(cn).empty()) name = static_cast<std::string>(cn);
-  const int w = FsInt(path, root, "image_width");
-  const int h = FsInt(path, root, "image_height");
+  const int w = FsSide(path, root, "image_width");
+  const int h = FsSide(path, root, "image_height");
+  const Keys keys;
   auto K = [&] {
     std::vector<double> k = FsNumbers(path, root["camera_matrix"], "camera_matrix");
     ExpectCount(path, "camera_matrix", k, {9}, "3x3 matrix");
     return k;
   };
+  // Required for every model that has one: a deleted key must not read as "no distortion"
+  // (cameras without distortion write zeros, as OpenCV's calibration does).
   auto dist = [&]() {
     const cv::FileNode d = root["distortion_coefficients"];
-    if (d.empty() || d.isNone()) return std::vector<double>();
+    if (d.isNone()) {
+      throw FileError(path, "distortion_coefficients",
+                      "missing field (the lens distortion; write zeros for a camera without "
+                      "distortion)");
+    }
     return FsNumbers(path, d, "distortion_coefficients");
   };
   switch (*type) {
@@ -671,12 +774,12 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
         d.resize(8);
       }
       ExpectCount(path, "distortion_coefficients", d, {0, 4, 5, 8}, "k1 k2 p1 p2 [k3 [k4 k5 k6]]");
-      return PinholeFromK(path, "camera_matrix", K(), d, w, h, name);
+      return PinholeFromK(path, keys, K(), d, w, h, name);
     }
     case CameraType::kFisheye: {
       const std::vector<double> d = dist();
       ExpectCount(path, "distortion_coefficients", d, {4}, "k1 k2 k3 k4");
-      return FisheyeFromK(path, "camera_matrix", K(), d, w, h, name);
+      return FisheyeFromK(path, keys, K(), d, w, h, name);
     }
     case CameraType::kOmni: {
       const std::vector<double> k = K();
@@ -685,7 +788,7 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
       ExpectCount(path, "xi", xi, {1}, "xi");
       const std::vector<double> d = dist();
       ExpectCount(path, "distortion_coefficients", d, {4}, "k1 k2 p1 p2");
-      return Build(path, "", [&] {
+      return Build(path, CameraType::kOmni, keys, [&] {
         return CameraModel::Omni(xi[0], k[0], k[4], k[2], k[5], k[1], {d[0], d[1], d[2], d[3]}, w,
                                  h, name);
       });
@@ -700,16 +803,17 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
       const std::vector<double> a = FsNumbers(path, root["ocam_affine"], "ocam_affine");
       ExpectCount(path, "ocam_affine", a, {3}, "c d e");
       o.center_u = c[0], o.center_v = c[1], o.c = a[0], o.d = a[1], o.e = a[2];
-      return Build(path, "", [&] { return CameraModel::OCam(o, w, h, name); });
+      return Build(path, CameraType::kOCam, keys, [&] { return CameraModel::OCam(o, w, h, name); });
     }
     case CameraType::kEquirect: {
       const cv::FileNode kn = root["camera_matrix"];
       if (kn.empty() || kn.isNone()) {
-        return Build(path, "", [&] { return CameraModel::Equirect(w, h, name); });
+        return Build(path, CameraType::kEquirect, keys,
+                     [&] { return CameraModel::Equirect(w, h, name); });
       }
       const std::vector<double> k = K();
       CheckK(path, "camera_matrix", k, false);
-      return Build(path, "", [&] {
+      return Build(path, CameraType::kEquirect, keys, [&] {
         return CameraModel(CameraType::kEquirect, {k[0], k[4], k[2], k[5]}, w, h, name);
       });
     }
@@ -810,40 +914,51 @@ CameraModel LoadKalibr(const std::string& path, const YNode& root, const std::st
   }
   const YFields f(path, *node, cam + ".");
   const std::string model = f.String("camera_model");
-  std::string dmodel = "none";
-  if (f.Opt("distortion_model")) dmodel = f.String("distortion_model");
+  // Kalibr's own reader requires distortion_model and distortion_coeffs: a deleted key is a
+  // damaged file, not "no distortion" (which Kalibr writes as distortion_model: none).
+  if (!f.Opt("distortion_model")) {
+    throw FileError(path, f.Field("distortion_model"),
+                    "missing field (Kalibr writes radtan, equidistant or none)");
+  }
+  const std::string dmodel = f.String("distortion_model");
   const std::vector<double> intr = f.Numbers("intrinsics");
   std::vector<double> dist;
-  if (f.Opt("distortion_coeffs")) dist = f.Numbers("distortion_coeffs");
+  if (f.Opt("distortion_coeffs")) {
+    dist = f.Numbers("distortion_coeffs");
+  } else if (dmodel != "none") {
+    throw FileError(path, f.Field("distortion_coeffs"),
+                    "missing field (the " + dmodel + " distortion coefficients)");
+  }
   const std::vector<double> res = f.Numbers("resolution");
   const std::string w_res = f.Where(f.Req("resolution"), "resolution");
   ExpectCount(path, w_res, res, {2}, "width height");
-  if (res[0] != std::floor(res[0]) || res[1] != std::floor(res[1])) {
-    throw FileError(path, w_res, "resolution must be integers");
-  }
-  const int w = static_cast<int>(res[0]), h = static_cast<int>(res[1]);
+  const int w = ImageSide(path, w_res, res[0]), h = ImageSide(path, w_res, res[1]);
   const std::string w_intr = f.Where(f.Req("intrinsics"), "intrinsics");
   const std::string w_dist = f.Opt("distortion_coeffs")
                                  ? f.Where(*f.Opt("distortion_coeffs"), "distortion_coeffs")
                                  : f.Field("distortion_coeffs");
   const std::string name = cam;
+  Keys keys;
+  keys.width = keys.height = w_res;
+  keys.matrix = keys.xi = w_intr;
+  keys.dist = w_dist;
   if (model == "pinhole") {
     ExpectCount(path, w_intr, intr, {4}, "fu fv pu pv");
     if (dmodel == "radtan") {
       ExpectCount(path, w_dist, dist, {4}, "k1 k2 r1 r2");
-      return Build(path, cam, [&] {
+      return Build(path, CameraType::kPinhole, keys, [&] {
         return CameraModel::Pinhole(intr[0], intr[1], intr[2], intr[3], dist, w, h, name);
       });
     }
     if (dmodel == "equidistant") {
       ExpectCount(path, w_dist, dist, {4}, "k1 k2 k3 k4");
-      return Build(path, cam, [&] {
+      return Build(path, CameraType::kFisheye, keys, [&] {
         return CameraModel::Fisheye(intr[0], intr[1], intr[2], intr[3],
                                     {dist[0], dist[1], dist[2], dist[3]}, w, h, name);
       });
     }
     if (dmodel == "none") {
-      return Build(path, cam, [&] {
+      return Build(path, CameraType::kPinhole, keys, [&] {
         return CameraModel::Pinhole(intr[0], intr[1], intr[2], intr[3], {}, w, h, name);
       });
     }
@@ -852,7 +967,7 @@ CameraModel LoadKalibr(const std::string& path, const YNode& root, const std::st
     if (dmodel == "none") dist.assign(4, 0.0);
     if (dmodel == "radtan" || dmodel == "none") {
       ExpectCount(path, w_dist, dist, {4}, "k1 k2 r1 r2");
-      return Build(path, cam, [&] {
+      return Build(path, CameraType::kOmni, keys, [&] {
         return CameraModel::Omni(intr[0], intr[1], intr[2], intr[3], intr[4], 0.0,
                                  {dist[0], dist[1], dist[2], dist[3]}, w, h, name);
       });
@@ -866,10 +981,18 @@ CameraModel LoadKalibr(const std::string& path, const YNode& root, const std::st
                       " (supported: pinhole + radtan | equidistant | none, omni + radtan | none)");
 }
 
-CameraModel LoadRos(const std::string& path, const YNode& root) {
+// ROS camera_info as camera_calibration_parsers reads it: distortion_coefficients is required;
+// a file without distortion_model is read as plumb_bob (what ROS itself does, for files older
+// than the key), with a warning.
+CameraModel LoadRos(const std::string& path, const YNode& root,
+                    const std::function<void(const std::string&)>& warn) {
   const YFields f(path, root, "");
-  const int w = f.Int("image_width");
-  const int h = f.Int("image_height");
+  auto side = [&](const char* key) {
+    const YNode& n = f.Req(key);
+    return ImageSide(path, f.Where(n, key), f.Number(n, key));
+  };
+  const int w = side("image_width");
+  const int h = side("image_height");
   std::string name = FileStem(path);
   if (f.Opt("camera_name") && f.Opt("camera_name")->kind == YNode::kScalar &&
       !f.Opt("camera_name")->scalar.empty()) {
@@ -881,9 +1004,9 @@ CameraModel LoadRos(const std::string& path, const YNode& root) {
       const YFields m(path, n, key + ".");
       std::vector<double> data = m.Numbers("data");
       if (m.Opt("rows") && m.Opt("cols")) {
-        const std::size_t r = static_cast<std::size_t>(m.Int("rows"));
-        const std::size_t c = static_cast<std::size_t>(m.Int("cols"));
-        if (r * c != data.size()) {
+        const long long r = m.Int("rows");
+        const long long c = m.Int("cols");
+        if (r * c != static_cast<long long>(data.size())) {
           throw FileError(path, m.Where(m.Req("data"), "data"),
                           "rows x cols = " + std::to_string(r * c) + " but data has " +
                               std::to_string(data.size()) + " values");
@@ -896,21 +1019,35 @@ CameraModel LoadRos(const std::string& path, const YNode& root) {
   const auto [K, wk] = matrix("camera_matrix");
   ExpectCount(path, wk, K, {9}, "3x3 matrix");
   std::string dmodel = "plumb_bob";
-  if (f.Opt("distortion_model")) dmodel = f.String("distortion_model");
-  std::vector<double> d;
-  std::string wd = "distortion_coefficients";
-  if (f.Opt("distortion_coefficients")) std::tie(d, wd) = matrix("distortion_coefficients");
+  if (f.Opt("distortion_model")) {
+    dmodel = f.String("distortion_model");
+  } else {
+    warn(path +
+         ": distortion_model is missing: read as plumb_bob, as ROS does for old files; "
+         "add 'distortion_model: equidistant' if this is a fisheye camera");
+  }
+  if (!f.Opt("distortion_coefficients")) {
+    throw FileError(path, "distortion_coefficients",
+                    "missing field (camera_info files always give the lens distortion; zeros "
+                    "for none)");
+  }
+  const auto [d, wd] = matrix("distortion_coefficients");
+  Keys keys;
+  keys.width = f.Where(f.Req("image_width"), "image_width");
+  keys.height = f.Where(f.Req("image_height"), "image_height");
+  keys.matrix = wk;
+  keys.dist = wd;
   if (dmodel == "plumb_bob") {
     ExpectCount(path, wd, d, {0, 4, 5}, "k1 k2 t1 t2 k3");
-    return PinholeFromK(path, wk, K, d, w, h, name);
+    return PinholeFromK(path, keys, K, d, w, h, name);
   }
   if (dmodel == "rational_polynomial") {
     ExpectCount(path, wd, d, {8}, "k1 k2 t1 t2 k3 k4 k5 k6");
-    return PinholeFromK(path, wk, K, d, w, h, name);
+    return PinholeFromK(path, keys, K, d, w, h, name);
   }
   if (dmodel == "equidistant" || dmodel == "fisheye") {
     ExpectCount(path, wd, d, {4}, "k1 k2 k3 k4");
-    return FisheyeFromK(path, wk, K, d, w, h, name);
+    return FisheyeFromK(path, keys, K, d, w, h, name);
   }
   throw FileError(path, f.Where(f.Req("distortion_model"), "distortion_model"),
                   "unsupported distortion_model '" + dmodel +
@@ -999,9 +1136,12 @@ bool IsOpenCalib(const nlohmann::json& j) {
 std::vector<double> JsonNumbers(const std::string& path, const nlohmann::json& j,
                                 const std::string& field) {
   std::vector<double> out;
+  int depth = 0;
   std::function<void(const nlohmann::json&)> rec = [&](const nlohmann::json& e) {
     if (e.is_array()) {
+      if (++depth > 8) throw FileError(path, field, "arrays nested too deeply");
       for (const auto& x : e) rec(x);
+      --depth;
     } else if (e.is_number()) {
       out.push_back(e.get<double>());
     } else {
@@ -1024,10 +1164,8 @@ CameraModel LoadOpenCalib(const std::string& path, const nlohmann::json& j) {
     };
     auto integer = [&](const char* key) {
       const nlohmann::json& n = req(key);
-      if (!n.is_number_integer() || n.get<long long>() <= 0) {
-        throw FileError(path, pre + key, "expected a positive integer");
-      }
-      return static_cast<int>(n.get<long long>());
+      if (!n.is_number()) throw FileError(path, pre + key, "expected a whole number of pixels");
+      return ImageSide(path, pre + key, n.get<double>());
     };
     const int w = integer("img_dist_w");
     const int h = integer("img_dist_h");
@@ -1039,15 +1177,19 @@ CameraModel LoadOpenCalib(const std::string& path, const nlohmann::json& j) {
     };
     const auto [K, fk] = data("cam_K");
     ExpectCount(path, fk, K, {9}, "3x3 matrix");
-    std::vector<double> d;
-    std::string fd = pre + "cam_dist.data";
-    if (p.contains("cam_dist")) std::tie(d, fd) = data("cam_dist");
+    // OpenCalib always writes cam_dist: a deleted key is a damaged file.
+    const auto [d, fd] = data("cam_dist");
     ExpectCount(path, fd, d, {0, 4, 5, 8}, "k1 k2 p1 p2 [k3 [k4 k5 k6]]");
+    Keys keys;
+    keys.width = pre + "img_dist_w";
+    keys.height = pre + "img_dist_h";
+    keys.matrix = fk;
+    keys.dist = fd;
     std::string name = kv.key();
     if (v.contains("sensor_name") && v["sensor_name"].is_string()) {
       name = v["sensor_name"].get<std::string>();
     }
-    return PinholeFromK(path, fk, K, d, w, h, name);
+    return PinholeFromK(path, keys, K, d, w, h, name);
   }
   throw FileError(path, "", "no object with a 'param' field (OpenCalib intrinsic JSON)");
 }
@@ -1099,13 +1241,7 @@ Detected Detect(const std::string& path) {
   const std::size_t f = t.find_first_not_of(" \t\r\n");
   if (f == std::string::npos) throw FileError(path, "", "empty camera file");
   if (t[f] == '{' || t[f] == '[') {
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(t);
-    } catch (const nlohmann::json::parse_error& e) {
-      throw FileError(path, "byte " + std::to_string(e.byte),
-                      std::string("invalid JSON: ") + e.what());
-    }
+    const nlohmann::json j = ParseJsonText(t, path);
     if (!j.is_object()) throw FileError(path, "", "JSON camera files hold one object");
     d.format = IsOpenCalib(j) ? CameraFileFormat::kOpenCalib : CameraFileFormat::kOpenCv;
     return d;
@@ -1155,7 +1291,9 @@ const char* CameraFileFormatName(CameraFileFormat f) {
 
 CameraFileFormat DetectCameraFileFormat(const std::string& path) { return Detect(path).format; }
 
-CameraModel LoadCamera(const std::string& path, const LoadCameraOptions& options) {
+namespace {
+
+CameraModel LoadCameraUnwrapped(const std::string& path, const LoadCameraOptions& options) {
   Detected d = Detect(path);
   const CameraFileFormat fmt =
       options.format == CameraFileFormat::kAuto ? d.format : options.format;
@@ -1169,32 +1307,48 @@ CameraModel LoadCamera(const std::string& path, const LoadCameraOptions& options
       const std::size_t f = t.find_first_not_of(" \t\r\n");
       const bool json = f != std::string::npos && t[f] == '{';
       std::string text = t;
-      if (!json && t.compare(f, 5, "%YAML") != 0) text = "%YAML:1.0\n---\n" + t;
-      cam = LoadOpenCv(path, text, json);
+      int added_lines = 0;
+      if (!json && t.compare(f, 5, "%YAML") != 0) {
+        text = "%YAML:1.0\n---\n" + t;
+        added_lines = 2;
+      }
+      cam = LoadOpenCv(path, text, json, added_lines);
       break;
     }
     case CameraFileFormat::kKalibr:
       cam = LoadKalibr(path, YamlReader(path, t).Parse(), options.kalibr_camera);
       break;
     case CameraFileFormat::kRosCameraInfo:
-      cam = LoadRos(path, YamlReader(path, t).Parse());
+      cam = LoadRos(path, YamlReader(path, t).Parse(), [&](const std::string& w) {
+        if (options.warnings) {
+          options.warnings->push_back(w);
+        } else {
+          std::cerr << "warning: " << PrintableText(w) << "\n";
+        }
+      });
       break;
     case CameraFileFormat::kOpenCalib: {
-      nlohmann::json j;
-      try {
-        j = nlohmann::json::parse(t);
-      } catch (const nlohmann::json::parse_error& e) {
-        throw FileError(path, "byte " + std::to_string(e.byte),
-                        std::string("invalid JSON: ") + e.what());
-      }
-      cam = LoadOpenCalib(path, j);
+      cam = LoadOpenCalib(path, ParseJsonText(t, path));
       break;
     }
     case CameraFileFormat::kAuto:
       throw FileError(path, "", "could not detect the camera file format");
   }
   cam.set_source(path);
+  cam.set_name(PrintableText(cam.name()));  // shown in messages and summaries
   return cam;
+}
+
+}  // namespace
+
+CameraModel LoadCamera(const std::string& path, const LoadCameraOptions& options) {
+  try {
+    return LoadCameraUnwrapped(path, options);
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {  // library exceptions the readers did not foresee
+    throw FileError(path, "", "cannot read the camera file: " + PlainErrorMessage(e));
+  }
 }
 
 void SaveCamera(const CameraModel& camera, const std::string& path, CameraFileFormat format) {

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "scancam/error.h"
+#include "scancam/image_io.h"
 
 namespace scancam {
 namespace {
@@ -135,31 +136,107 @@ OCamParams CameraModel::ocam_params() const {
   return o;
 }
 
+namespace {
+
+// Names of the parameters (models.h layouts), for messages.
+std::string ParamName(CameraType type, int i) {
+  static const char* kPinhole[] = {"fx", "fy", "cx", "cy", "k1", "k2",
+                                   "p1", "p2", "k3", "k4", "k5", "k6"};
+  static const char* kFisheye[] = {"fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4"};
+  static const char* kOmni[] = {"fx", "fy", "cx", "cy", "s", "xi", "k1", "k2", "p1", "p2"};
+  static const char* kEquirect[] = {"fu", "fv", "cu", "cv"};
+  switch (type) {
+    case CameraType::kPinhole:
+      return kPinhole[i];
+    case CameraType::kFisheye:
+      return kFisheye[i];
+    case CameraType::kOmni:
+      return kOmni[i];
+    case CameraType::kEquirect:
+      return kEquirect[i];
+    case CameraType::kOCam:
+      break;
+  }
+  static const char* kOCam[] = {"centre u", "centre v", "affine c",  "affine d",
+                                "affine e", "rho_max",  "pol length"};
+  if (i < OCamModel::kIdxPol) return kOCam[i];
+  if (i < OCamModel::kIdxNInv) return "pol a" + std::to_string(i - OCamModel::kIdxPol);
+  if (i == OCamModel::kIdxNInv) return "invpol length";
+  return "invpol coefficient " + std::to_string(i - OCamModel::kIdxInv);
+}
+
+std::string Num(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
 void CameraModel::Init() {
   const std::string where = name_.empty() ? std::string("camera") : name_;
-  auto fail = [&](const std::string& what) {
-    throw Error(where + " (" + CameraTypeName(type_) + "): " + what);
+  // `param`: index into params_ (or CameraParamError::kWidth / kHeight) the problem is about.
+  auto fail = [&](int param, const std::string& what) {
+    throw CameraParamError(where + " (" + CameraTypeName(type_) + "): " + what, param);
   };
-  if (width_ <= 0 || height_ <= 0) {
-    fail("image size must be positive, got " + std::to_string(width_) + "x" +
-         std::to_string(height_));
+  auto side = [&](int v, int param, const char* what) {
+    if (v <= 0 || v > kMaxImageSidePx) {
+      fail(param, std::string("image ") + what + " " + std::to_string(v) +
+                      " px must be between 1 and " + std::to_string(kMaxImageSidePx) + " px");
+    }
+  };
+  side(width_, CameraParamError::kWidth, "width");
+  side(height_, CameraParamError::kHeight, "height");
+  if (static_cast<long long>(width_) * height_ > kMaxImagePixels) {
+    fail(CameraParamError::kWidth, "image size " + std::to_string(width_) + "x" +
+                                       std::to_string(height_) + " px exceeds the " +
+                                       std::to_string(kMaxImagePixels) + "-pixel limit");
   }
   const int n = NumCameraParams(type_);
   if (static_cast<int>(params_.size()) != n) {
-    fail("expected " + std::to_string(n) + " parameters, got " + std::to_string(params_.size()));
+    throw Error(where + " (" + CameraTypeName(type_) + "): expected " + std::to_string(n) +
+                " parameters, got " + std::to_string(params_.size()));
   }
   for (std::size_t i = 0; i < params_.size(); ++i) {
-    if (!std::isfinite(params_[i])) fail("parameter " + std::to_string(i) + " is not finite");
+    const int k = static_cast<int>(i);
+    if (!std::isfinite(params_[i])) fail(k, ParamName(type_, k) + " is not a finite number");
   }
-  auto positive = [&](int i, const char* what) {
-    if (!(params_[i] > 0.0))
-      fail(std::string(what) + " must be > 0, got " + std::to_string(params_[i]));
+  auto positive = [&](int i) {
+    if (!(params_[i] > 0.0)) {
+      fail(i, ParamName(type_, i) + " = " + Num(params_[i]) + " px must be > 0");
+    }
   };
-
+  const double side_px = std::max(width_, height_);
+  // Focal lengths: a field of view between ~0.06 deg and ~175 deg for a pinhole.
+  auto focal = [&](int i) {
+    const double f = std::abs(params_[i]);
+    if (f < 0.01 * side_px || f > 1000.0 * side_px) {
+      fail(i, ParamName(type_, i) + " = " + Num(params_[i]) + " px is implausible for a " +
+                  std::to_string(width_) + "x" + std::to_string(height_) +
+                  " px image (expected 0.01 to 1000 times the larger side)");
+    }
+  };
+  // A centre (principal point, distortion centre) within the image widened by half its size.
+  auto centre = [&](int iu, int iv) {
+    const double u = params_[iu], v = params_[iv];
+    if (u < -0.5 * width_ || u > 1.5 * width_ || v < -0.5 * height_ || v > 1.5 * height_) {
+      fail(u < -0.5 * width_ || u > 1.5 * width_ ? iu : iv,
+           ParamName(type_, iu) + ", " + ParamName(type_, iv) + " = (" + Num(u) + ", " + Num(v) +
+               ") px lies far outside the " + std::to_string(width_) + "x" +
+               std::to_string(height_) + " px image");
+    }
+  };
+  if (type_ == CameraType::kPinhole || type_ == CameraType::kFisheye ||
+      type_ == CameraType::kOmni) {
+    positive(0);
+    positive(1);
+    focal(0);
+    focal(1);
+    centre(2, 3);
+  }
   switch (type_) {
     case CameraType::kPinhole: {
-      positive(0, "fx");
-      positive(1, "fy");
       const double* k = params_.data() + 4;
       // The radial map g(r) = r * radial(r) must increase and its denominator stay positive.
       auto ok = [k](double r) {
@@ -180,8 +257,6 @@ void CameraModel::Init() {
       break;
     }
     case CameraType::kFisheye: {
-      positive(0, "fx");
-      positive(1, "fy");
       const double* k = params_.data() + 4;
       auto ok = [k](double t) {
         const double t2 = t * t;
@@ -192,10 +267,11 @@ void CameraModel::Init() {
       break;
     }
     case CameraType::kOmni: {
-      positive(0, "fx");
-      positive(1, "fy");
       const double xi = params_[5];
-      if (!(xi >= 0.0)) fail("xi must be >= 0, got " + std::to_string(xi));
+      if (!(xi >= 0.0)) fail(5, "xi = " + Num(xi) + " must be >= 0 (Mei's unified model)");
+      if (std::abs(params_[4]) > std::max(params_[0], params_[1])) {
+        fail(4, "skew s = " + Num(params_[4]) + " px exceeds the focal length");
+      }
       const double w = xi > 1.0 ? 1.0 / xi : xi;
       const double a_w = std::acos(-w);  // Xs.z = -w
       const double k1 = params_[6], k2 = params_[7];
@@ -216,19 +292,24 @@ void CameraModel::Init() {
       const int np = static_cast<int>(params_[OCamModel::kIdxNPol]);
       const int ni = static_cast<int>(params_[OCamModel::kIdxNInv]);
       if (np < 1 || np > OCamModel::kMaxPol || np != params_[OCamModel::kIdxNPol]) {
-        fail("pol length must be 1.." + std::to_string(OCamModel::kMaxPol));
+        fail(OCamModel::kIdxNPol, "pol length must be 1.." + std::to_string(OCamModel::kMaxPol));
       }
       if (ni < 0 || ni > OCamModel::kMaxInv || ni != params_[OCamModel::kIdxNInv]) {
-        fail("invpol length must be 0.." + std::to_string(OCamModel::kMaxInv));
+        fail(OCamModel::kIdxNInv, "invpol length must be 0.." + std::to_string(OCamModel::kMaxInv));
       }
       const double* pol = params_.data() + OCamModel::kIdxPol;
       if (!(pol[0] < 0.0)) {
-        fail("pol[0] (a0) must be negative (OCamCalib's z axis points backwards), got " +
-             std::to_string(pol[0]));
+        fail(OCamModel::kIdxPol,
+             "pol a0 = " + Num(pol[0]) + " must be negative (OCamCalib's z axis points backwards)");
       }
       const double c = params_[2], d = params_[3], e = params_[4];
       const double det = c - d * e;
-      if (!(std::abs(det) > 1e-9)) fail("the affine matrix [c d; e 1] is singular");
+      if (!(std::abs(d) <= 0.5 && std::abs(e) <= 0.5 && det >= 0.5 && det <= 2.0)) {
+        fail(2, "affine c d e = " + Num(c) + " " + Num(d) + " " + Num(e) +
+                    " is far from OCamCalib's near-identity [c d; e 1] (expected |d|, |e| <= 0.5 "
+                    "and c - d e in [0.5, 2])");
+      }
+      centre(0, 1);
       // Sensor radius of the farthest image corner.
       double r_img = 0.0;
       for (double u : {-0.5, width_ - 0.5}) {
@@ -251,10 +332,45 @@ void CameraModel::Init() {
       break;
     }
     case CameraType::kEquirect: {
-      if (!(params_[0] != 0.0) || !(params_[1] != 0.0)) fail("fu and fv must be non-zero");
+      focal(0);
+      focal(1);
+      // Longitudes [-pi, pi] and latitudes [-pi/2, pi/2] must overlap the image.
+      const double fu = std::abs(params_[0]), fv = std::abs(params_[1]);
+      const double cu = params_[2], cv = params_[3];
+      if (cu + M_PI * fu < -0.5 || cu - M_PI * fu > width_ - 0.5) {
+        fail(2, "cu = " + Num(cu) + " px: the panorama's longitudes miss the image");
+      }
+      if (cv + M_PI / 2 * fv < -0.5 || cv - M_PI / 2 * fv > height_ - 0.5) {
+        fail(3, "cv = " + Num(cv) + " px: the panorama's latitudes miss the image");
+      }
       model_max_angle_rad_ = M_PI;
       r_max_ = 0.0;
       break;
+    }
+  }
+
+  // The lens model must be invertible (unproject to a ray within its own fold-back limit) out
+  // to half the distance from its centre to the nearest image edge, in the four directions.
+  if (type_ != CameraType::kEquirect) {
+    const int iu = type_ == CameraType::kOCam ? 0 : 2;
+    const double cu = params_[iu], cv = params_[iu + 1];
+    const double reach =
+        0.5 * std::max(0.0, std::min({cu + 0.5, width_ - 0.5 - cu, cv + 0.5, height_ - 0.5 - cv}));
+    for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      const Eigen::Vector2d px(cu + du * reach, cv + dv * reach);
+      Eigen::Vector3d b;
+      const bool ok = UnprojectT(type_, params_.data(), px.data(), b.data()) && b.allFinite() &&
+                      std::atan2(b.head<2>().norm(), b.z()) <= model_max_angle_rad_ + 1e-9;
+      if (!ok) {
+        const int first = type_ == CameraType::kOCam   ? OCamModel::kIdxPol
+                          : type_ == CameraType::kOmni ? 6
+                                                       : 4;
+        fail(first, std::string(type_ == CameraType::kOCam ? "the polynomial pol"
+                                                           : "the distortion coefficients") +
+                        " fold back (the lens model is not invertible) within " + Num(reach) +
+                        " px of the centre (" + Num(cu) + ", " + Num(cv) +
+                        "), i.e. inside the image: a damaged or mistyped value");
+      }
     }
   }
 

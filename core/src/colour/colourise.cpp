@@ -519,6 +519,7 @@ struct Window {
 struct KernelParams {
   float max_offset = 128.f;
   float edge_fill = 2.f, isolated_fill = 1.f, strip_fill = 1.f, max_splat = 64.f;
+  float ground_fill = 1.f;
   float tol_abs = 0.f, tol_rel = 0.f, tol_slope = 0.f, tol_max = 0.f;
   float backface_sin = 0.f;
   int width = 0, height = 0;
@@ -1225,12 +1226,23 @@ bool ProjectUnbounded(const ViewCtx& vc, const Eigen::Vector3f& p_scan, float* u
 
 template <typename M>
 void ComputeLocal(const ScanCtx& sc, const ViewCtx& vc, const Window& w, int r, int c,
-                  float edge_fill, float isolated_fill, float strip_fill, Local* L) {
+                  float edge_fill, float isolated_fill, float strip_fill, float ground_fill,
+                  Local* L) {
   const OrderedScan& scan = *sc.scan;
   const std::size_t i = scan.index(r, c);
   const RowBuf& row = *w.row[1];
   const float pu = row.u[c], pv_ = row.v[c], pd = row.d[c];
   const float ri = scan.range_m[i];
+  // A cell on the ground (the band of continuity test 3) next to a cell without a return or
+  // also on the ground hides nothing standing on the ground from a camera above it: its box
+  // reaches ground_fill (ColourOptions::ground_edge_fill) towards such a neighbour.
+  auto on_ground = [&](std::size_t j) {
+    const ContParams& cp = sc.cont;
+    const Eigen::Vector3f& P = scan.point_m[j];
+    const float h = cp.gn[0] * P.x() + cp.gn[1] * P.y() + cp.gn[2] * P.z() + cp.goff;
+    return std::abs(h) <= cp.gtol_m + cp.gtol_frac * scan.range_m[j];
+  };
+  const bool ground_cell = sc.cont.ground && on_ground(i);
   const Eigen::Vector3f& bi = scan.beam_dir[i];
   // Normal equations of the least-squares depth gradient: sum D D^T g = sum D dd.
   float sxx = 0.f, sxy = 0.f, syy = 0.f, bx = 0.f, by = 0.f;
@@ -1291,7 +1303,16 @@ void ComputeLocal(const ScanCtx& sc, const ViewCtx& vc, const Window& w, int r, 
     if (!ProjectUnbounded<M>(vc, pvirt, &uv_u, &uv_v)) continue;
     const Eigen::Vector2f dv(uv_u - pu, uv_v - pv_);
     if (dv.cwiseAbs().maxCoeff() > sc.max_offset_px) continue;
-    L->delta[k] = edge_fill * dv;
+    // Towards a cell without a return, or a ground cell as the ground shows it: the higher
+    // beam (along the ground's normal) the farther one. Not where a beam passes under an
+    // object's edge onto something farther (a monitor above a wall, both at the height of a
+    // desk the ground plane may be).
+    bool ground_side = ground_cell && !scan.valid(j);
+    if (ground_cell && !ground_side && kDr[k] != 0 && on_ground(j)) {
+      const Eigen::Vector3f n(sc.cont.gn[0], sc.cont.gn[1], sc.cont.gn[2]);
+      ground_side = (bj.dot(n) > bi.dot(n)) == (scan.range_m[j] > ri);
+    }
+    L->delta[k] = (ground_side ? std::min(edge_fill, ground_fill) : edge_fill) * dv;
     L->has[k] = true;
   }
   {
@@ -1500,7 +1521,8 @@ void SplatPass(const ScanCtx& sc, const ViewCtx& vc, const Job& job, const Progr
           for (int c = c0; c < c1; ++c) {
             if (code[c] != kProjOk) continue;
             if (!fast[c]) {
-              ComputeLocal<M>(sc, vc, win, r, c, kp.edge_fill, kp.isolated_fill, kp.strip_fill, &L);
+              ComputeLocal<M>(sc, vc, win, r, c, kp.edge_fill, kp.isolated_fill, kp.strip_fill,
+                              kp.ground_fill, &L);
               SplatBox(L, row.u[c], row.v[c], kp.max_splat, W, H, bx0 + c, bx1 + c, by0 + c,
                        by1 + c);
               sgx[c] = L.grad.x();
@@ -1823,8 +1845,11 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
   if (views.size() > 64)
     throw Error("Colourise: at most 64 images, got " + std::to_string(views.size()));
   for (const auto& v : views) CheckView(v);
-  if (!(options.edge_fill >= 0.0) || !(options.strip_fill >= 0.0) || !(options.max_splat_px > 0.0))
-    throw Error("Colourise: edge_fill and strip_fill must be >= 0 and max_splat_px > 0");
+  if (!(options.edge_fill >= 0.0) || !(options.strip_fill >= 0.0) ||
+      !(options.ground_edge_fill >= 0.0) || !(options.max_splat_px > 0.0))
+    throw Error(
+        "Colourise: edge_fill, strip_fill and ground_edge_fill must be >= 0 and max_splat_px > "
+        "0");
 
   const std::size_t n = scan.size();
   const bool multi = views.size() > 1;
@@ -1894,6 +1919,7 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
     kp.edge_fill = static_cast<float>(options.edge_fill);
     kp.isolated_fill = static_cast<float>(options.isolated_fill);
     kp.strip_fill = static_cast<float>(options.strip_fill);
+    kp.ground_fill = static_cast<float>(options.ground_edge_fill);
     kp.max_splat = static_cast<float>(options.max_splat_px);
     kp.tol_abs = static_cast<float>(options.depth_tolerance_m);
     kp.tol_rel = static_cast<float>(options.depth_tolerance_fraction);

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "io_util.h"
 #include "scancam/error.h"
 #include "scancam/output_file.h"
 
@@ -32,7 +33,9 @@ nlohmann::json PoseToJson(const Eigen::Isometry3d& T) {
 
 double JsonNumber(const nlohmann::json& j, const std::string& file, const std::string& field) {
   if (!j.is_number()) {
-    throw FileError(file, "", "field '" + field + "' must be a number, found " + j.dump());
+    std::string found = j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    if (found.size() > 40) found = found.substr(0, 40) + "...";
+    throw FileError(file, "", "field '" + field + "' must be a number, found " + found);
   }
   const double v = j.get<double>();
   if (!std::isfinite(v)) throw FileError(file, "", "field '" + field + "' is not finite");
@@ -61,6 +64,12 @@ Eigen::Isometry3d PoseFromJson(const nlohmann::json& j, const std::string& file,
   if ((M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9) {
     throw FileError(file, "", "field '" + field + "': last row must be 0 0 0 1");
   }
+  if (M.topRightCorner<3, 1>().norm() > 1e6) {
+    throw FileError(file, "",
+                    "field '" + field + "': translation of " +
+                        std::to_string(M.topRightCorner<3, 1>().norm()) +
+                        " m is beyond 1000 km (wrong unit or a damaged value)");
+  }
   const Eigen::Matrix3d R = M.topLeftCorner<3, 3>();
   const double ortho = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (ortho > 1e-6 || R.determinant() < 0.0) {
@@ -87,35 +96,44 @@ Eigen::Vector3d Vector3FromJson(const nlohmann::json& j, const std::string& file
           JsonNumber(j[2], file, field + "[2]")};
 }
 
-nlohmann::json ReadJsonFile(const std::string& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw FileError(path, "", "cannot open");
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const std::string text = ss.str();
+nlohmann::json ParseJsonText(const std::string& text, const std::string& path) {
   try {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
-    std::size_t line = 1;
+    // e.byte is 1-based: the byte at which the parser stopped.
     const std::size_t end = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
-    for (std::size_t i = 0; i < end; ++i) line += text[i] == '\n' ? 1 : 0;
+    std::size_t line = 1, column = 1;
+    for (std::size_t i = 0; i < end; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        column = 1;
+      } else {
+        ++column;
+      }
+    }
+    // nlohmann's text: "[json.exception.parse_error.101] parse error at line 3, column 5:
+    // syntax error while parsing value - invalid literal; last read: '...'". Keep the part after
+    // the position (the file, line and column are ours) and make its quoted bytes printable.
     std::string msg = e.what();
-    // nlohmann's message starts with "[json.exception.parse_error.101] parse error at ...".
-    if (auto p = msg.find("] "); p != std::string::npos) msg = msg.substr(p + 2);
-    throw FileError(path, std::to_string(line), "invalid JSON: " + msg);
+    if (auto p = msg.find(": syntax error"); p != std::string::npos) {
+      msg = msg.substr(p + 2);
+    } else if (auto q = msg.find("] "); q != std::string::npos) {
+      msg = msg.substr(q + 2);
+    }
+    throw FileError(path, std::to_string(line) + ":" + std::to_string(column),
+                    "invalid JSON: " + PrintableText(msg));
+  } catch (const nlohmann::json::exception& e) {
+    throw FileError(path, "", "invalid JSON: " + PlainErrorMessage(e));
   }
 }
 
+nlohmann::json ReadJsonFile(const std::string& path) {
+  return ParseJsonText(io_detail::ReadWholeFile(path), path);
+}
+
 void WriteJsonFile(const std::string& path, const nlohmann::json& j) {
-  std::string text;
-  try {
-    text = j.dump(2) + "\n";
-  } catch (const std::exception& e) {
-    // nlohmann refuses strings that are not UTF-8; nothing is written then.
-    std::string msg = e.what();
-    if (auto p = msg.find("] "); p != std::string::npos) msg = msg.substr(p + 2);
-    throw FileError(path, "", "not written: " + msg);
-  }
+  // Text that is not UTF-8 (a label, a path) is written with U+FFFD instead of failing.
+  const std::string text = j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
   WriteFileAtomically(path, text);
 }
 

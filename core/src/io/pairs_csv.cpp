@@ -4,6 +4,7 @@
 #include <array>
 #include <cctype>
 #include <charconv>
+#include <cstdio>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -145,6 +146,21 @@ std::vector<PointPair> ParsePairsCsv(const std::string& text, const std::string&
     }
     const std::string trimmed = Trim(line);
     if (trimmed.empty() || trimmed[0] == '#') continue;
+    // Labels end up in JSON and on screen: the text must be UTF-8, without control characters.
+    std::size_t bad = FirstInvalidUtf8(line);
+    for (std::size_t k = 0; k < line.size() && k < bad; ++k) {
+      const unsigned char c = static_cast<unsigned char>(line[k]);
+      if ((c < 0x20 && c != '\t') || c == 0x7F) bad = k;
+    }
+    if (bad != std::string::npos) {
+      const unsigned char c = static_cast<unsigned char>(line[bad]);
+      char hex[8];
+      std::snprintf(hex, sizeof hex, "0x%02X", c);
+      throw FileError(name, std::to_string(lineno),
+                      "byte " + std::string(hex) + " at column " + std::to_string(bad + 1) +
+                          (c < 0x80 ? " is a control character, not text"
+                                    : " is not UTF-8 text (save the pairs file as UTF-8)"));
+    }
     const std::vector<std::string> fields = SplitCsvLine(line, name, lineno);
     if (!have_header) {
       for (std::size_t k = 0; k < fields.size(); ++k) {

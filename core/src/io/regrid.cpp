@@ -199,12 +199,24 @@ void CheckCells(long long rows, long long cols, const RegridOptions& o, double s
 
 }  // namespace
 
-double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
-                              const Eigen::Vector3d& origin,
-                              const Eigen::Quaterniond& orientation) {
+namespace {
+
+// Samples of the cloud's (azimuth, elevation), in degrees, from bins of typical density (each
+// sample's points sorted by azimuth), and the density estimate h0 of the spacing. Empty
+// samples when the cloud is too sparse to measure.
+struct AngularSamples {
+  std::vector<std::vector<std::pair<double, double>>> bins;
+  double h0 = 0.0;
+  bool usable = false;  ///< at least 2 points
+};
+
+AngularSamples SampleAngles(const std::vector<Eigen::Vector3f>& points,
+                            const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation) {
+  AngularSamples out;
   const Polar p = ToPolar(points, origin, orientation);
   const std::size_t n = p.az.size();
-  if (n < 2) return 0.0;
+  if (n < 2) return out;
+  out.usable = true;
   // 1) Occupied area on a 1-degree histogram gives a first spacing h0 = sqrt(area / n).
   auto bin_of = [&](std::size_t i, double bin_deg, long long nx) {
     const long long bx =
@@ -243,7 +255,8 @@ double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
       if (count[static_cast<std::size_t>(b)] >= 2) occupied.emplace_back(count[b], b);
     }
   }
-  if (occupied.empty()) return h0;  // too sparse to measure: the density estimate
+  out.h0 = h0;
+  if (occupied.empty()) return out;  // too sparse to measure: the density estimate
   // Bins of typical density (the middle half by count), spread over that list.
   std::sort(occupied.begin(), occupied.end());
   const std::size_t lo = occupied.size() / 4, hi = std::max(lo + 1, occupied.size() * 3 / 4);
@@ -258,25 +271,79 @@ double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
     const int s = slot[static_cast<std::size_t>(bins[i])];
     if (s >= 0) samples[static_cast<std::size_t>(s)].emplace_back(p.az[i] / kDeg, p.el[i] / kDeg);
   }
-  std::vector<double> nn;
   for (auto& pts : samples) {
     if (pts.size() > 20000) pts.resize(20000);  // bins are bounded; keep the cost bounded too
     std::sort(pts.begin(), pts.end());
+  }
+  out.bins = std::move(samples);
+  return out;
+}
+
+// Median over the samples of the distance from each point to its nearest neighbour among
+// those with |d_el| <= max_del and |d_az| <= max_daz, measured as `metric`(d_az, d_el);
+// `by_azimuth`: the metric is never smaller than |d_az|.
+template <typename Metric>
+double MedianNeighbourDistance(const AngularSamples& s, double max_daz, double max_del,
+                               bool by_azimuth, Metric metric) {
+  std::vector<double> nn;
+  for (const auto& pts : s.bins) {
     for (std::size_t i = 0; i < pts.size(); ++i) {
       double best = std::numeric_limits<double>::infinity();
-      for (std::size_t j = i + 1; j < pts.size() && pts[j].first - pts[i].first < best; ++j) {
-        const double d = std::hypot(pts[j].first - pts[i].first, pts[j].second - pts[i].second);
+      auto consider = [&](std::size_t j) {
+        const double daz = std::abs(pts[j].first - pts[i].first);
+        const double del = std::abs(pts[j].second - pts[i].second);
+        if (daz > max_daz || del > max_del) return;
+        const double d = metric(daz, del);
         if (d > 0.0) best = std::min(best, d);
-      }
-      for (std::size_t j = i; j-- > 0 && pts[i].first - pts[j].first < best;) {
-        const double d = std::hypot(pts[j].first - pts[i].first, pts[j].second - pts[i].second);
-        if (d > 0.0) best = std::min(best, d);
-      }
+      };
+      // Points are sorted by azimuth: stop where the azimuth gap alone rules a point out (the
+      // metric is at least the gap when `by_azimuth`, else only max_daz bounds it).
+      auto within = [&](std::size_t j) {
+        const double daz = std::abs(pts[j].first - pts[i].first);
+        return daz <= max_daz && (!by_azimuth || daz < best);
+      };
+      for (std::size_t j = i + 1; j < pts.size() && within(j); ++j) consider(j);
+      for (std::size_t j = i; j-- > 0 && within(j);) consider(j);
       if (std::isfinite(best)) nn.push_back(best);
     }
   }
-  if (nn.empty()) return h0;
-  return MedianOf(nn);
+  return nn.empty() ? 0.0 : MedianOf(nn);
+}
+
+}  // namespace
+
+double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
+                              const Eigen::Vector3d& origin,
+                              const Eigen::Quaterniond& orientation) {
+  const AngularSamples s = SampleAngles(points, origin, orientation);
+  if (!s.usable) return 0.0;
+  const double inf = std::numeric_limits<double>::infinity();
+  const double d = MedianNeighbourDistance(s, inf, inf, true,
+                                           [](double a, double e) { return std::hypot(a, e); });
+  return d > 0.0 ? d : s.h0;
+}
+
+AngularSteps EstimateAngularStepsDeg(const std::vector<Eigen::Vector3f>& points,
+                                     const Eigen::Vector3d& origin,
+                                     const Eigen::Quaterniond& orientation) {
+  const AngularSamples s = SampleAngles(points, origin, orientation);
+  AngularSteps out;
+  if (!s.usable) return out;
+  const double inf = std::numeric_limits<double>::infinity();
+  const double h = MedianNeighbourDistance(s, inf, inf, true,
+                                           [](double a, double e) { return std::hypot(a, e); });
+  if (!(h > 0.0)) {
+    out.azimuth_deg = out.elevation_deg = s.h0;
+    return out;
+  }
+  // Along a row (same elevation within half the finer step) and along a column.
+  out.azimuth_deg =
+      MedianNeighbourDistance(s, inf, 0.5 * h, true, [](double a, double) { return a; });
+  out.elevation_deg =
+      MedianNeighbourDistance(s, 0.5 * h, inf, false, [](double, double e) { return e; });
+  if (!(out.azimuth_deg > 0.0)) out.azimuth_deg = h;
+  if (!(out.elevation_deg > 0.0)) out.elevation_deg = h;
+  return out;
 }
 
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,

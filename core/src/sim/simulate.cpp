@@ -314,6 +314,20 @@ Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress
   }
   sim.camera = PresetCamera(o.camera);
   sim.mask = PresetMask(o.camera);
+  if (o.image_circle_px > 0.0) {
+    // A lens whose image circle ends inside the image: black beyond it.
+    const std::vector<double>& prm = sim.camera.params();
+    const bool ocam = sim.camera.type() == CameraType::kOCam;
+    if (!sim.mask.enabled) {
+      sim.mask.enabled = true;
+      sim.mask.centre_u = ocam ? prm[0] : prm[2];
+      sim.mask.centre_v = ocam ? prm[1] : prm[3];
+      sim.mask.inner_radius_px = 0.0;
+    }
+    sim.mask.outer_radius_px = std::min(sim.mask.outer_radius_px, o.image_circle_px);
+  } else if (!(o.image_circle_px == 0.0)) {
+    throw Error("simulate: --image-circle-px must be > 0");
+  }
   sim.T_cam_scan = o.T_cam_scan ? *o.T_cam_scan : PresetTCamScan(o.camera);
   const Eigen::Vector3d pos = o.scanner_position_m
                                   ? *o.scanner_position_m
@@ -455,10 +469,12 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
   WritePng((d / "image.png").string(), sim.image);
   if (sim.camera.type() == CameraType::kOCam) {
     SaveCamera(sim.camera, (d / "camera.txt").string(), CameraFileFormat::kOCamCalib);
-    WritePng((d / "mask.png").string(),
-             MaskImage(sim.mask, sim.camera.width(), sim.camera.height()));
   } else {
     SaveCamera(sim.camera, (d / "camera.yaml").string(), CameraFileFormat::kOpenCv);
+  }
+  if (sim.mask.enabled) {
+    WritePng((d / "mask.png").string(),
+             MaskImage(sim.mask, sim.camera.width(), sim.camera.height()));
   }
   WritePairsCsv((d / "pairs.csv").string(), sim.pairs);
   progress(0.3, "writing files");
@@ -532,6 +548,7 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
     img["file"] = "image.png";
     img["supersample"] = o.supersample > 0 ? o.supersample : PresetSupersample(o.camera);
     img["noise_sigma"] = o.image_noise_sigma;
+    if (o.image_circle_px > 0.0) img["image_circle_px"] = o.image_circle_px;
     img["true_colour"] =
         "albedo (texture, bilinear) times shading ambient + (1 - ambient)(0.5 + 0.5 n.l), one "
         "point light, no shadows, view-independent; pixels average it over their area";

@@ -424,7 +424,9 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   if (!T0) {
     throw Error(options.pairs_source + ": the " + options.method +
                 " solver found no pose consistent with at least 4 pairs; check the pairs "
-                "(a mirrored or swapped pick?) or raise the threshold");
+                "(a mirrored or swapped pick?), the camera file" +
+                (camera.source().empty() ? std::string() : " " + camera.source()) +
+                " (image size, focal length, principal point) or raise the threshold");
   }
   cal.T_cam_scan = *T0;
   if (options.refine) {

@@ -20,9 +20,16 @@
 //     object whose "param" has img_dist_w, img_dist_h, cam_K.data (3x3), cam_dist.data
 //     (k1 k2 p1 p2 [k3]).
 // Every error throws scancam::Error naming the file, the field (or line) and what is wrong.
+// Strict where the format's own tools are: a deleted distortion key (OpenCV / Kalibr /
+// OpenCalib / ROS distortion_coefficients) is an error, not "no distortion"; ROS files without
+// distortion_model are read as plumb_bob with a warning (camera_calibration_parsers does the
+// same for old files). Every value is range-checked (see CameraModel's constructor: image size
+// <= 100000 px per side, focal lengths, principal point, invertible distortion) and an error
+// names the key the value came from.
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "scancam/camera/camera_model.h"
 #include "scancam/error.h"
@@ -45,6 +52,9 @@ const char* CameraFileFormatName(CameraFileFormat f);
 struct LoadCameraOptions {
   CameraFileFormat format = CameraFileFormat::kAuto;
   std::string kalibr_camera = "cam0";  ///< which camera of a Kalibr camchain
+  /// Where warnings go ("FILE: what", e.g. a ROS file without distortion_model, read as
+  /// plumb_bob as ROS does). nullptr: printed to std::cerr as "warning: ...".
+  std::vector<std::string>* warnings = nullptr;
 };
 
 /// Reads a camera file (format auto-detected unless options say otherwise). The returned

@@ -43,6 +43,20 @@ namespace scancam {
 
 /// "pinhole", "fisheye", "omni", "ocam", "equirect".
 const char* CameraTypeName(CameraType type);
+
+/// Thrown by CameraModel's constructor for a parameter out of range: which one, so that camera
+/// file readers can name the key it came from. param() is an index into params() (layouts in
+/// models.h), or kWidth / kHeight for the image size.
+class CameraParamError : public Error {
+ public:
+  static constexpr int kWidth = -1;
+  static constexpr int kHeight = -2;
+  CameraParamError(const std::string& what, int param) : Error(what), param_(param) {}
+  int param() const { return param_; }
+
+ private:
+  int param_;
+};
 /// Inverse of CameraTypeName (exact, lower case); std::nullopt when unknown.
 std::optional<CameraType> CameraTypeFromName(const std::string& name);
 
@@ -72,9 +86,21 @@ class CameraModel {
   CameraModel() = default;
 
   /// A camera of `type` with params laid out as in models.h (NumCameraParams(type) values). For
-  /// ocam, params[OCamModel::kIdxRhoMax] is recomputed here. Throws scancam::Error when the size
-  /// is wrong, the image size is not positive, or a parameter is out of range (non-positive or
-  /// non-finite focal length, ocam a0 >= 0, singular affine, ...).
+  /// ocam, params[OCamModel::kIdxRhoMax] is recomputed here. Throws scancam::Error when the
+  /// number of parameters is wrong, and CameraParamError (naming the parameter) when a value is
+  /// out of range. Accepted (anything else is refused, so that a damaged camera file is blamed
+  /// on the file, not later on the pairs or the colours):
+  ///   - image size: 1..kMaxImageSidePx per side, at most kMaxImagePixels (image_io.h);
+  ///   - every parameter finite;
+  ///   - focal lengths (fx, fy; equirect fu, fv) > 0 (equirect: != 0) and between 0.01 and
+  ///     1000 times the larger image side;
+  ///   - principal point / distortion centre within the image widened by half its size on
+  ///     every side; omni skew |s| <= max(fx, fy); Mei xi >= 0;
+  ///   - ocam: a0 < 0, affine [c d; e 1] with |d|, |e| <= 0.5 and c - d e in [0.5, 2];
+  ///   - distortion / polynomials invertible (radially monotone) at least out to half the
+  ///     distance from the principal point to the nearest image edge: a lens model that folds
+  ///     back closer to the centre than that is a damaged or mistyped file;
+  ///   - equirect: the image must show part of the sphere.
   CameraModel(CameraType type, std::vector<double> params, int width, int height,
               std::string name = "");
 

@@ -10,8 +10,10 @@
 //   1. Projection: CameraModel::Project(T_cam_scan * point_m[i]) (the same validity tests as
 //      CameraModel::ProjectBatch). Behind the camera, outside the model's valid field of view,
 //      outside the image or outside the optional image mask (the mask pixel at the rounded
-//      projection is 0) -> kOutOfView for that image. The pinhole model is evaluated in float
-//      (pixel error below 1e-3 px for images up to 10^4 px wide; the other models in double).
+//      projection is 0; without a mask file, callers pass the valid region that
+//      camera/valid_region.h finds: the CLI does) -> kOutOfView for that image. The pinhole
+//      model is evaluated in float (pixel error below 1e-3 px for images up to 10^4 px wide;
+//      the other models in double).
 //   2. Depth d_i = |X_cam| (distance from the camera centre, metres; not the z coordinate,
 //      so wide-angle, fisheye and 360-degree cameras are treated alike).
 //   3. Occlusion (z-buffer in image space). Every projected cell is splatted into a depth
@@ -236,7 +238,8 @@ struct ColourView {
   Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
   cv::Mat image;     ///< CV_8UC3 BGR (OpenCV order), camera.width() x camera.height()
   cv::Mat mask;      ///< optional CV_8UC1 of the same size: 0 = not usable (e.g. outside a
-                     ///< catadioptric mirror); empty = every pixel usable
+                     ///< catadioptric mirror); empty = every pixel usable. Without a mask
+                     ///< file, FindValidRegion (camera/valid_region.h) gives one.
   std::string name;  ///< for messages: usually the image file
 };
 
@@ -278,6 +281,17 @@ struct ColourOptions {
   /// lidar are such strips too and then hide the ground behind them (road-pinhole scan: 2
   /// marks 7 % more of the points in view occluded), hence the default 1.
   double strip_fill = 1.0;
+  /// edge_fill for a cell on the ground (within the band of ContinuityOptions test 3, when a
+  /// ground plane is used) towards a neighbour without a return, or towards a ground neighbour
+  /// on its higher beam (along the ground's normal) that is farther, or on its lower beam that
+  /// is nearer (as ground seen from above lies; not where a beam passes under an object's edge
+  /// onto something farther). The ground hides nothing standing on it from a camera above it,
+  /// and its splats, reaching the next ring with a depth extrapolated linearly in the image,
+  /// made farther ground behind holes in the rings look hidden. 1 = midpoints. Ground cells in
+  /// clear view marked occluded (colour/ground_view.h), 2 -> 1: road-pinhole 73 -> 8 of 6309
+  /// (at 17-29 m 13 -> 0 of 3028), road2-pinhole 139 -> 38 of 3664 (93 -> 14 of 1531); the
+  /// simulated presets' hidden cells that take a colour unchanged (tools/colour_study.cpp).
+  double ground_edge_fill = 1.0;
   double max_splat_px = 64.0;  ///< half-size limit of a splat box, pixels
   /// The depth test covers the bilinear footprint: besides the cell's nearest pixel, every
   /// other pixel of the four its colour is interpolated from with a bilinear weight of at

@@ -22,7 +22,8 @@ nlohmann::json PoseToJson(const Eigen::Isometry3d& T);
 
 /// Reads a 4x4 (nested rows or flat 16, row-major) rigid transform from `j`. `file` and `field`
 /// name the place for error messages. Throws when the value is not 4x4 numbers, the last row is
-/// not (0 0 0 1), or the rotation block is not a rotation (|R^T R - I| > 1e-6, det < 0).
+/// not (0 0 0 1), the rotation block is not a rotation (|R^T R - I| > 1e-6, det < 0) or the
+/// translation is beyond 1000 km.
 Eigen::Isometry3d PoseFromJson(const nlohmann::json& j, const std::string& file,
                                const std::string& field);
 
@@ -32,9 +33,13 @@ nlohmann::json Vector3ToJson(const Eigen::Vector3d& v);
 Eigen::Vector3d Vector3FromJson(const nlohmann::json& j, const std::string& file,
                                 const std::string& field);
 
-/// Parses a whole JSON file. Throws "FILE:LINE: ..." on a syntax error, "FILE: cannot open".
+/// Parses JSON text read from `path`. Throws "FILE:LINE:COLUMN: invalid JSON: what" (no raw
+/// library text, non-printable bytes escaped) on a syntax error.
+nlohmann::json ParseJsonText(const std::string& text, const std::string& path);
+/// Parses a whole JSON file (ParseJsonText). Throws "FILE: ..." when it cannot be read.
 nlohmann::json ReadJsonFile(const std::string& path);
-/// Writes `j` pretty-printed (2-space indent, trailing newline). Throws when it cannot write.
+/// Writes `j` pretty-printed (2-space indent, trailing newline); strings that are not valid UTF-8
+/// get U+FFFD for their bad bytes. Throws when it cannot write.
 void WriteJsonFile(const std::string& path, const nlohmann::json& j);
 
 /// Member `key` of object `j`, or throws "FILE: field 'PARENT.key' is missing".

@@ -61,7 +61,8 @@ struct PointPair {
   bool marked_wrong() const;
 };
 
-/// Reads a pairs file. Throws scancam::Error "FILE:LINE: what" on bad input.
+/// Reads a pairs file (UTF-8 text; a byte that is not UTF-8 is an error naming line and column).
+/// Throws scancam::Error "FILE:LINE: what" on bad input.
 std::vector<PointPair> ReadPairsCsv(const std::string& path);
 /// Same, from text; `name` stands for the file in error messages.
 std::vector<PointPair> ParsePairsCsv(const std::string& text, const std::string& name);

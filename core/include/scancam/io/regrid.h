@@ -81,4 +81,18 @@ double EstimateAngularStepDeg(
     const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
     const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
 
+/// Angular steps of a grid, degrees.
+struct AngularSteps {
+  double azimuth_deg = 0.0;
+  double elevation_deg = 0.0;
+};
+
+/// The azimuth and elevation steps separately (an anisotropic grid, e.g. 1 deg x 0.5 deg):
+/// the median spacing to the nearest neighbour in the same row (elevation within half the
+/// finer step) and in the same column (azimuth within half the finer step), on the samples
+/// EstimateAngularStepDeg uses. Both 0 when it cannot tell (fewer than 2 usable points).
+AngularSteps EstimateAngularStepsDeg(
+    const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
+    const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
+
 }  // namespace scancam

@@ -27,7 +27,8 @@
 //   image.png          the rendered image, 8-bit colour
 //   camera.txt         omni: OCamCalib calib_results.txt
 //   camera.yaml        other presets: the project's native OpenCV YAML (camera/camera_io.h)
-//   mask.png           omni only: 255 where the image shows the scene (mirror annulus)
+//   mask.png           omni, or with image_circle_px: 255 where the image shows the scene
+//                      (mirror annulus, image circle)
 //   ground_truth.json  T_cam_scan (4x4 row-major), rotation_rpy_deg (rotation_rpy.h),
 //                      translation_m, camera_centre_in_scan_m, T_world_scan, T_world_cam, for
 //                      omni the rig in OCamCalib's frame (ocamcalib_frame), camera / image /
@@ -80,6 +81,12 @@ struct SimulateOptions {
   /// Scanner in the room; position default (3.0, 2.4, h), h = 1.1 m (rotating) or 1.7 m (lidar).
   std::optional<Eigen::Vector3d> scanner_position_m;
   double scanner_yaw_deg = 55.0;  ///< scanner x axis, counter-clockwise from east
+
+  /// > 0: the lens' image circle ends this many pixels from the principal point (the distortion
+  /// centre for omni): the image is black beyond it (rendered and in the truth's visibility, as
+  /// outside a mirror), e.g. a fisheye whose lens shows less than its model projects. It enables
+  /// the mask (mask.png) for every preset; with omni, the smaller of it and the mirror rim.
+  double image_circle_px = 0.0;
 
   int supersample = 0;  ///< n x n rays per pixel; 0: PresetSupersample(camera)
   double image_noise_sigma = 1.0;

@@ -1,0 +1,59 @@
+#include "valid_region_options.h"
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "scancam/camera/camera_io.h"
+#include "scancam/camera/valid_region.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/output_file.h"
+
+namespace scancam::cli {
+
+std::vector<OptionSpec> ValidRegionOptionSpecs() {
+  return {
+      {"--no-auto-mask", "",
+       "Without --mask, use every pixel the camera model projects to (default: find the valid "
+       "region: the model's domain, the dark border around a fisheye's image circle or a "
+       "mirror's rim, a catadioptric camera's central blind spot)."},
+      {"--valid-region-out", "X.png",
+       "Write the valid image region in use (255 valid, 0 not; the --mask when given). "
+       "Several images: _1, _2, ... before the extension."},
+      {"--max-view-angle-deg", "DEG",
+       "The lens' calibrated field of view: pixels whose ray is more than DEG from the optical "
+       "axis are not used (automatic region only)."},
+  };
+}
+
+cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
+                          const std::string& mask_path, std::string* how) {
+  if (!mask_path.empty()) {
+    cv::Mat mask = ReadImage(mask_path, cv::IMREAD_GRAYSCALE, "mask",
+                             [&](int w, int h) { CheckImageSize(camera, w, h, mask_path); });
+    if (how) *how = "mask file " + mask_path;
+    return mask;
+  }
+  if (args.has("--no-auto-mask")) {
+    if (how) *how = "every pixel (--no-auto-mask)";
+    return {};
+  }
+  ValidRegionOptions o;
+  o.max_angle_deg = args.get_double("--max-view-angle-deg", 0.0);
+  if (!(o.max_angle_deg >= 0.0 && o.max_angle_deg <= 180.0))
+    throw Error("option --max-view-angle-deg: must be in (0, 180]");
+  const ValidRegion r = FindValidRegion(camera, image, o);
+  if (how) *how = "automatic: " + r.Describe() + (image.empty() ? " (no image: model only)" : "");
+  return r.mask;
+}
+
+void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera,
+                      const std::vector<std::string>& inputs) {
+  std::vector<NamedPath> named;
+  for (const std::string& in : inputs) named.push_back({"input", in});
+  CheckOutputs({{"--valid-region-out", path}}, named);
+  WritePng(path, region.empty() ? cv::Mat(camera.height(), camera.width(), CV_8UC1, cv::Scalar(255))
+                                : region);
+}
+
+}  // namespace scancam::cli

@@ -1,0 +1,30 @@
+// scancam CLI: the valid image region options shared by colorize and calibrate: a mask file
+// given with --mask wins; otherwise the region is found automatically (camera/valid_region.h)
+// unless --no-auto-mask; --valid-region-out writes the region in use.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "command.h"
+#include "scancam/camera/camera_model.h"
+
+namespace scancam::cli {
+
+/// --no-auto-mask, --valid-region-out, --max-view-angle-deg.
+std::vector<OptionSpec> ValidRegionOptionSpecs();
+
+/// The region one image is used with: the user's mask (read from mask_path, checked against the
+/// camera's size, errors naming the file), else FindValidRegion(camera, image) unless
+/// --no-auto-mask (then empty: every pixel usable). `image` may be empty (calibrate without
+/// --image: the model's domain only). *how says which, in one line for the summary.
+cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
+                          const std::string& mask_path, std::string* how);
+
+/// Writes `region` (or an all-valid image of the camera's size when empty) as an 8-bit PNG to
+/// `path`, refusing a path that names one of `inputs` (the same file, also through links).
+void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera,
+                      const std::vector<std::string>& inputs);
+
+}  // namespace scancam::cli
