@@ -14,6 +14,7 @@
 #include "cc_progress.h"
 #include "cloud_adapter.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/camera/valid_region.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
@@ -151,6 +152,13 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
       view.T_cam_scan = scancam::colour::LoadExtrinsic(o["CALIB"].toStdString());
       if (o.contains("MASK")) {
         view.mask = scancam::ReadImage(o["MASK"].toStdString(), cv::IMREAD_GRAYSCALE, "mask");
+      } else {
+        // No mask file: the valid region found from the camera and the image (never colour
+        // from a fisheye's black border or a mirror's blind spot).
+        const scancam::ValidRegion region = scancam::FindValidRegion(view.camera, view.image);
+        view.mask = region.mask;
+        cmd.print(QString("[ScanCam] no MASK: automatic valid image region, %1")
+                      .arg(QString::fromStdString(region.Describe())));
       }
       scancam::colour::CheckView(view);
       for (CLCloudDesc& desc : cmd.clouds()) {

@@ -37,6 +37,7 @@
 
 #include "scancam/ba_image.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/camera/valid_region.h"
 #include "scancam/colour/export.h"
 #include "scancam/colour/overlay.h"
 #include "scancam/error.h"
@@ -311,6 +312,16 @@ void CalibrationWindow::buildUi() {
     if (on) setStatus(tr("Picking in the 3D view: click a point of the cloud"), kInfo);
     emit pick3dToggled(on);
   });
+  act_auto_region_ = new QAction(tr("Automatic valid region"), this);
+  act_auto_region_->setCheckable(true);
+  act_auto_region_->setChecked(true);
+  act_auto_region_->setToolTip(
+      tr("Without a mask file, find the pixels that show the scene (not a fisheye's black "
+         "border, not a mirror's blind spot); the others are tinted and never colour the scan"));
+  connect(act_auto_region_, &QAction::toggled, this, [this] {
+    refreshValidRegion();
+    if (mask_.empty()) poseChanged();
+  });
   act_overlay_ = new QAction(tr("Show laser edges on the image"), this);
   act_overlay_->setCheckable(true);
   act_overlay_->setChecked(true);
@@ -374,6 +385,7 @@ void CalibrationWindow::buildUi() {
   file->addAction(act_image_);
   file->addAction(act_mask_);
   file->addAction(tr("No mask"), this, [this] { clearMask(); });
+  file->addAction(act_auto_region_);
   file->addSeparator();
   file->addAction(act_load_pairs_);
   file->addAction(act_save_pairs_);
@@ -568,6 +580,7 @@ bool CalibrationWindow::loadCamera(const QString& path) {
     coloured_.reset();
     pairs_->clearResults();
     result_view_->clear();
+    refreshValidRegion();
     refreshOverlay();
     refreshMarkers();
     updateActions();
@@ -647,6 +660,7 @@ bool CalibrationWindow::loadImage(const QString& path) {
       coloured_.reset();
       result_view_->clear();
     }
+    refreshValidRegion();
     refreshMarkers();
     refreshOverlay();
     updateActions();
@@ -977,8 +991,9 @@ bool CalibrationWindow::calibrate() {
     opt.method = method_combo_->currentData().toString().toStdString();
     opt.pairs_source = "pairs";
     // Pick suggestions stay off the mask (a mask of another size is reported elsewhere).
-    if (!mask_.empty() && mask_.cols == camera_.width() && mask_.rows == camera_.height())
-      opt.image_mask = mask_;
+    const cv::Mat& mask = effectiveMask();
+    if (!mask.empty() && mask.cols == camera_.width() && mask.rows == camera_.height())
+      opt.image_mask = mask;
     Calibration cal;
     QApplication::setOverrideCursor(Qt::WaitCursor);
     try {
@@ -1044,7 +1059,7 @@ colour::ColourView CalibrationWindow::colourView() const {
   v.camera = camera_;
   if (calibration_) v.T_cam_scan = calibration_->T_cam_scan;
   v.image = image_bgr_;
-  v.mask = mask_;
+  v.mask = effectiveMask();
   v.name = image_path_.toStdString();
   return v;
 }
@@ -1162,9 +1177,43 @@ void CalibrationWindow::refreshOverlay() {
     }
   }
   camera_view_->setOverlayPoints(px, QColor(0, 255, 80));
-  // VALID IMAGE REGION (issue 13 section 2, not done here): once core computes the valid
-  // region of a fisheye / omni image (a CV_8UC1 mask from camera + image), draw its outline on
-  // camera_view_ at this spot; a mask file still wins when given.
+  // The pixels the mask in use excludes (the mask file, else the automatic valid region) are
+  // tinted: nothing is coloured, suggested or textured from them.
+  const cv::Mat& mask = effectiveMask();
+  QImage shade;
+  if (!mask.empty() && mask.cols == image_bgr_.cols && mask.rows == image_bgr_.rows) {
+    shade = QImage(mask.cols, mask.rows, QImage::Format_ARGB32_Premultiplied);
+    const QRgb out = qPremultiply(qRgba(255, 0, 255, 96));
+    for (int v = 0; v < mask.rows; ++v) {
+      const std::uint8_t* m = mask.ptr<std::uint8_t>(v);
+      auto* line = reinterpret_cast<QRgb*>(shade.scanLine(v));
+      for (int u = 0; u < mask.cols; ++u) line[u] = m[u] ? 0u : out;
+    }
+  }
+  camera_view_->setShade(shade);
+}
+
+void CalibrationWindow::setAutoValidRegion(bool on) { act_auto_region_->setChecked(on); }
+
+void CalibrationWindow::refreshValidRegion() {
+  valid_region_.release();
+  valid_region_text_.clear();
+  if (!act_auto_region_->isChecked() || !camera_.valid() || image_bgr_.empty() ||
+      image_bgr_.cols != camera_.width() ||
+      image_bgr_.rows != camera_.height()) {
+    refreshActiveInputs();
+    return;
+  }
+  try {
+    const ValidRegion r = FindValidRegion(camera_, image_bgr_);
+    valid_region_ = r.mask;
+    valid_region_text_ = QString::fromStdString(r.Describe());
+    if (mask_.empty())
+      reportInfo(tr("Valid image region (used without a mask file): %1").arg(valid_region_text_));
+  } catch (const std::exception& e) {
+    reportInfo(tr("Valid image region not found: %1").arg(e.what()), kWarning);
+  }
+  refreshActiveInputs();
 }
 
 void CalibrationWindow::poseChanged() {
@@ -1300,7 +1349,11 @@ void CalibrationWindow::clearMask() {
   refreshActiveInputs();
   emit inputsChanged();
   poseChanged();
-  reportInfo(tr("No mask: every pixel of the image may colour the scan"));
+  refreshOverlay();
+  reportInfo(valid_region_.empty()
+                 ? tr("No mask: every pixel of the image may colour the scan")
+                 : tr("No mask file: the automatic valid region is used (%1)")
+                       .arg(valid_region_text_));
 }
 
 void CalibrationWindow::chooseExport() {
@@ -1420,7 +1473,10 @@ void CalibrationWindow::refreshActiveInputs() {
   const QString text = tr("Scan: %1   |   Camera: %2   |   Image: %3   |   Mask: %4   |   Pairs "
                           "file: %5")
                            .arg(scan, file(camera_path_, tr("none")), file(image_path_, tr("none")),
-                                file(mask_path_, tr("none")),
+                                mask_path_.isEmpty()
+                                    ? (valid_region_.empty() ? tr("none")
+                                                             : tr("automatic valid region"))
+                                    : QFileInfo(mask_path_).fileName(),
                                 file(autosave_path_, tr("none (not saved until an image is "
                                                         "open)")));
   active_label_->setText(text);
@@ -1434,6 +1490,8 @@ void CalibrationWindow::refreshActiveInputs() {
   if (!camera_path_.isEmpty()) tip << tr("Camera: %1").arg(camera_path_);
   if (!image_path_.isEmpty()) tip << tr("Image: %1").arg(image_path_);
   if (!mask_path_.isEmpty()) tip << tr("Mask: %1").arg(mask_path_);
+  else if (!valid_region_text_.isEmpty())
+    tip << tr("Automatic valid region: %1").arg(valid_region_text_);
   if (!autosave_path_.isEmpty()) tip << tr("Pairs (autosaved): %1").arg(autosave_path_);
   active_label_->setToolTip(tip.join('\n'));
 }

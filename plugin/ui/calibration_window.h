@@ -149,6 +149,14 @@ class CalibrationWindow : public QMainWindow {
   /// The camera image, BGR 8-bit (empty when none).
   const cv::Mat& imageBgr() const { return image_bgr_; }
   const cv::Mat& mask() const { return mask_; }
+  /// The mask in use: the mask file when one is chosen, else the valid region found from the
+  /// camera and the image (camera/valid_region.h; empty while either is missing).
+  const cv::Mat& effectiveMask() const { return mask_.empty() ? valid_region_ : mask_; }
+  /// How the mask in use was found (the mask file, or the automatic region's description).
+  QString validRegionText() const { return valid_region_text_; }
+  /// Switches the automatic valid region on (default) or off (then, without a mask file, every
+  /// pixel the camera model projects to may colour the scan: CLI --no-auto-mask).
+  void setAutoValidRegion(bool on);
   QString maskPath() const { return mask_path_; }
   /// Camera + image + mask + pose as one colour::ColourView (call only when
   /// colouringProblem() is empty).
@@ -223,6 +231,8 @@ class CalibrationWindow : public QMainWindow {
   void refreshMarkers();
   void refreshScanPictures();
   void refreshOverlay();
+  /// Recomputes valid_region_ from the camera and the image (both needed, same size).
+  void refreshValidRegion();
   /// After the pose, camera, image or mask changed: visibility, edge alignment, result text,
   /// overlay, actions.
   void poseChanged();
@@ -281,6 +291,8 @@ class CalibrationWindow : public QMainWindow {
   QString image_path_;
   cv::Mat mask_;
   QString mask_path_;
+  cv::Mat valid_region_;  ///< automatic valid region (used when there is no mask file)
+  QString valid_region_text_;
   QString autosave_path_;
   QString scan_fingerprint_;
   bool scene_closed_ = false;
@@ -314,6 +326,7 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_restore_ = nullptr;
   QAction* act_export_ = nullptr;
   QAction* act_mask_ = nullptr;
+  QAction* act_auto_region_ = nullptr;
   QAction* act_pick3d_ = nullptr;
   QAction* act_overlay_ = nullptr;
   QAction* act_transpose_ = nullptr;

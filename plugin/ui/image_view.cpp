@@ -66,6 +66,8 @@ ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
   setMouseTracking(true);
   pixmap_item_ = scene()->addPixmap(QPixmap());
   pixmap_item_->setTransformationMode(Qt::FastTransformation);
+  shade_item_ = scene()->addPixmap(QPixmap());
+  shade_item_->setZValue(0.5);
   overlay_group_ = scene()->createItemGroup({});
   marker_group_ = scene()->createItemGroup({});
   overlay_group_->setZValue(1);
@@ -132,6 +134,11 @@ QPoint ImageView::pixelToWidget(const QPointF& px) const {
 void ImageView::setMarkers(const QVector<Marker>& markers) {
   markers_ = markers;
   rebuildMarkers();
+}
+
+void ImageView::setShade(const QImage& shade) {
+  shade_ = shade;
+  shade_item_->setPixmap(shade.isNull() ? QPixmap() : QPixmap::fromImage(shade));
 }
 
 void ImageView::setOverlayPoints(const QVector<QPointF>& px, const QColor& colour) {

@@ -41,6 +41,10 @@ class ImageView : public QGraphicsView {
   /// Small dots drawn over the image (e.g. reprojected laser edge points).
   void setOverlayPoints(const QVector<QPointF>& px, const QColor& colour);
   int overlayPointCount() const { return overlay_count_; }
+  /// A semi-transparent image of the same size drawn over the photo (e.g. the pixels outside
+  /// the camera's valid region tinted); a null image removes it.
+  void setShade(const QImage& shade);
+  bool hasShade() const { return !shade_.isNull(); }
   const QVector<Marker>& markers() const { return markers_; }
   /// Zoom so the whole image is visible, and keep it so on resizes (until the user zooms).
   void fitImage();
@@ -73,6 +77,8 @@ class ImageView : public QGraphicsView {
   QGraphicsPixmapItem* pixmap_item_ = nullptr;
   QGraphicsItemGroup* marker_group_ = nullptr;
   QGraphicsItemGroup* overlay_group_ = nullptr;
+  QGraphicsPixmapItem* shade_item_ = nullptr;
+  QImage shade_;
   QVector<Marker> markers_;
   int overlay_count_ = 0;
   QString placeholder_;

@@ -131,13 +131,14 @@ TEST(ValidRegion, FisheyeImageCircleAndPhotoWithoutBorder) {
 }
 
 TEST(ValidRegion, ModelDomainAndLimits) {
-  // Barrel distortion that folds back at r = 1/sqrt(3 * 0.6) = 0.745 (distorted 0.497, 199 px):
+  // Barrel distortion that folds back at r = 1/sqrt(3 * 0.45) = 0.861 (distorted 0.574, 229.5 px;
+  // the camera loader refuses folds closer than half the distance to the nearest edge, 200 px):
   // pixels farther from the principal point cannot be unprojected.
-  const CameraModel cam = CameraModel::Pinhole(400, 400, 500, 400, {-0.6, 0, 0, 0}, 1000, 800);
+  const CameraModel cam = CameraModel::Pinhole(400, 400, 500, 400, {-0.45, 0, 0, 0}, 1000, 800);
   const ValidRegion r = FindValidRegion(cam, cv::Mat());
   std::printf("folding pinhole: %s\n", r.Describe().c_str());
-  EXPECT_EQ(Ring(r.mask, 500, 400, 0, 195).valid, Ring(r.mask, 500, 400, 0, 195).total);
-  EXPECT_EQ(Ring(r.mask, 500, 400, 203, 1e9).valid, 0u);
+  EXPECT_EQ(Ring(r.mask, 500, 400, 0, 225).valid, Ring(r.mask, 500, 400, 0, 225).total);
+  EXPECT_EQ(Ring(r.mask, 500, 400, 233, 1e9).valid, 0u);
   EXPECT_GT(r.outside_domain, 0u);
   // A calibrated field of view: 40 deg off the axis is 400 tan(40 deg) = 336 px here without
   // distortion.

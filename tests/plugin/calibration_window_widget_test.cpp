@@ -25,6 +25,7 @@
 #include <QtTest>
 #include <filesystem>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
 
 #include "scancam/io/pairs_csv.h"
 #include "scancam/sim/simulate.h"
@@ -369,6 +370,9 @@ class CalibrationWindowTest : public QObject {
     QVERIFY((w->pose()->matrix() - Sim().sim.T_cam_scan.matrix()).norm() < 1e-9);
     QVERIFY(w->colouringProblem().isEmpty());
     QVERIFY(w->resultView()->toPlainText().contains("Edge alignment"));
+    w->setAutoValidRegion(false);  // every pixel the model projects to
+    QVERIFY(w->effectiveMask().empty());
+    QVERIFY(!w->cameraView()->hasShade());
     const int without_mask = w->cameraView()->overlayPointCount();
     QVERIFY(without_mask > 200);
     // The omni camera's mask hides the mirror's centre and outside: fewer edge dots.
@@ -397,6 +401,48 @@ class CalibrationWindowTest : public QObject {
     QVERIFY(w->colouringProblem().contains("mask"));
     w->clearMask();
     QVERIFY(w->colouringProblem().isEmpty());
+  }
+
+  // Issue 13: without a mask file, the omni image's black border and the mirror's blind spot
+  // are found and never used; the excluded pixels are tinted; a mask file wins.
+  void validRegionWithoutAMaskFile() {
+    const QString image = FreshImage("valid_region");
+    auto w = MakeWindow(image);
+    QVERIFY(w);
+    QVERIFY(w->loadCalibration(QString::fromStdString(Sim().dir + "/ground_truth.json")));
+    const cv::Mat truth =
+        cv::imread(Sim().dir + "/mask.png", cv::IMREAD_GRAYSCALE);  // the simulator's mask
+    QVERIFY(!truth.empty());
+    const cv::Mat region = w->effectiveMask().clone();
+    QCOMPARE(region.cols, truth.cols);
+    QCOMPARE(region.rows, truth.rows);
+    // Pixels the region calls valid that the lens does not show (border, blind spot): few,
+    // and only at the rim (the true mask's edge).
+    std::size_t valid_outside = 0, truth_invalid = 0;
+    for (int v = 0; v < truth.rows; ++v)
+      for (int u = 0; u < truth.cols; ++u) {
+        if (!truth.at<std::uint8_t>(v, u)) ++truth_invalid;
+        if (region.at<std::uint8_t>(v, u) && !truth.at<std::uint8_t>(v, u)) ++valid_outside;
+      }
+    QVERIFY(truth_invalid > 10000);
+    QVERIFY2(valid_outside < truth_invalid / 50,
+             qPrintable(QString("%1 of %2").arg(valid_outside).arg(truth_invalid)));
+    QVERIFY(w->cameraView()->hasShade());
+    QVERIFY(w->activeInputsText().contains("automatic valid region"));
+    const int with_region = w->cameraView()->overlayPointCount();
+    w->setAutoValidRegion(false);
+    QVERIFY(w->effectiveMask().empty());
+    QVERIFY(!w->cameraView()->hasShade());
+    const int without_region = w->cameraView()->overlayPointCount();
+    QVERIFY2(with_region < without_region,
+             qPrintable(QString("%1 vs %2").arg(with_region).arg(without_region)));
+    w->setAutoValidRegion(true);
+    // A mask file wins over the automatic region.
+    QVERIFY(w->loadMask(QString::fromStdString(Sim().dir + "/mask.png")));
+    QCOMPARE(cv::countNonZero(w->effectiveMask() != truth), 0);
+    QVERIFY(w->activeInputsText().contains("mask.png"));
+    w->clearMask();
+    QCOMPARE(cv::countNonZero(w->effectiveMask() != region), 0);
   }
 
   void sizeMismatchIsAnErrorNotACrash() {
@@ -635,7 +681,7 @@ class CalibrationWindowTest : public QObject {
       QVERIFY(w->mask().empty());
       QVERIFY(w->maskPath().isEmpty());
       QVERIFY(w->statusText().contains("mask.png"));
-      QVERIFY(w->activeInputsText().contains("Mask: none"));
+      QVERIFY(w->activeInputsText().contains("Mask: automatic valid region"));
       QCOMPARE(w->pairsModel()->size(), 0);
     }
     // Another scan with the same image: the first scan's pairs do not come back, and its file
