@@ -3,13 +3,15 @@
 # harness, the executions, executions per second, time and what was found.
 #
 #   scripts/fuzz.sh [--build-dir DIR] [--no-build] [--fresh] [--seconds N | --runs N]
-#                   [--nice] [HARNESS...]
+#                   [--keep-going] [--nice] [HARNESS...]
 #
 #   --build-dir DIR  the clang build (default: build-fuzz); configured and built here unless
 #                    --no-build (SCANCAM_FUZZ_JOBS build jobs, default: all cores)
 #   --seconds N      time per harness (default 60); --runs N: executions per harness instead
 #   --fresh          start each harness's corpus from the seeds alone (CI); by default the
 #                    corpus grown by earlier runs (DIR/fuzz/corpus/HARNESS) is kept
+#   --keep-going     do not stop at the first finding: libFuzzer's fork mode (-fork=1
+#                    -ignore_crashes/timeouts/ooms), every finding saved (for long campaigns)
 #   --nice           run the harnesses under nice -n 10
 #   HARNESS...       default: every harness
 # Seeds: DIR/fuzz/seeds, made by fuzz_make_seeds when missing. Findings (crash-*, timeout-*,
@@ -25,6 +27,7 @@ do_build=1
 fresh=0
 seconds=60
 runs=""
+keep_going=()
 nice_cmd=()
 harnesses=()
 while [ $# -gt 0 ]; do
@@ -34,8 +37,9 @@ while [ $# -gt 0 ]; do
     --fresh) fresh=1; shift ;;
     --seconds) seconds="$2"; runs=""; shift 2 ;;
     --runs) runs="$2"; shift 2 ;;
+    --keep-going) keep_going=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1); shift ;;
     --nice) nice_cmd=(nice -n 10); shift ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
@@ -76,28 +80,34 @@ for h in "${harnesses[@]}"; do
   limit=(-max_total_time="$seconds")
   [ -n "$runs" ] && limit=(-runs="$runs")
   log="$fdir/logs/$h.log"
+  before=$(ls "$art" | wc -l)
   start=$(date +%s.%N)
   rc=0
-  "${nice_cmd[@]}" "$bin" "${limit[@]}" -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-      -artifact_prefix="$art/" "$corpus" "$fdir/seeds/$h" >"$log" 2>&1 || rc=$?
+  "${nice_cmd[@]}" "$bin" "${limit[@]}" "${keep_going[@]}" -timeout=10 -rss_limit_mb=2048 \
+      -print_final_stats=1 -artifact_prefix="$art/" "$corpus" "$fdir/seeds/$h" >"$log" 2>&1 || rc=$?
   end=$(date +%s.%N)
   secs=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.0f", b - a }')
+  # Executions: the final stats (normal mode) or the last status line "#N" (fork mode).
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
-  [ -n "$execs" ] || execs=$(sed -n 's/^#\([0-9]*\).*/\1/p' "$log" | tail -1)
+  [ -n "$execs" ] || execs=$(sed -n 's/^#\([0-9]*\)[: \t].*/\1/p' "$log" | tail -1)
   [ -n "$execs" ] || execs=0
   rate=$(awk -v n="$execs" -v s="$secs" 'BEGIN { printf "%.0f", (s > 0 ? n / s : 0) }')
-  if [ "$rc" = 0 ]; then
+  found=$(( $(ls "$art" | wc -l) - before ))
+  if [ "$rc" = 0 ] && [ "$found" = 0 ]; then
     result="clean"
   else
     status=1
     what=$(grep -m1 -o 'ERROR: [A-Za-z]*: [^(]*\|ERROR: libFuzzer: [a-z-]*\|runtime error: .*\|fuzz harness: .*' "$log" || true)
-    result="FOUND (exit $rc): ${what:-see $log}; reproducer: $(ls -t "$art" | head -1)"
+    result="FOUND $found (exit $rc): ${what:-see $log}; newest: $art/$(ls -t "$art" | head -1)"
   fi
   printf '%-26s %12s %9s %8s  %s\n' "$h" "$execs" "$rate" "$secs" "$result"
   printf '%s\t%s\t%s\t%s\t%s\t%s\n' "$(date -u +%FT%TZ)" "$h" "$execs" "$rate" "$secs" \
       "$result" >>"$fdir/results.tsv"
-  if [ "$rc" != 0 ]; then
-    grep -A25 -m1 'ERROR\|runtime error\|fuzz harness' "$log" | head -40 >&2 || true
+  if [ "$rc" != 0 ] && [ ${#keep_going[@]} = 0 ]; then
+    # The report's first lines and the project's frames (the whole report is in the log).
+    { grep -m1 'ERROR\|runtime error\|fuzz harness' "$log"
+      grep -E '^ *#[0-9]+ .*(/core/|/fuzz/|/usr/include/)' "$log" | head -12
+      grep -m1 '^SUMMARY' "$log"; } >&2 || true
   fi
 done
 exit $status
