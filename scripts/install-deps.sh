@@ -20,6 +20,7 @@ PKGS=(
   libtiff-dev nlohmann-json3-dev libtinygltf-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth openbox xdotool x11-apps imagemagick clang-format
+  clang libclang-rt-14-dev libomp-14-dev
 )
 
 missing=()

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The README's second command: install every dependency, build everything and
 # run every test (the Release build with the plugin, then the core again under
-# AddressSanitizer + UndefinedBehaviorSanitizer).
+# AddressSanitizer + UndefinedBehaviorSanitizer, then the libFuzzer harnesses briefly).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -26,4 +26,14 @@ if [ "${SCANCAM_SKIP_SANITIZERS:-0}" != "1" ]; then
   export LSAN_OPTIONS="suppressions=$root/tests/sanitizers/lsan.supp:print_suppressions=0"
   export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
   (cd build-asan && ctest --output-on-failure -j"$jobs")
+fi
+
+if [ "${SCANCAM_SKIP_FUZZ:-0}" != "1" ]; then
+  echo "== libFuzzer harnesses (clang, ASan + UBSan), brief runs =="
+  cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+        -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DSCANCAM_BUILD_FUZZERS=ON \
+        -DSCANCAM_BUILD_TESTS=OFF -DSCANCAM_BUILD_PLUGIN=OFF -DSCANCAM_BUILD_BENCH=OFF \
+        -DSCANCAM_BUILD_TOOLS=OFF
+  cmake --build build-fuzz -j"$jobs" --target fuzzers
+  (cd build-fuzz && ctest -L fuzz --output-on-failure)
 fi

@@ -108,7 +108,6 @@ inline I4 SetI(std::int32_t x) { return {_mm_set1_epi32(x)}; }
 inline I4 operator+(I4 a, I4 b) { return {_mm_add_epi32(a.v, b.v)}; }
 inline I4 operator-(I4 a, I4 b) { return {_mm_sub_epi32(a.v, b.v)}; }
 inline I4 operator&(I4 a, I4 b) { return {_mm_and_si128(a.v, b.v)}; }
-inline I4 operator|(I4 a, I4 b) { return {_mm_or_si128(a.v, b.v)}; }
 inline I4 Shl13(I4 a) { return {_mm_slli_epi32(a.v, 13)}; }
 inline I4 Shr13(I4 a) { return {_mm_srli_epi32(a.v, 13)}; }
 inline F4 GtI(I4 a, I4 b) { return {_mm_castsi128_ps(_mm_cmpgt_epi32(a.v, b.v))}; }
@@ -1013,8 +1012,6 @@ bool UseAvx2() {
   static const bool avx2 = __builtin_cpu_supports("avx2");
   return avx2;
 }
-#else
-constexpr bool UseAvx2() { return false; }
 #endif
 
 // The kernels for this machine.

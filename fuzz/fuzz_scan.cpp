@@ -1,0 +1,42 @@
+// libFuzzer harness for the scan importers: LoadScan (io/scan_io.h) with the format forced, so
+// one source gives fuzz_ptx, fuzz_rotating_log, fuzz_pcd and fuzz_rawlog (fuzz/CMakeLists.txt
+// sets SCANCAM_FUZZ_FORMAT and SCANCAM_FUZZ_EXT).
+//
+// Besides "no crash, no other exception, bounded time and memory" (fuzz_util.h), a scan the
+// importer accepts must satisfy the OrderedScan invariants (CheckScan) and go through the first
+// thing every command does with it, the bearing-angle image, without a sanitizer report.
+#include <cstdint>
+#include <string>
+
+#include "fuzz_util.h"
+#include "scancam/ba_image.h"
+#include "scancam/error.h"
+#include "scancam/io/scan_io.h"
+#include "scancam/ordered_scan.h"
+
+#if !defined(SCANCAM_FUZZ_FORMAT) || !defined(SCANCAM_FUZZ_EXT)
+#error "fuzz/CMakeLists.txt defines SCANCAM_FUZZ_FORMAT and SCANCAM_FUZZ_EXT"
+#endif
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string path = scancam::fuzz::WriteInput(data, size, SCANCAM_FUZZ_EXT);
+  scancam::OrderedScan scan;
+  try {
+    scancam::ScanLoadOptions options;
+    options.format = SCANCAM_FUZZ_FORMAT;
+    scan = scancam::LoadScan(path, options);
+  } catch (const scancam::Error&) {
+    return 0;  // bad input, reported as it should be
+  }
+  try {
+    scancam::CheckScan(scan, path);
+  } catch (const scancam::Error& e) {
+    scancam::fuzz::Fail(std::string("the importer accepted an inconsistent scan: ") + e.what());
+  }
+  if (scan.rows >= 2 && scan.cols >= 2) {
+    const cv::Mat ba = scancam::ComputeBearingAngle(scan, scancam::BaTrace::kHorizontal);
+    if (ba.rows != scan.rows || ba.cols != scan.cols)
+      scancam::fuzz::Fail("bearing-angle image size differs from the scan's grid");
+  }
+  return 0;
+}
