@@ -278,6 +278,32 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
   EXPECT_EQ(none.elevation_deg, 0.0);
 }
 
+// Fuzzing found a 301-point PCD whose estimated step built a grid of GBs (and a step so small
+// that the row count overflowed a cast): a grid far larger than the cloud is refused at once.
+TEST(Regrid, AStepFarTooFineForTheCloudIsRefused) {
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 300; ++i) {
+    const double az = 0.021 * i, el = -0.5 + 1.0 * (i % 17) / 17.0;
+    pts.emplace_back(10 * std::cos(el) * std::cos(az), 10 * std::cos(el) * std::sin(az),
+                     10 * std::sin(el));
+  }
+  RegridOptions o;
+  o.source = "tiny.pcd";
+  o.step_deg = 0.05;  // 1100 x 7200 cells for 300 points
+  try {
+    RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+    FAIL() << "a nearly empty grid was built";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("tiny.pcd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nearly empty"), std::string::npos) << e.what();
+  }
+  o.step_deg = 1e-300;  // rows and columns beyond any integer type
+  EXPECT_THROW(RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o), Error);
+  o.step_deg = 2.0;  // a sane step still grids the cloud
+  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  EXPECT_GT(s.valid_count(), 100u);
+}
+
 TEST(Regrid, FullTurnStartsBehindAndLooksForwardInTheMiddle) {
   std::vector<Eigen::Vector3f> pts;
   for (int c = 0; c < 360; ++c) {

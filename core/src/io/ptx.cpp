@@ -92,12 +92,16 @@ class PtxParser {
   // counted and their number of fields checked.
   void ReadPoints(PtxScan& scan, int scan_number, bool keep, const Progress& progress) {
     const std::size_t n = static_cast<std::size_t>(scan.columns) * scan.rows;
+    // Reserve no more than the file can hold: a point line takes at least 8 bytes ("0 0 0 0\n"),
+    // so a header that counts 10^9 points in a 100-byte file asks for nothing big.
+    const std::size_t can_hold = lines_.file_size() / 8 + 1;
+    const std::size_t reserve_n = std::min(n, can_hold);
     if (keep) {
       scan.xyz.clear();
       scan.intensity.clear();
       scan.rgb.clear();
-      scan.xyz.reserve(n);
-      scan.intensity.reserve(n);
+      scan.xyz.reserve(reserve_n);
+      scan.intensity.reserve(reserve_n);
     }
     std::size_t fields = 0;
     int first_line = 0;
@@ -121,7 +125,7 @@ class PtxParser {
                "expected a point 'x y z intensity [r g b]' (4 or 7 numbers), found " +
                    std::to_string(fields) + " fields");
         }
-        if (keep && fields == 7) scan.rgb.reserve(n);
+        if (keep && fields == 7) scan.rgb.reserve(reserve_n);
       } else if (tok_.size() != fields) {
         Fail(path_, ln,
              "expected " + std::to_string(fields) +

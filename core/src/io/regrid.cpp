@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <complex>
 #include <cstdint>
 #include <limits>
@@ -187,13 +188,32 @@ void CheckInputs(const std::vector<Eigen::Vector3f>& points, const std::vector<f
   }
 }
 
-void CheckCells(long long rows, long long cols, const RegridOptions& o, double step_deg) {
-  const long double cells = static_cast<long double>(rows) * static_cast<long double>(cols);
-  if (cells > static_cast<long double>(o.max_cells)) {
-    throw Error(o.source + ": a grid of " + std::to_string(rows) + " x " + std::to_string(cols) +
-                " cells at a step of " + std::to_string(step_deg) +
-                " deg is larger than allowed (" + std::to_string(o.max_cells) +
+// Refuses grids larger than o.max_cells, and grids far larger than the cloud (more than
+// kMaxCellsPerPoint cells per point beyond kFreeCells): a step estimated from a few odd points
+// would otherwise build a mostly empty grid of GBs. Sizes are doubles: a step of 1e-300 deg must
+// not overflow an integer before it is refused.
+constexpr double kMaxCellsPerPoint = 100.0;
+constexpr double kFreeCells = 4.0 * 1024 * 1024;
+void CheckCells(double rows, double cols, std::size_t points, const RegridOptions& o,
+                double step_deg) {
+  const double cells = rows * cols;
+  char step_text[32];
+  std::snprintf(step_text, sizeof step_text, "%.3g", step_deg);
+  auto count = [](double v) {
+    return std::isfinite(v) && v < 1e18 ? std::to_string(static_cast<long long>(v))
+                                        : std::string("too many");
+  };
+  if (!(cells <= static_cast<double>(o.max_cells))) {
+    throw Error(o.source + ": a grid of " + count(rows) + " x " + count(cols) +
+                " cells at a step of " + step_text + " deg is larger than allowed (" + std::to_string(o.max_cells) +
                 " cells); give a larger grid step");
+  }
+  if (cells > kFreeCells && cells > kMaxCellsPerPoint * static_cast<double>(points)) {
+    throw Error(o.source + ": a grid of " + count(rows) + " x " + count(cols) +
+                " cells at a step of " + step_text + " deg for only " +
+                std::to_string(points) +
+                " points would be nearly empty (the step is too fine for this cloud); give a "
+                "larger grid step");
   }
 }
 
@@ -368,8 +388,8 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
   const double el_step_deg = o.elevation_step_deg > 0.0 ? o.elevation_step_deg : step_deg;
   const double el_min = *std::min_element(p.el.begin(), p.el.end());
   const double el_max = *std::max_element(p.el.begin(), p.el.end());
-  CheckCells(static_cast<long long>((el_max - el_min) / (el_step_deg * kDeg)) + 2,
-             static_cast<long long>(360.0 / step_deg) + 1, o, step_deg);
+  CheckCells(std::floor((el_max - el_min) / (el_step_deg * kDeg)) + 2,
+             std::floor(360.0 / step_deg) + 1, p.az.size(), o, step_deg);
   progress(0.3, "re-gridding");
 
   const double az_step = 2.0 * kPi / std::max(1.0, std::round(360.0 / step_deg));
@@ -387,7 +407,8 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
   const long long m_max = std::llround((el_max - eph) / est);
   const long long m_min = std::llround((el_min - eph) / est);
   const long long rows = m_max - m_min + 1;
-  CheckCells(rows, layout.ncols, o, step_deg);
+  CheckCells(static_cast<double>(rows), static_cast<double>(layout.ncols), p.az.size(), o,
+             step_deg);
 
   OrderedScan scan = OrderedScan::Empty(static_cast<int>(rows), layout.ncols);
   scan.origin_m = origin;
@@ -480,7 +501,7 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
   }
   const long long n_full = std::max(1LL, std::llround(2.0 * kPi / step));
   step = 2.0 * kPi / static_cast<double>(n_full);
-  CheckCells(static_cast<long long>(nr), n_full, o, step / kDeg);
+  CheckCells(static_cast<double>(nr), static_cast<double>(n_full), p.az.size(), o, step / kDeg);
   progress(0.3, "ordering rings");
 
   // Per-ring phase; the grid phase is the mean over all points; each ring is shifted by less
