@@ -33,8 +33,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     return 0;
   }
   const double w = camera.width(), h = camera.height();
-  const Eigen::Vector2d pixels[] = {{0.5 * (w - 1), 0.5 * (h - 1)}, {0, 0}, {w - 1, 0},
-                                    {0, h - 1},                     {w - 1, h - 1}};
+  const Eigen::Vector2d pixels[] = {
+      {0.5 * (w - 1), 0.5 * (h - 1)}, {0, 0}, {w - 1, 0}, {0, h - 1}, {w - 1, h - 1}};
   for (const Eigen::Vector2d& px : pixels) {
     const auto ray = camera.Unproject(px);
     if (ray) camera.Project(*ray);

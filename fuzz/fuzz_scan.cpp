@@ -1,6 +1,7 @@
 // libFuzzer harness for the scan importers: LoadScan (io/scan_io.h) with the format forced, so
-// one source gives fuzz_ptx, fuzz_rotating_log, fuzz_pcd and fuzz_rawlog (fuzz/CMakeLists.txt
-// sets SCANCAM_FUZZ_FORMAT and SCANCAM_FUZZ_EXT).
+// one source gives fuzz_ptx, fuzz_rotating_log, fuzz_pcd, fuzz_pcd_organised and fuzz_rawlog
+// (fuzz/CMakeLists.txt sets SCANCAM_FUZZ_FORMAT, SCANCAM_FUZZ_EXT and, for PCD, optionally
+// SCANCAM_FUZZ_PCD_MODE; default auto).
 //
 // Besides "no crash, no other exception, bounded time and memory" (fuzz_util.h), a scan the
 // importer accepts must satisfy the OrderedScan invariants (CheckScan) and go through the first
@@ -24,6 +25,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     scancam::ScanLoadOptions options;
     options.format = SCANCAM_FUZZ_FORMAT;
+#ifdef SCANCAM_FUZZ_PCD_MODE
+    options.pcd_mode = SCANCAM_FUZZ_PCD_MODE;
+#endif
     scan = scancam::LoadScan(path, options);
   } catch (const scancam::Error&) {
     return 0;  // bad input, reported as it should be

@@ -3,7 +3,8 @@
 //
 //   fuzz_make_seeds OUT_DIR SOURCE_DIR [DATASETS_DIR]
 //
-// Writes OUT_DIR/<harness>/ for every harness (the names fuzz/CMakeLists.txt gives them):
+// Writes OUT_DIR/<harness>/ for every harness (the names fuzz/CMakeLists.txt gives them;
+// fuzz_pcd_organised gets fuzz_pcd's files):
 //   - from the simulator (small scans: 12 x 13 rotating, 8 x 24 lidar, one pixel per ray):
 //     the files `scancam simulate` writes (OUT_DIR/sim-*/), a PTX of each scan (and one with
 //     two scans), the rotating log, organised binary PCD and its ascii / binary_compressed /
@@ -99,8 +100,8 @@ void WritePcdEncodings(const PcdCloud& c, const std::string& stem) {
   pcl::PCDWriter writer;
   writer.writeASCII(Seed("fuzz_pcd", stem + "_ascii.pcd"), c.cloud, c.origin, c.orientation, 8);
   writer.writeBinary(Seed("fuzz_pcd", stem + "_binary.pcd"), c.cloud, c.origin, c.orientation);
-  writer.writeBinaryCompressed(Seed("fuzz_pcd", stem + "_binary_compressed.pcd"), c.cloud,
-                               c.origin, c.orientation);
+  writer.writeBinaryCompressed(Seed("fuzz_pcd", stem + "_binary_compressed.pcd"), c.cloud, c.origin,
+                               c.orientation);
 }
 
 // The camera in every format that can hold it, each into its harness's corpus.
@@ -221,7 +222,8 @@ void FromSimulation(const std::string& scanner, const std::string& camera) {
                  e.what());
   }
   WriteImages(s.image, stem, 40);
-  if (fs::exists(sim_dir / "mask.png")) Copy(sim_dir / "mask.png", "fuzz_image", stem + "_mask.png");
+  if (fs::exists(sim_dir / "mask.png"))
+    Copy(sim_dir / "mask.png", "fuzz_image", stem + "_mask.png");
   WriteFloatTiff(Seed("fuzz_float_tiff", stem + "_ba.tif"),
                  ComputeBearingAngle(s.scan, BaTrace::kHorizontal));
   WriteFloatTiff(Seed("fuzz_float_tiff", stem + "_range.tif"), RangeImage(s.scan));
@@ -275,11 +277,10 @@ int main(int argc, char** argv) {
     FromSimulation("lidar", "pinhole");
     for (const char* preset : {"fisheye", "equirect"})
       SaveCameraEverywhere(sim::PresetCamera(preset), preset);
-    SaveCameraEverywhere(
-        CameraModel::Pinhole(610.5, 612.25, 319.5, 239.75, {0.1, -0.05, 0.001, -0.002, 0.01, 0.02,
-                                                            -0.01, 0.003},
-                             640, 480, "rational"),
-        "pinhole_rational");
+    SaveCameraEverywhere(CameraModel::Pinhole(610.5, 612.25, 319.5, 239.75,
+                                              {0.1, -0.05, 0.001, -0.002, 0.01, 0.02, -0.01, 0.003},
+                                              640, 480, "rational"),
+                         "pinhole_rational");
     SaveCameraEverywhere(CameraModel::Omni(0.9, 380.0, 381.5, 399.5, 299.5, 0.0,
                                            {-0.2, 0.05, 0.0005, -0.0004}, 800, 600, "mei"),
                          "omni_mei");
@@ -297,6 +298,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "fuzz_make_seeds: %s\n", e.what());
     return 1;
   }
+  // fuzz_pcd_organised reads the same files (in the cloud's own grid).
+  fs::copy(g_out / "fuzz_pcd", g_out / "fuzz_pcd_organised", fs::copy_options::recursive);
   std::printf("fuzz_make_seeds: %d seeds in %s\n", g_count, g_out.c_str());
   return 0;
 }

@@ -39,12 +39,12 @@ while [ $# -gt 0 ]; do
     --runs) runs="$2"; shift 2 ;;
     --keep-going) keep_going=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1); shift ;;
     --nice) nice_cmd=(nice -n 10); shift ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
 done
-all=(fuzz_ptx fuzz_rotating_log fuzz_pcd fuzz_rawlog fuzz_pairs_csv
+all=(fuzz_ptx fuzz_rotating_log fuzz_pcd fuzz_pcd_organised fuzz_rawlog fuzz_pairs_csv
      fuzz_camera_opencv_yaml fuzz_camera_opencv_json fuzz_camera_ocamcalib fuzz_camera_kalibr
      fuzz_camera_ros fuzz_camera_opencalib fuzz_calibration_json fuzz_image fuzz_float_tiff)
 [ ${#harnesses[@]} -gt 0 ] || harnesses=("${all[@]}")
@@ -107,7 +107,7 @@ for h in "${harnesses[@]}"; do
     # The report's first lines and the project's frames (the whole report is in the log).
     { grep -m1 'ERROR\|runtime error\|fuzz harness' "$log"
       grep -E '^ *#[0-9]+ .*(/core/|/fuzz/|/usr/include/)' "$log" | head -12
-      grep -m1 '^SUMMARY' "$log"; } >&2 || true
+      grep -m1 '^SUMMARY' "$log"; } | cut -c1-240 >&2 || true
   fi
 done
 exit $status
