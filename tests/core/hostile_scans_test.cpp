@@ -8,6 +8,7 @@
 #include <pcl/point_types.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -362,6 +363,44 @@ TEST(HostilePcd, BinaryDataWithBytesInsertedOrAppendedIsAnError) {
   // PCL's own zero padding (its writer rounds the file up to a page) is fine.
   EXPECT_GT(good.size(), end);
   EXPECT_EQ(ReadFile(dir + "/appended.pcd"), good + "\n");
+}
+
+// Fuzzing (fuzz/FINDINGS.md #9): binary PCDs with a valid 301-point header and exactly the data
+// it announces, whose data made pcl::PCDReader::read crash the process. ScanCam reads binary
+// data itself: each ends in a plain error, and the same points written by PCL load the same.
+TEST(HostilePcd, DataThatCrashedPclIsReadByScanCam) {
+  const std::string dir = test::TempDir();
+  for (const char* name : {"pcl-read-segv.pcd", "pcl-read-use-after-free.pcd"}) {
+    std::string bytes =
+        ReadFile(std::string(SCANCAM_SOURCE_DIR) + "/fuzz/findings/fuzz_pcd_organised/" + name);
+    bytes.resize(DataOffset(bytes) + 301 * 16);  // header + 301 points x 4 floats, nothing after
+    const std::string path = dir + "/" + name;
+    WriteFile(path, bytes);
+    ExpectError([&] { LoadScan(path); }, {path});
+  }
+  // Every binary field type PCL writes reads back through ScanCam's own reader.
+  pcl::PointCloud<pcl::PointXYZI> cloud;
+  for (int i = 0; i < 700; ++i) {
+    pcl::PointXYZI p;
+    const float az = 0.009f * i;
+    p.x = 5.f * std::cos(az);
+    p.y = 5.f * std::sin(az);
+    p.z = 0.1f * static_cast<float>(i % 7) - 0.3f;
+    p.intensity = static_cast<float>(i % 23);
+    cloud.push_back(p);
+  }
+  cloud.width = 100;
+  cloud.height = 7;
+  const std::string path = dir + "/organised.pcd";
+  ASSERT_EQ(pcl::io::savePCDFileBinary(path, cloud), 0);
+  const OrderedScan s = LoadScan(path);
+  ASSERT_EQ(s.rows, 7);
+  ASSERT_EQ(s.cols, 100);
+  for (int i = 0; i < 700; ++i) {
+    const int r = i / 100, c = i % 100;
+    EXPECT_EQ(s.point_m[s.index(r, c)], cloud[i].getVector3fMap()) << i;
+    EXPECT_EQ(s.intensity[s.index(r, c)], cloud[i].intensity) << i;
+  }
 }
 
 TEST(HostilePcd, BinaryCompressedDataIsChecked) {

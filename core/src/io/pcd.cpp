@@ -388,6 +388,65 @@ double ValueAt(const std::uint8_t* p, std::uint8_t datatype) {
   }
 }
 
+// PCL's datatype code of a header TYPE/SIZE pair (0: none; 9, 10: PCL 1.13's 64-bit integers).
+std::uint8_t DataType(char type, int size) {
+  switch (type) {
+    case 'F':
+      return size == 4 ? pcl::PCLPointField::FLOAT32 : size == 8 ? pcl::PCLPointField::FLOAT64 : 0;
+    case 'I':
+      return size == 1   ? pcl::PCLPointField::INT8
+             : size == 2 ? pcl::PCLPointField::INT16
+             : size == 4 ? pcl::PCLPointField::INT32
+             : size == 8 ? 9
+                         : 0;
+    case 'U':
+      return size == 1   ? pcl::PCLPointField::UINT8
+             : size == 2 ? pcl::PCLPointField::UINT16
+             : size == 4 ? pcl::PCLPointField::UINT32
+             : size == 8 ? 10
+                         : 0;
+    default:
+      return 0;
+  }
+}
+
+// A binary (uncompressed) PCD's data read by ScanCam from its checked header: fixed-size records
+// from data_offset. PCL's own reader is not used for these: fuzzing found binary files with a
+// valid header and the right size whose data made pcl::PCDReader::read read past its field list
+// and crash the process (fuzz/FINDINGS.md #9).
+pcl::PCLPointCloud2 ReadBinaryData(const std::string& path, const PcdHeader& h) {
+  pcl::PCLPointCloud2 cloud;
+  cloud.width = static_cast<std::uint32_t>(h.width);
+  cloud.height = static_cast<std::uint32_t>(h.height);
+  std::uint32_t offset = 0;
+  for (std::size_t k = 0; k < h.fields.size(); ++k) {
+    pcl::PCLPointField f;
+    f.name = h.fields[k];
+    f.offset = offset;
+    f.datatype = DataType(h.type[k], h.size[k]);
+    f.count = static_cast<std::uint32_t>(h.count[k]);
+    if (f.datatype == 0) {
+      throw FileError(path, "TYPE", "field '" + f.name + "' has type " + h.type[k] + " of size " +
+                                        std::to_string(h.size[k]) + ", which is not a PCD type");
+    }
+    offset += static_cast<std::uint32_t>(h.size[k] * h.count[k]);
+    cloud.fields.push_back(std::move(f));
+  }
+  cloud.point_step = offset;
+  cloud.row_step = offset * cloud.width;
+  cloud.is_bigendian = false;
+  const std::size_t bytes = static_cast<std::size_t>(h.points) * offset;
+  cloud.data.resize(bytes);
+  std::ifstream in(path, std::ios::binary);
+  in.seekg(static_cast<std::streamoff>(h.data_offset));
+  if (!in.read(reinterpret_cast<char*>(cloud.data.data()), static_cast<std::streamsize>(bytes))) {
+    throw FileError(path, io_detail::ByteWhere(h.data_offset),
+                    "truncated: the data section holds fewer than the header's " +
+                        std::to_string(h.points) + " points");
+  }
+  return cloud;
+}
+
 const pcl::PCLPointField* FindField(const pcl::PCLPointCloud2& cloud,
                                     std::initializer_list<const char*> names) {
   for (const char* name : names) {
@@ -435,7 +494,14 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options,
   pcl::PCDReader reader;
   int rc = -1;
   try {
-    rc = reader.read(path, cloud, origin4, orientation, version);
+    if (header.data == "binary") {
+      cloud = ReadBinaryData(path, header);
+      rc = 0;
+    } else {
+      rc = reader.read(path, cloud, origin4, orientation, version);
+    }
+  } catch (const Error&) {
+    throw;
   } catch (const std::exception& e) {
     throw FileError(path, io_detail::ByteWhere(header.data_offset),
                     std::string("PCL could not read the data: ") + e.what());
