@@ -1199,8 +1199,7 @@ void CalibrationWindow::refreshValidRegion() {
   valid_region_.release();
   valid_region_text_.clear();
   if (!act_auto_region_->isChecked() || !camera_.valid() || image_bgr_.empty() ||
-      image_bgr_.cols != camera_.width() ||
-      image_bgr_.rows != camera_.height()) {
+      image_bgr_.cols != camera_.width() || image_bgr_.rows != camera_.height()) {
     refreshActiveInputs();
     return;
   }
@@ -1350,10 +1349,10 @@ void CalibrationWindow::clearMask() {
   emit inputsChanged();
   poseChanged();
   refreshOverlay();
-  reportInfo(valid_region_.empty()
-                 ? tr("No mask: every pixel of the image may colour the scan")
-                 : tr("No mask file: the automatic valid region is used (%1)")
-                       .arg(valid_region_text_));
+  reportInfo(
+      valid_region_.empty()
+          ? tr("No mask: every pixel of the image may colour the scan")
+          : tr("No mask file: the automatic valid region is used (%1)").arg(valid_region_text_));
 }
 
 void CalibrationWindow::chooseExport() {
@@ -1470,15 +1469,15 @@ void CalibrationWindow::refreshActiveInputs() {
   QString scan = tr("none");
   if (scan_) scan = tr("%1 (%2 x %3)").arg(scan_name_).arg(scan_->rows).arg(scan_->cols);
   if (scene_closed_) scan += tr(" - its cloud was closed");
-  const QString text = tr("Scan: %1   |   Camera: %2   |   Image: %3   |   Mask: %4   |   Pairs "
-                          "file: %5")
-                           .arg(scan, file(camera_path_, tr("none")), file(image_path_, tr("none")),
-                                mask_path_.isEmpty()
-                                    ? (valid_region_.empty() ? tr("none")
-                                                             : tr("automatic valid region"))
-                                    : QFileInfo(mask_path_).fileName(),
-                                file(autosave_path_, tr("none (not saved until an image is "
-                                                        "open)")));
+  const QString text =
+      tr("Scan: %1   |   Camera: %2   |   Image: %3   |   Mask: %4   |   Pairs "
+         "file: %5")
+          .arg(scan, file(camera_path_, tr("none")), file(image_path_, tr("none")),
+               mask_path_.isEmpty()
+                   ? (valid_region_.empty() ? tr("none") : tr("automatic valid region"))
+                   : QFileInfo(mask_path_).fileName(),
+               file(autosave_path_, tr("none (not saved until an image is "
+                                       "open)")));
   active_label_->setText(text);
   // The title names the image too (what the window works on, also in the task bar).
   QString title = title_base_;
@@ -1489,7 +1488,8 @@ void CalibrationWindow::refreshActiveInputs() {
   if (!scan_fingerprint_.isEmpty()) tip << tr("Scan fingerprint: %1").arg(scan_fingerprint_);
   if (!camera_path_.isEmpty()) tip << tr("Camera: %1").arg(camera_path_);
   if (!image_path_.isEmpty()) tip << tr("Image: %1").arg(image_path_);
-  if (!mask_path_.isEmpty()) tip << tr("Mask: %1").arg(mask_path_);
+  if (!mask_path_.isEmpty())
+    tip << tr("Mask: %1").arg(mask_path_);
   else if (!valid_region_text_.isEmpty())
     tip << tr("Automatic valid region: %1").arg(valid_region_text_);
   if (!autosave_path_.isEmpty()) tip << tr("Pairs (autosaved): %1").arg(autosave_path_);

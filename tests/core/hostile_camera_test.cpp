@@ -289,6 +289,21 @@ TEST(HostileCamera, RosWithoutDistortionModelWarns) {
 
 // ---- camera files: library text ----------------------------------------------------------------
 
+// Fuzzing's camera and calibration JSON reproducers (fuzz/FINDINGS.md #1-#4) end in plain
+// errors naming the file: no library exception escapes, no library text is the whole message.
+TEST(HostileCamera, FuzzReproducersArePlainErrors) {
+  const std::string f = std::string(SCANCAM_SOURCE_DIR) + "/fuzz/findings/";
+  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_json/number-overflow.json"); },
+              {"number-overflow.json", "number overflow"});
+  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_yaml/root-is-a-sequence.yaml"); },
+              {"root-is-a-sequence.yaml", "must be a map of keys", "found a sequence"});
+  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_yaml/filestorage-length-error.yaml"); },
+              {"filestorage-length-error.yaml", "not a valid OpenCV FileStorage YAML file"});
+  ExpectError(
+      [&] { colour::LoadExtrinsic(f + "fuzz_calibration_json/number-overflow.json"); },
+      {"number-overflow.json", "invalid JSON"});
+}
+
 TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
   const std::string dir = TempDir();
   // nlohmann's parse_error.101 -> FILE:LINE:COLUMN, no "[json.exception" text, bytes escaped.

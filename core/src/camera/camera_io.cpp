@@ -722,9 +722,21 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
                       (json ? cv::FileStorage::FORMAT_JSON : cv::FileStorage::FORMAT_YAML));
   } catch (const cv::Exception& e) {
     ThrowFsError(path, e, added_lines);
+  } catch (const std::exception&) {  // e.g. std::length_error from a mangled !!opencv-matrix
+    throw FileError(path, "",
+                    std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") +
+                        " file (OpenCV's parser failed on damaged content)");
   }
   if (!fs.isOpened()) throw FileError(path, "", "not a valid OpenCV FileStorage file");
   const cv::FileNode root = fs.root();
+  if (!root.isMap()) {
+    throw FileError(path, "",
+                    "the top level of an OpenCV camera file must be a map of keys (model, "
+                    "image_width, camera_matrix, ...), found " +
+                        std::string(root.isSeq()    ? "a sequence"
+                                    : root.isNone() ? "nothing"
+                                                    : "a single value"));
+  }
   std::string model = "pinhole";
   const cv::FileNode mn = root["model"];
   if (!mn.empty() && !mn.isNone()) {

@@ -426,8 +426,9 @@ pcl::PCLPointCloud2 ReadBinaryData(const std::string& path, const PcdHeader& h) 
     f.datatype = DataType(h.type[k], h.size[k]);
     f.count = static_cast<std::uint32_t>(h.count[k]);
     if (f.datatype == 0) {
-      throw FileError(path, "TYPE", "field '" + f.name + "' has type " + h.type[k] + " of size " +
-                                        std::to_string(h.size[k]) + ", which is not a PCD type");
+      throw FileError(path, "TYPE",
+                      "field '" + f.name + "' has type " + h.type[k] + " of size " +
+                          std::to_string(h.size[k]) + ", which is not a PCD type");
     }
     offset += static_cast<std::uint32_t>(h.size[k] * h.count[k]);
     cloud.fields.push_back(std::move(f));

@@ -2,9 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <complex>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <map>
 
@@ -205,13 +205,12 @@ void CheckCells(double rows, double cols, std::size_t points, const RegridOption
   };
   if (!(cells <= static_cast<double>(o.max_cells))) {
     throw Error(o.source + ": a grid of " + count(rows) + " x " + count(cols) +
-                " cells at a step of " + step_text + " deg is larger than allowed (" + std::to_string(o.max_cells) +
-                " cells); give a larger grid step");
+                " cells at a step of " + step_text + " deg is larger than allowed (" +
+                std::to_string(o.max_cells) + " cells); give a larger grid step");
   }
   if (cells > kFreeCells && cells > kMaxCellsPerPoint * static_cast<double>(points)) {
     throw Error(o.source + ": a grid of " + count(rows) + " x " + count(cols) +
-                " cells at a step of " + step_text + " deg for only " +
-                std::to_string(points) +
+                " cells at a step of " + step_text + " deg for only " + std::to_string(points) +
                 " points would be nearly empty (the step is too fine for this cloud); give a "
                 "larger grid step");
   }
