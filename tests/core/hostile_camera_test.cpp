@@ -299,6 +299,13 @@ TEST(HostileCamera, FuzzReproducersArePlainErrors) {
               {"root-is-a-sequence.yaml", "must be a map of keys", "found a sequence"});
   ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_yaml/filestorage-length-error.yaml"); },
               {"filestorage-length-error.yaml", "not a valid OpenCV FileStorage YAML file"});
+  // Lines of only vertical tabs and newlines (a blank OCamCalib file): an error, not an
+  // out-of-range read of an empty line's numbers.
+  LoadCameraOptions ocam;
+  ocam.format = CameraFileFormat::kOCamCalib;
+  ExpectError(
+      [&] { LoadCamera(f + "fuzz_camera_ocamcalib/blank-lines-with-vertical-tabs.txt", ocam); },
+      {"blank-lines-with-vertical-tabs.txt", "ends early"});
   ExpectError(
       [&] { colour::LoadExtrinsic(f + "fuzz_calibration_json/number-overflow.json"); },
       {"number-overflow.json", "invalid JSON"});

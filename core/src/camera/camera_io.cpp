@@ -558,6 +558,7 @@ CameraModel LoadOCam(const std::string& path, const std::string& text) {
       }
       nl.v.push_back(v);
     }
+    if (nl.v.empty()) continue;  // only whitespace (e.g. a vertical tab): a blank line
     lines.push_back(std::move(nl));
   }
   static const char* kWhat[5] = {"direct polynomial 'pol' (length, a0 a1 ...)",
