@@ -176,8 +176,7 @@ int RunColorize(const Args& args) {
       }
     }
     for (std::size_t k = 0; k < n; ++k) {
-      if (!region_out.empty())
-        outs.push_back({"--valid-region-out", PerImage(region_out, k, n)});
+      if (!region_out.empty()) outs.push_back({"--valid-region-out", PerImage(region_out, k, n)});
       if (!overlay.empty()) outs.push_back({"--overlay", PerImage(overlay, k, n)});
       if (!edge_overlay.empty()) outs.push_back({"--edge-overlay", PerImage(edge_overlay, k, n)});
     }

@@ -306,9 +306,8 @@ TEST(HostileCamera, FuzzReproducersArePlainErrors) {
   ExpectError(
       [&] { LoadCamera(f + "fuzz_camera_ocamcalib/blank-lines-with-vertical-tabs.txt", ocam); },
       {"blank-lines-with-vertical-tabs.txt", "ends early"});
-  ExpectError(
-      [&] { colour::LoadExtrinsic(f + "fuzz_calibration_json/number-overflow.json"); },
-      {"number-overflow.json", "invalid JSON"});
+  ExpectError([&] { colour::LoadExtrinsic(f + "fuzz_calibration_json/number-overflow.json"); },
+              {"number-overflow.json", "invalid JSON"});
 }
 
 TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
