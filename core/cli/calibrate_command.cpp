@@ -152,9 +152,7 @@ int RunCalibrate(const Args& args) {
   }
   if (args.has("--valid-region-out")) {
     const std::string p = args.get("--valid-region-out");
-    WriteValidRegion(p, opt.image_mask, camera,
-                     {camera_path, pairs_path, args.get("--scan"), args.get("--image"),
-                      args.get("--mask"), out_path, args.get("--plot")});
+    WriteValidRegion(p, opt.image_mask, camera);
     if (!quiet) std::cout << "wrote " << p << "\n";
   }
   if (!quiet) std::cout << "valid region: " << region_how << "\n";
