@@ -1,0 +1,218 @@
+// scancam refine: dense refinement of T_cam_scan from a rough start over one or several scenes
+// (thin front over refine/dense_refine.h).
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "command.h"
+#include "scan_options.h"
+#include "scancam/camera/camera_io.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/json_util.h"
+#include "scancam/output_file.h"
+#include "scancam/refine/dense_refine.h"
+#include "scancam/rotation_rpy.h"
+#include "scancam/solve/calibrate.h"
+#include "valid_region_options.h"
+
+namespace scancam::cli {
+namespace {
+
+nlohmann::json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
+
+int RunRefine(const Args& args) {
+  if (!args.positional().empty())
+    throw Error("unexpected argument '" + args.positional()[0] + "' (see --help)");
+  const std::vector<std::string> scans = args.all("--scan");
+  const std::vector<std::string> images = args.all("--image");
+  std::vector<std::string> cameras = args.all("--camera");
+  std::vector<std::string> masks = args.all("--mask");
+  const std::string out_path = args.required("--out");
+  const bool quiet = args.has("--quiet");
+  if (scans.empty()) throw Error("missing --scan");
+  if (images.size() != scans.size()) {
+    throw Error("give one --image per --scan (the k-th of each form scene k): " +
+                std::to_string(scans.size()) + " --scan, " + std::to_string(images.size()) +
+                " --image");
+  }
+  if (cameras.empty()) throw Error("missing --camera");
+  if (cameras.size() == 1) cameras.resize(scans.size(), cameras[0]);
+  if (cameras.size() != scans.size())
+    throw Error("give one --camera for every scene, or one for all");
+  if (!masks.empty() && masks.size() != scans.size())
+    throw Error("give one --mask per scene, or none");
+  masks.resize(scans.size());
+  const bool rpy = args.has("--init-rpy-deg"), tm = args.has("--init-t-m");
+  if (args.has("--init") == (rpy || tm))
+    throw Error("give the start as --init FILE or as --init-rpy-deg R,P,Y --init-t-m X,Y,Z");
+  if (rpy != tm) throw Error("--init-rpy-deg and --init-t-m go together");
+
+  std::vector<NamedPath> ins;
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    ins.push_back({"--scan", scans[k]});
+    ins.push_back({"--image", images[k]});
+    ins.push_back({"--camera", cameras[k]});
+    ins.push_back({"--mask", masks[k]});
+  }
+  ins.push_back({"--init", args.get("--init")});
+  CheckOutputs({{"--out", out_path}}, ins);
+
+  Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
+  if (args.has("--init")) {
+    start = colour::LoadExtrinsic(args.get("--init"));
+  } else {
+    start.linear() = RpyDegToRotation(args.get_vector3("--init-rpy-deg"));
+    start.translation() = args.get_vector3("--init-t-m");
+  }
+
+  refine::DenseRefineOptions o;
+  o.starts = args.get_int("--starts", o.starts);
+  o.edge_weight = args.get_double("--edge-weight", o.edge_weight);
+  o.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
+  o.start_spread_deg = args.get_double("--spread-deg", o.start_spread_deg);
+  o.start_spread_m = args.get_double("--spread-m", o.start_spread_m);
+  if (o.starts < 1 || o.starts > 100) throw Error("option --starts: must be 1..100");
+  if (!(o.edge_weight >= 0.0)) throw Error("option --edge-weight: must be >= 0");
+  if (!(o.start_spread_deg >= 0.0 && o.start_spread_deg <= 30.0))
+    throw Error("option --spread-deg: must be in [0, 30]");
+  if (!(o.start_spread_m >= 0.0 && o.start_spread_m <= 10.0))
+    throw Error("option --spread-m: must be in [0, 10]");
+
+  const Progress progress(StderrProgress(quiet));
+  // The views first (small files, fail fast), then the scans.
+  std::vector<refine::RefineScene> scenes(scans.size());
+  std::vector<OrderedScan> loaded(scans.size());
+  std::vector<std::string> region_how(scans.size());
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    colour::ColourView& v = scenes[k].view;
+    v.name = images[k];
+    v.camera = LoadCamera(cameras[k]);
+    v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
+                        [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
+    v.mask = ChooseValidRegion(args, v.camera, v.image, masks[k], &region_how[k]);
+    v.T_cam_scan = start;
+    colour::CheckView(v);
+  }
+  for (std::size_t k = 0; k < scans.size(); ++k) {
+    loaded[k] = LoadScan(scans[k], ParseScanLoadOptions(args), progress);
+    if (!loaded[k].has_intensity() && !quiet) {
+      std::cerr << "warning: " << scans[k]
+                << " has no intensity: only the depth-edge term aligns it (weaker)\n";
+    }
+    scenes[k].scan = &loaded[k];
+  }
+  const refine::DenseRefineResult r = refine::DenseRefine(scenes, start, o, progress);
+
+  Calibration c;
+  c.T_cam_scan = r.T_cam_scan;
+  c.rotation_rpy_deg = RotationToRpyDeg(r.T_cam_scan.linear());
+  c.method = "dense refinement";
+  c.refined = r.accepted;
+  if (!r.accepted) c.warnings.push_back("refinement not accepted: " + r.reason);
+  nlohmann::json inputs = nlohmann::json::object();
+  inputs["scans"] = scans;
+  inputs["images"] = images;
+  inputs["cameras"] = cameras;
+  if (args.has("--init")) inputs["init"] = args.get("--init");
+  nlohmann::json j = CalibrationToJson(c, inputs);
+  nlohmann::json rj;
+  rj["verdict"] = r.verdict;
+  rj["accepted"] = r.accepted;
+  rj["reason"] = r.reason;
+  if (!r.unconstrained.empty()) rj["unconstrained"] = r.unconstrained;
+  rj["T_cam_scan_start"] = PoseToJson(start);
+  rj["T_cam_scan_best"] = PoseToJson(r.T_best);
+  rj["rotation_change_deg_cam_xyz"] = Vec(r.rotation_change_deg_cam_xyz);
+  rj["translation_change_m_cam_xyz"] = Vec(r.translation_change_m_cam_xyz);
+  rj["rotation_std_deg_cam_xyz"] = Vec(r.rotation_std_deg_cam_xyz);
+  rj["translation_std_m_cam_xyz"] = Vec(r.translation_std_m_cam_xyz);
+  rj["objective"] = {{"train_start", r.train_start},     {"train_best", r.train_best},
+                     {"heldout_start", r.heldout_start}, {"heldout_best", r.heldout_best},
+                     {"nid_start", r.nid_start},         {"nid_best", r.nid_best},
+                     {"edge_start", r.edge_start},       {"edge_best", r.edge_best}};
+  rj["starts"] = o.starts;
+  rj["starts_agreeing"] = r.starts_agreeing;
+  rj["evaluations"] = r.evaluations;
+  rj["points"] = r.points;
+  rj["edge_points"] = r.edge_points;
+  j["refinement"] = rj;
+  WriteJsonFile(out_path, j);
+
+  if (!quiet) {
+    std::cout << "verdict: " << r.verdict << (r.accepted ? "" : " (the start is kept)") << ": "
+              << r.reason << "\n";
+    std::cout << "NID (scan intensity vs image grey, lower is better): " << Fixed(r.nid_start, 5)
+              << " -> " << Fixed(r.nid_best, 5)
+              << "; edge field at depth edges: " << Fixed(r.edge_start, 4) << " -> "
+              << Fixed(r.edge_best, 4) << "\n";
+    std::cout << "held-out half: " << Fixed(r.heldout_start, 5) << " -> "
+              << Fixed(r.heldout_best, 5) << "\n";
+    const Eigen::Vector3d& w = r.rotation_change_deg_cam_xyz;
+    const Eigen::Vector3d& v = r.translation_change_m_cam_xyz;
+    std::cout << "change (camera axes x y z): rotation " << Fixed(w.x(), 3) << " "
+              << Fixed(w.y(), 3) << " " << Fixed(w.z(), 3) << " deg, translation "
+              << Fixed(v.x(), 3) << " " << Fixed(v.y(), 3) << " " << Fixed(v.z(), 3) << " m\n";
+    const Eigen::Vector3d& sw = r.rotation_std_deg_cam_xyz;
+    const Eigen::Vector3d& sv = r.translation_std_m_cam_xyz;
+    std::cout << "std (camera axes x y z, sampling noise of the objective only): rotation "
+              << Fixed(sw.x(), 3) << " " << Fixed(sw.y(), 3) << " " << Fixed(sw.z(), 3)
+              << " deg, translation " << Fixed(sv.x(), 3) << " " << Fixed(sv.y(), 3) << " "
+              << Fixed(sv.z(), 3) << " m\n";
+    std::cout << r.evaluations << " evaluations over " << r.points << " points (" << r.edge_points
+              << " on depth edges)\n";
+    std::cout << "wrote " << out_path << "\n";
+  }
+  return 0;
+}
+
+Command MakeRefineCommand() {
+  Command c;
+  c.name = "refine";
+  c.summary = "Refine T_cam_scan from a rough start over every point the camera sees";
+  c.usage =
+      "scancam refine --camera C --scan S --image I [--scan S2 --image I2 ...] "
+      "(--init INIT.json | --init-rpy-deg R,P,Y --init-t-m X,Y,Z) --out OUT.json [options]";
+  c.description =
+      "Dense refinement: from a rough T_cam_scan (a picks solve, an earlier result, an OpenCalib "
+      "extrinsic or a tape-measured guess), search the pose that best aligns the scan with the "
+      "photo: the normalised information distance between the scan's intensity and the image's "
+      "grey level, and the image's edges at the scan's depth discontinuities, over every point "
+      "the camera sees (one pose for every scene). The result is kept only when the held-out "
+      "half of the scan confirms it; else the start is written back with the reason. OUT has "
+      "calibrate's JSON schema plus a 'refinement' object (verdict, figures before and after, "
+      "std about the camera axes).";
+  c.options = Concat(
+      {
+          {"--camera", "FILE", "Camera file (one for all scenes, or one per scene).", true},
+          {"--scan", "FILE", "Scan of scene k (the k-th --scan).", true},
+          {"--image", "FILE", "Photo of scene k (the k-th --image).", true},
+          {"--mask", "FILE", "Valid-pixel mask of scene k (one per scene, or none).", true},
+          {"--init", "FILE",
+           "Start: any calibration JSON with T_cam_scan (calibrate's output, an OpenCalib "
+           "extrinsic, the simulator's ground truth)."},
+          {"--init-rpy-deg", "R,P,Y", "Start rotation (rotation_rpy.h convention), degrees."},
+          {"--init-t-m", "X,Y,Z", "Start translation of T_cam_scan, metres."},
+          {"--out", "FILE", "Output calibration JSON."},
+          {"--starts", "N", "Searches: the start and N-1 random starts around it. Default 5."},
+          {"--spread-deg", "DEG", "Random starts: rotation spread, degrees. Default 1."},
+          {"--spread-m", "M", "Random starts: translation spread, metres. Default 0.1."},
+          {"--edge-weight", "W", "Weight of the depth-edge term against NID. Default 0.1."},
+          {"--seed", "N", "Random seed (starts, held-out split). Default 1."},
+          {"--quiet", "", "Print nothing but errors."},
+      },
+      Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));
+  c.run = RunRefine;
+  return c;
+}
+
+}  // namespace
+}  // namespace scancam::cli
+
+SCANCAM_COMMAND(scancam::cli::MakeRefineCommand());

@@ -1,0 +1,111 @@
+// ScanCam: dense refinement of T_cam_scan (X_cam = R X_scan + t) from a rough start, over every
+// scan point the camera sees in one or several scenes of one rig (one pose for all), with a
+// verdict. The objective is refine/alignment.h's: per scene NID(scan intensity, image grey)
+// - edge_weight * edge (the image's edge field at the scan's depth discontinuities), averaged
+// over the scenes; lower is better.
+//
+// Parameters: the pose is exp(delta) * start with delta = (omega, v) in the CAMERA frame:
+// X_cam' = R(omega) X_cam + v, omega a rotation vector (small angles about the camera's x, y,
+// z axes, deg in the options and results), v metres. A pattern search (each coordinate +- its
+// step, steps halved when no move improves, from initial_step_* to final_step_*) runs from the
+// start and from `starts - 1` random starts spread by start_spread_* around it (seeded); the
+// best end point on the training half of the data wins.
+//
+// Never worse: the scan's grid tiles (AlignmentOptions::tile_rows x tile_cols cells) are split
+// at random into a training half (the optimisation) and a held-out half. The result is
+// accepted only when the held-out objective is lower than the start's; otherwise the start is
+// returned, with the reason.
+//
+// Uncertainty (a split-half sandwich estimate): H, the curvature of the objective at the result
+// (central differences of curvature_step_*), and Cov(g), the covariance of its gradient,
+// estimated from the gradients on `resamples` random splits of the tiles into halves A and B
+// ((g_A - g_B) has four times the covariance of the whole data's gradient); the pose's
+// covariance is H^-1 Cov(g) H^-1, in the camera frame (deg, m), its square roots reported as
+// rotation_std_deg_cam_xyz (small angles about the camera's x, y, z) and
+// translation_std_m_cam_xyz.
+//
+// Verdict: "diverged" when the held-out half rejects the result, or when starts that end
+// within diverged_objective of the best objective lie more than diverged_deg / diverged_m from
+// it (two equally good, different answers); then the start is returned. Else "ambiguous" when
+// a std exceeds ambiguous_std_deg / ambiguous_std_m (the objective is flat along that
+// direction, named in `unconstrained`), else "converged"; both return the result.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scancam/colour/colourise.h"
+#include "scancam/ordered_scan.h"
+#include "scancam/progress.h"
+#include "scancam/refine/alignment.h"
+
+namespace scancam::refine {
+
+/// One scene: a scan and a photo of it (view.T_cam_scan is not used; view.mask as colouring).
+struct RefineScene {
+  const OrderedScan* scan = nullptr;
+  colour::ColourView view;
+};
+
+struct DenseRefineOptions {
+  AlignmentOptions alignment;
+  double edge_weight = 0.1;       ///< weight of the edge term against NID
+  int starts = 5;                 ///< the start plus starts - 1 random ones
+  double start_spread_deg = 1.0;  ///< random starts: rotation about a random axis, deg
+  double start_spread_m = 0.10;   ///< ... and offset in a random direction, m
+  int hops = 6;  ///< then restarts near the best end (a third of the spread), kept if better
+  double initial_step_deg = 1.0;
+  double initial_step_m = 0.10;
+  double final_step_deg = 0.01;
+  double final_step_m = 0.001;
+  int max_evaluations = 20000;  ///< over all searches
+  /// Coarse to fine: the grey image and edge field smoothed by level_sigma_px[l] (px) while
+  /// the rotation step is at least level_min_step_deg[l]; the last level below that.
+  std::vector<double> level_sigma_px = {0.0};
+  std::vector<double> level_min_step_deg = {0.5, 0.12};
+  int resamples = 8;                ///< uncertainty (see the file comment); < 2: none
+  double curvature_step_deg = 0.2;  ///< finite-difference steps of the uncertainty
+  double curvature_step_m = 0.02;
+  double ambiguous_std_deg = 0.3;
+  double ambiguous_std_m = 0.05;
+  double diverged_deg = 0.5;
+  double diverged_m = 0.10;
+  double diverged_objective = 0.0005;
+  std::uint64_t seed = 1;
+};
+
+struct DenseRefineResult {
+  Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();  ///< the result (or start)
+  Eigen::Isometry3d T_best =
+      Eigen::Isometry3d::Identity();  ///< the search's best (even if rejected)
+  bool accepted = false;
+  std::string verdict;        ///< "converged", "ambiguous" or "diverged"
+  std::string reason;         ///< one line: why
+  std::string unconstrained;  ///< ambiguous: the weakest direction, in words
+  // Objective (lower is better) and its terms, mean over scenes, at the start and the best.
+  double train_start = 0.0, train_best = 0.0;
+  double heldout_start = 0.0, heldout_best = 0.0;
+  double nid_start = 0.0, nid_best = 0.0;                                 ///< all points
+  double edge_start = 0.0, edge_best = 0.0;                               ///< all edge points
+  Eigen::Vector3d rotation_change_deg_cam_xyz = Eigen::Vector3d::Zero();  ///< best vs start
+  Eigen::Vector3d translation_change_m_cam_xyz = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotation_std_deg_cam_xyz = Eigen::Vector3d::Zero();
+  Eigen::Vector3d translation_std_m_cam_xyz = Eigen::Vector3d::Zero();
+  /// The pose's covariance, (omega deg, v m) in the camera frame (see the file comment).
+  Eigen::Matrix<double, 6, 6> covariance_cam = Eigen::Matrix<double, 6, 6>::Zero();
+  double starts_spread_deg = 0.0, starts_spread_m = 0.0;  ///< among the agreeing starts
+  int starts_agreeing = 0;
+  int evaluations = 0;
+  std::size_t points = 0, edge_points = 0;  ///< used (in front of the camera), all scenes
+};
+
+/// Refines `start` (see the file comment). Throws scancam::Error when a scene has no image, no
+/// scan or no point in front of the camera; scancam::Cancelled when `progress` cancels.
+DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
+                              const Eigen::Isometry3d& start,
+                              const DenseRefineOptions& options = {},
+                              const Progress& progress = {});
+
+}  // namespace scancam::refine

@@ -1,0 +1,228 @@
+#include "scancam/refine/alignment.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "scancam/error.h"
+
+namespace scancam::refine {
+
+namespace {
+
+float Bilinear(const cv::Mat& f, float u, float v) {
+  // OpenCV pixel convention: pixel (x, y) has its centre at (x, y).
+  const int x0 = static_cast<int>(std::floor(u)), y0 = static_cast<int>(std::floor(v));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= f.cols || y0 + 1 >= f.rows) return 0.f;
+  const float a = u - static_cast<float>(x0), b = v - static_cast<float>(y0);
+  const float* r0 = f.ptr<float>(y0);
+  const float* r1 = f.ptr<float>(y0 + 1);
+  return (1.f - b) * ((1.f - a) * r0[x0] + a * r0[x0 + 1]) +
+         b * ((1.f - a) * r1[x0] + a * r1[x0 + 1]);
+}
+
+double Entropy(const std::vector<double>& p, double total) {
+  double h = 0.0;
+  for (double v : p) {
+    if (v > 0.0) {
+      const double q = v / total;
+      h -= q * std::log(q);
+    }
+  }
+  return h;
+}
+
+}  // namespace
+
+AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView& view,
+                               const AlignmentOptions& options) {
+  if (view.image.empty()) throw Error("alignment: the view has no image");
+  if (view.image.cols != view.camera.width() || view.image.rows != view.camera.height()) {
+    throw Error("alignment: the image is " + std::to_string(view.image.cols) + "x" +
+                std::to_string(view.image.rows) + " px but the camera is " +
+                std::to_string(view.camera.width()) + "x" + std::to_string(view.camera.height()));
+  }
+  AlignmentData d;
+  d.options = options;
+  d.camera = view.camera;
+  d.mask = view.mask;
+
+  cv::Mat grey8;
+  if (view.image.channels() == 3) {
+    cv::cvtColor(view.image, grey8, cv::COLOR_BGR2GRAY);
+  } else {
+    grey8 = view.image;
+  }
+  grey8.convertTo(d.grey, CV_32F);
+  cv::Mat smooth, gx, gy, mag;
+  cv::GaussianBlur(d.grey, smooth, cv::Size(), 1.0);
+  cv::Sobel(smooth, gx, CV_32F, 1, 0, 3);
+  cv::Sobel(smooth, gy, CV_32F, 0, 1, 3);
+  cv::magnitude(gx, gy, mag);
+  if (!d.mask.empty()) {
+    // No edges from the border of the valid region (a fisheye's image circle).
+    cv::Mat inner;
+    cv::erode(d.mask, inner, cv::Mat(), cv::Point(-1, -1), 3);
+    mag.setTo(0.f, inner == 0);
+  }
+  if (options.edge_sigma_px > 0.0) cv::GaussianBlur(mag, mag, cv::Size(), options.edge_sigma_px);
+  std::vector<float> sample;
+  const int step = std::max(1, static_cast<int>(std::sqrt(mag.total() / 200000.0)));
+  for (int y = 0; y < mag.rows; y += step) {
+    for (int x = 0; x < mag.cols; x += step) sample.push_back(mag.at<float>(y, x));
+  }
+  float p99 = 1.f;
+  if (!sample.empty()) {
+    const std::size_t k = sample.size() * 99 / 100;
+    std::nth_element(sample.begin(), sample.begin() + static_cast<std::ptrdiff_t>(k), sample.end());
+    p99 = std::max(sample[k], 1e-6f);
+  }
+  d.edge_field = cv::min(mag / p99, 1.0);
+
+  // Depth-discontinuity points: the nearer side of a jump between grid neighbours; a return
+  // next to a cell without one (the sky, a window) is a silhouette too.
+  std::vector<std::uint8_t> edge(scan.size(), 0);
+  auto jump = [&](std::size_t a, std::size_t b) {
+    const bool va = scan.valid(a), vb = scan.valid(b);
+    if (va && !vb) {
+      if (options.no_return_is_edge) edge[a] = 1;
+    } else if (vb && !va) {
+      if (options.no_return_is_edge) edge[b] = 1;
+    } else if (va && vb) {
+      const float ra = scan.range_m[a], rb = scan.range_m[b];
+      const float nearer = std::min(ra, rb);
+      if (std::abs(ra - rb) >
+          std::max(options.depth_jump_m, options.depth_jump_fraction * double(nearer))) {
+        edge[ra < rb ? a : b] = 1;
+      }
+    }
+  };
+  for (int r = 0; r < scan.rows; ++r) {
+    for (int c = 0; c < scan.cols; ++c) {
+      const std::size_t i = scan.index(r, c);
+      if (c + 1 < scan.cols) jump(i, scan.index(r, c + 1));
+      if (r + 1 < scan.rows) jump(i, scan.index(r + 1, c));
+    }
+  }
+  std::vector<float> intensities;
+  const int tr = std::max(1, options.tile_rows), tc = std::max(1, options.tile_cols);
+  const std::uint32_t tiles_per_row = static_cast<std::uint32_t>(scan.cols / tc + 1);
+  for (std::size_t i = 0; i < scan.size(); ++i) {
+    if (!scan.valid(i)) continue;
+    const int r = static_cast<int>(i / scan.cols), c = static_cast<int>(i % scan.cols);
+    const std::uint32_t tile =
+        static_cast<std::uint32_t>(r / tr) * tiles_per_row + static_cast<std::uint32_t>(c / tc);
+    d.all_points.push_back(scan.point_m[i]);
+    d.all_tile.push_back(tile);
+    if (edge[i]) {
+      d.edge_points.push_back(scan.point_m[i]);
+      d.edge_tile.push_back(tile);
+    }
+    if (scan.has_intensity()) intensities.push_back(scan.intensity[i]);
+  }
+  if (scan.has_intensity() && !intensities.empty()) {
+    std::vector<float> sorted = intensities;
+    std::sort(sorted.begin(), sorted.end(),
+              [](float a, float b) { return std::isnan(b) ? !std::isnan(a) : a < b; });
+    const int bins = std::max(2, options.nid_bins);
+    std::vector<float> cuts;
+    for (int k = 1; k < bins; ++k) cuts.push_back(sorted[sorted.size() * k / bins]);
+    d.intensity_bin.reserve(intensities.size());
+    for (float v : intensities) {
+      const auto it = std::upper_bound(cuts.begin(), cuts.end(), v);
+      d.intensity_bin.push_back(static_cast<std::uint8_t>(
+          std::isfinite(v) ? std::min<std::ptrdiff_t>(it - cuts.begin(), bins - 1) : 255));
+    }
+  }
+  return d;
+}
+
+AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T_cam_scan) {
+  AlignmentScore s;
+  const AlignmentOptions& o = d.options;
+  const int W = d.camera.width(), H = d.camera.height();
+  const int cell = std::max(1, o.occlusion_cell_px);
+  const int gw = (W + cell - 1) / cell, gh = (H + cell - 1) / cell;
+  const std::size_t n = d.all_points.size();
+  std::vector<Eigen::Vector2f> uv(n);
+  std::vector<std::uint8_t> ok(n);
+  d.camera.ProjectBatch(T_cam_scan, d.all_points.data(), n, uv.data(), ok.data());
+  std::vector<float> dist(n, 0.f);
+  std::vector<float> zbuf(static_cast<std::size_t>(gw) * gh,
+                          std::numeric_limits<float>::infinity());
+  const Eigen::Matrix3f R = T_cam_scan.linear().cast<float>();
+  const Eigen::Vector3f t = T_cam_scan.translation().cast<float>();
+  auto cell_of = [&](const Eigen::Vector2f& p) {
+    const int x = std::clamp(static_cast<int>(p.x() + 0.5f) / cell, 0, gw - 1);
+    const int y = std::clamp(static_cast<int>(p.y() + 0.5f) / cell, 0, gh - 1);
+    return static_cast<std::size_t>(y) * gw + x;
+  };
+  auto in_mask = [&](const Eigen::Vector2f& p) {
+    if (d.mask.empty()) return true;
+    const int x = static_cast<int>(p.x() + 0.5f), y = static_cast<int>(p.y() + 0.5f);
+    return x >= 0 && y >= 0 && x < W && y < H && d.mask.at<std::uint8_t>(y, x) != 0;
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!ok[i]) continue;
+    dist[i] = (R * d.all_points[i] + t).norm();
+    float& z = zbuf[cell_of(uv[i])];
+    z = std::min(z, dist[i]);
+  }
+  auto visible = [&](const Eigen::Vector2f& p, float r) {
+    const float z = zbuf[cell_of(p)];
+    return r <= z + std::max<float>(o.occlusion_tolerance_m, o.occlusion_tolerance_fraction * z);
+  };
+  // NID over the seen points with intensity.
+  const int bins = std::max(2, o.nid_bins);
+  if (!d.intensity_bin.empty()) {
+    std::vector<double> joint(static_cast<std::size_t>(bins) * bins, 0.0);
+    double total = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!ok[i] || d.intensity_bin[i] == 255 || !in_mask(uv[i]) || !visible(uv[i], dist[i]))
+        continue;
+      ++s.visible;
+      const float g = Bilinear(d.grey, uv[i].x(), uv[i].y());
+      const float x = std::clamp(g / 256.f * bins - 0.5f, 0.f, float(bins - 1));
+      const int b0 = std::min(static_cast<int>(x), bins - 2);
+      const float w1 = x - float(b0);
+      double* row = &joint[static_cast<std::size_t>(d.intensity_bin[i]) * bins];
+      row[b0] += 1.0 - w1;
+      row[b0 + 1] += w1;
+      total += 1.0;
+    }
+    if (total > 0.0) {
+      std::vector<double> pi(bins, 0.0), pg(bins, 0.0);
+      for (int a = 0; a < bins; ++a) {
+        for (int b = 0; b < bins; ++b) {
+          pi[a] += joint[a * bins + b];
+          pg[b] += joint[a * bins + b];
+        }
+      }
+      const double hj = Entropy(joint, total);
+      const double mi = Entropy(pi, total) + Entropy(pg, total) - hj;
+      s.nid = hj > 0.0 ? (hj - mi) / hj : 1.0;
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i)
+      s.visible += ok[i] && in_mask(uv[i]) && visible(uv[i], dist[i]);
+  }
+  // Edge term.
+  const std::size_t m = d.edge_points.size();
+  std::vector<Eigen::Vector2f> euv(m);
+  std::vector<std::uint8_t> eok(m);
+  d.camera.ProjectBatch(T_cam_scan, d.edge_points.data(), m, euv.data(), eok.data());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < m; ++i) {
+    if (!eok[i] || !in_mask(euv[i])) continue;
+    const float r = (R * d.edge_points[i] + t).norm();
+    if (!visible(euv[i], r)) continue;
+    sum += Bilinear(d.edge_field, euv[i].x(), euv[i].y());
+    ++s.edge_visible;
+  }
+  s.edge = s.edge_visible ? sum / double(s.edge_visible) : 0.0;
+  s.combined = s.edge - o.nid_weight * s.nid;
+  return s;
+}
+
+}  // namespace scancam::refine

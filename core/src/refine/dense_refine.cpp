@@ -1,0 +1,466 @@
+#include "scancam/refine/dense_refine.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <random>
+
+#include "scancam/error.h"
+
+namespace scancam::refine {
+
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+constexpr double kDeg = M_PI / 180.0;
+
+// exp(delta) * start, delta = (omega [deg], v [m]) in the camera frame.
+Eigen::Isometry3d Apply(const Vec6& delta_deg_m, const Eigen::Isometry3d& start) {
+  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d w = delta_deg_m.head<3>() * kDeg;
+  const double a = w.norm();
+  if (a > 0.0) d.linear() = Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+  d.translation() = delta_deg_m.tail<3>();
+  return d * start;
+}
+
+// delta (deg, m) with Apply(delta, from) == to.
+Vec6 Between(const Eigen::Isometry3d& from, const Eigen::Isometry3d& to) {
+  const Eigen::Isometry3d d = to * from.inverse();
+  const Eigen::AngleAxisd aa(d.linear());
+  Vec6 v;
+  v.head<3>() = aa.axis() * aa.angle() / kDeg;
+  v.tail<3>() = d.translation();
+  return v;
+}
+
+std::uint64_t Mix(std::uint64_t x) {  // splitmix64
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+struct Objective {
+  std::vector<AlignmentData> scenes;
+  double edge_weight = 0.1;
+  int* evaluations = nullptr;
+  double operator()(const Eigen::Isometry3d& T) const {
+    double f = 0.0;
+    for (const AlignmentData& d : scenes) {
+      const AlignmentScore s = ScoreAlignment(d, T);
+      f += s.nid - edge_weight * s.edge;
+    }
+    if (evaluations) ++*evaluations;
+    return f / static_cast<double>(std::max<std::size_t>(1, scenes.size()));
+  }
+};
+
+// A copy of `d` whose grey image and edge field are smoothed by a Gaussian of sigma_px (a
+// coarser level of the search: a wider, smoother basin).
+AlignmentData Smoothed(const AlignmentData& d, double sigma_px) {
+  AlignmentData out = d;
+  if (sigma_px > 0.0) {
+    cv::GaussianBlur(d.grey, out.grey, cv::Size(), sigma_px);
+    cv::GaussianBlur(d.edge_field, out.edge_field, cv::Size(), sigma_px);
+  }
+  return out;
+}
+
+// The objective at the levels of the search: level l is used while the rotation step is at
+// least level_min_step_deg[l].
+struct Levels {
+  std::vector<Objective> objective;
+  std::vector<double> min_step_deg;
+  const Objective& For(double step_deg) const {
+    for (std::size_t l = 0; l + 1 < objective.size(); ++l) {
+      if (step_deg >= min_step_deg[l]) return objective[l];
+    }
+    return objective.back();
+  }
+};
+
+struct SearchResult {
+  Eigen::Isometry3d T;
+  double f = 0.0;
+};
+
+// Pattern search from `from` (see the header). Stops early when the budget runs out.
+SearchResult PatternSearch(const Levels& L, const Eigen::Isometry3d& from, double step_deg,
+                           double step_m, const DenseRefineOptions& o, int budget_end,
+                           const Progress& progress, double p0, double p1) {
+  const Objective* F = &L.For(step_deg);
+  SearchResult best{from, (*F)(from)};
+  double sr = step_deg, st = step_m;
+  const double levels = std::max(1.0, std::log2(step_deg / o.final_step_deg));
+  while ((sr >= o.final_step_deg || st >= o.final_step_m) && *F->evaluations < budget_end) {
+    if (const Objective* G = &L.For(sr); G != F) {  // a finer level: re-score the best
+      F = G;
+      best.f = (*F)(best.T);
+    }
+    bool moved = false;
+    for (int i = 0; i < 6; ++i) {
+      const double step = i < 3 ? sr : st;
+      if (step < (i < 3 ? o.final_step_deg : o.final_step_m)) continue;
+      for (const double sign : {1.0, -1.0}) {
+        Vec6 d = Vec6::Zero();
+        d[i] = sign * step;
+        const Eigen::Isometry3d T = Apply(d, best.T);
+        const double f = (*F)(T);
+        if (f < best.f) {
+          best = {T, f};
+          moved = true;
+          break;
+        }
+      }
+    }
+    if (!moved) {
+      sr *= 0.5;
+      st *= 0.5;
+      const double done = std::log2(step_deg / std::max(sr, 1e-12)) / levels;
+      progress(p0 + (p1 - p0) * std::min(1.0, done), "refining");
+    }
+  }
+  return best;
+}
+
+// Nelder-Mead simplex search (reflection 1, expansion 2, contraction 0.5, shrink 0.5) in the
+// scaled coordinates z (delta = z * (scale_deg x3, scale_m x3)), restarted from its best point
+// with the scale divided by 4 until the scale reaches 4 final steps; then a pattern search
+// polishes. The simplex follows coupled directions (a rotation about y and a translation along
+// x move a far point alike), which a coordinate search crawls along.
+SearchResult SimplexSearch(const Levels& L, const Eigen::Isometry3d& from, double scale_deg,
+                           double scale_m, const DenseRefineOptions& o, int budget_end,
+                           const Progress& progress, double p0, double p1) {
+  SearchResult best{from, L.For(scale_deg)(from)};
+  const double rounds = std::max(1.0, std::log(scale_deg / (4 * o.final_step_deg)) / std::log(4.0));
+  int round = 0;
+  for (double sd = scale_deg, sm = scale_m; sd >= 4 * o.final_step_deg; sd /= 4, sm /= 4) {
+    const Objective& F = L.For(sd);
+    const Eigen::Isometry3d base = best.T;
+    auto eval = [&](const Vec6& z) {
+      Vec6 d;
+      d << z.head<3>() * sd, z.tail<3>() * sm;
+      return F(Apply(d, base));
+    };
+    std::vector<Vec6> x(7, Vec6::Zero());
+    std::vector<double> f(7);
+    f[0] = eval(x[0]);
+    for (int i = 0; i < 6; ++i) {
+      x[i + 1][i] = 1.0;
+      f[i + 1] = eval(x[i + 1]);
+    }
+    for (int it = 0; it < 400 && *F.evaluations < budget_end; ++it) {
+      std::vector<int> idx = {0, 1, 2, 3, 4, 5, 6};
+      std::sort(idx.begin(), idx.end(), [&](int a, int b) { return f[a] < f[b]; });
+      std::vector<Vec6> xs;
+      std::vector<double> fs;
+      for (int i : idx) {
+        xs.push_back(x[i]);
+        fs.push_back(f[i]);
+      }
+      x = xs;
+      f = fs;
+      double size = 0.0;
+      for (int i = 1; i < 7; ++i) size = std::max(size, (x[i] - x[0]).norm());
+      if (size < 0.05) break;  // a twentieth of this round's scale
+      Vec6 c = Vec6::Zero();
+      for (int i = 0; i < 6; ++i) c += x[i] / 6.0;
+      const Vec6 xr = c + (c - x[6]);
+      const double fr = eval(xr);
+      if (fr < f[0]) {
+        const Vec6 xe = c + 2.0 * (c - x[6]);
+        const double fe = eval(xe);
+        if (fe < fr) {
+          x[6] = xe;
+          f[6] = fe;
+        } else {
+          x[6] = xr;
+          f[6] = fr;
+        }
+      } else if (fr < f[5]) {
+        x[6] = xr;
+        f[6] = fr;
+      } else {
+        const bool outside = fr < f[6];
+        const Vec6 xc = outside ? c + 0.5 * (xr - c) : c + 0.5 * (x[6] - c);
+        const double fc = eval(xc);
+        if (fc < (outside ? fr : f[6])) {
+          x[6] = xc;
+          f[6] = fc;
+        } else {
+          for (int i = 1; i < 7; ++i) {
+            x[i] = x[0] + 0.5 * (x[i] - x[0]);
+            f[i] = eval(x[i]);
+          }
+        }
+      }
+    }
+    const int b = static_cast<int>(std::min_element(f.begin(), f.end()) - f.begin());
+    Vec6 d;
+    d << x[b].head<3>() * sd, x[b].tail<3>() * sm;
+    best = {Apply(d, base), f[b]};
+    ++round;
+    progress(p0 + (p1 - p0) * 0.8 * std::min(1.0, round / rounds), "refining");
+    if (*F.evaluations >= budget_end) break;
+  }
+  // Polish with the pattern search from 4 final steps.
+  return PatternSearch(L, best.T, 4 * o.final_step_deg, 4 * o.final_step_m, o, budget_end, progress,
+                       p0 + 0.8 * (p1 - p0), p1);
+}
+
+std::string AxisWords(int i) {
+  static const char* names[6] = {
+      "rotation about the camera's x axis (tilt up/down)",
+      "rotation about the camera's y axis (pan left/right)",
+      "rotation about the camera's z axis (roll about the viewing direction)",
+      "translation along the camera's x axis (right)",
+      "translation along the camera's y axis (down)",
+      "translation along the camera's z axis (the viewing direction)"};
+  return names[i];
+}
+
+}  // namespace
+
+DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
+                              const Eigen::Isometry3d& start, const DenseRefineOptions& o,
+                              const Progress& progress) {
+  if (scenes.empty()) throw Error("dense refinement: no scene");
+  DenseRefineResult res;
+  progress(0.0, "preparing");
+  // Every scene's data, restricted to the points that can reach the image from near the start.
+  std::vector<AlignmentData> all;
+  for (std::size_t k = 0; k < scenes.size(); ++k) {
+    const RefineScene& sc = scenes[k];
+    if (!sc.scan) throw Error("dense refinement: scene " + std::to_string(k + 1) + " has no scan");
+    AlignmentData d = PrepareAlignment(*sc.scan, sc.view, o.alignment);
+    const CameraModel& cam = d.camera;
+    const double mu = 0.3 * cam.width(), mv = 0.3 * cam.height();
+    auto reachable = [&](const Eigen::Vector3f& p) {
+      const auto uv = cam.ProjectUnbounded(start * p.cast<double>());
+      return uv && uv->x() > -mu && uv->x() < cam.width() + mu && uv->y() > -mv &&
+             uv->y() < cam.height() + mv;
+    };
+    AlignmentData near = d;
+    near.all_points.clear();
+    near.all_tile.clear();
+    near.intensity_bin.clear();
+    near.edge_points.clear();
+    near.edge_tile.clear();
+    for (std::size_t i = 0; i < d.all_points.size(); ++i) {
+      if (!reachable(d.all_points[i])) continue;
+      near.all_points.push_back(d.all_points[i]);
+      near.all_tile.push_back(d.all_tile[i]);
+      if (!d.intensity_bin.empty()) near.intensity_bin.push_back(d.intensity_bin[i]);
+    }
+    for (std::size_t i = 0; i < d.edge_points.size(); ++i) {
+      if (!reachable(d.edge_points[i])) continue;
+      near.edge_points.push_back(d.edge_points[i]);
+      near.edge_tile.push_back(d.edge_tile[i]);
+    }
+    if (near.all_points.empty()) {
+      throw Error("dense refinement: no point of scene " + std::to_string(k + 1) +
+                  " projects near the image from the start pose (is the start T_cam_scan "
+                  "inverted or far off?)");
+    }
+    res.points += near.all_points.size();
+    res.edge_points += near.edge_points.size();
+    all.push_back(std::move(near));
+  }
+  const std::uint64_t split_seed = Mix(o.seed ^ 0x5ca1ab1eull);
+  auto subset = [&](auto keep) {
+    Levels L;
+    for (const double sigma : o.level_sigma_px) {
+      Objective F;
+      F.edge_weight = o.edge_weight;
+      F.evaluations = &res.evaluations;
+      for (const AlignmentData& d : all)
+        F.scenes.push_back(Smoothed(SubsetAlignment(d, keep), sigma));
+      L.objective.push_back(std::move(F));
+    }
+    L.min_step_deg = o.level_min_step_deg;
+    return L;
+  };
+  const Levels train_levels =
+      subset([&](std::uint32_t t) { return (Mix(t ^ split_seed) & 1) == 0; });
+  const Levels held_levels =
+      subset([&](std::uint32_t t) { return (Mix(t ^ split_seed) & 1) == 1; });
+  const Objective& train = train_levels.objective.back();
+  const Objective& held = held_levels.objective.back();
+  Objective full;
+  full.edge_weight = o.edge_weight;
+  full.evaluations = &res.evaluations;
+  full.scenes = all;
+
+  // Searches from the start and random starts.
+  std::mt19937_64 rng(o.seed);
+  std::normal_distribution<double> g;
+  const int starts = std::max(1, o.starts);
+  std::vector<SearchResult> ends;
+  const int budget_per_start = std::max(50, o.max_evaluations / (starts + 2));
+  for (int k = 0; k < starts; ++k) {
+    Eigen::Isometry3d s = start;
+    if (k > 0) {
+      const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+      const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+      Vec6 d;
+      d.head<3>() = axis * o.start_spread_deg;
+      d.tail<3>() = dir * o.start_spread_m;
+      s = Apply(d, start);
+    }
+    ends.push_back(SimplexSearch(train_levels, s, o.initial_step_deg, o.initial_step_m, o,
+                                 res.evaluations + budget_per_start, progress,
+                                 0.05 + 0.75 * k / starts, 0.05 + 0.75 * (k + 1) / starts));
+  }
+  for (SearchResult& e : ends) e.f = train(e.T);  // all on the finest level
+  // Basin hopping: restarts near the best end (a third of the start spread), kept when better.
+  {
+    auto b = std::min_element(ends.begin(), ends.end(),
+                              [](const auto& x, const auto& y) { return x.f < y.f; });
+    SearchResult hop_best = *b;
+    for (int k = 0; k < o.hops && res.evaluations < o.max_evaluations; ++k) {
+      const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+      const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+      Vec6 d;
+      d.head<3>() = axis * o.start_spread_deg / 3.0;
+      d.tail<3>() = dir * o.start_spread_m / 3.0;
+      SearchResult r = SimplexSearch(train_levels, Apply(d, hop_best.T), o.initial_step_deg / 4,
+                                     o.initial_step_m / 4, o,
+                                     res.evaluations + budget_per_start / 2, progress, 0.8, 0.8);
+      r.f = train(r.T);
+      if (r.f < hop_best.f) hop_best = r;
+    }
+    ends.push_back(hop_best);
+  }
+  const auto best_it = std::min_element(ends.begin(), ends.end(),
+                                        [](const auto& a, const auto& b) { return a.f < b.f; });
+  const SearchResult best = *best_it;
+  res.T_best = best.T;
+  res.train_start = train(start);
+  res.train_best = best.f;
+  res.heldout_start = held(start);
+  res.heldout_best = held(best.T);
+  for (const AlignmentData& d : all) {
+    const AlignmentScore a = ScoreAlignment(d, start), b = ScoreAlignment(d, best.T);
+    res.nid_start += a.nid / all.size();
+    res.nid_best += b.nid / all.size();
+    res.edge_start += a.edge / all.size();
+    res.edge_best += b.edge / all.size();
+  }
+  const Vec6 change = Between(start, best.T);
+  res.rotation_change_deg_cam_xyz = change.head<3>();
+  res.translation_change_m_cam_xyz = change.tail<3>();
+  // Agreement of the starts that reached (nearly) the best objective.
+  for (const SearchResult& e : ends) {
+    if (e.f > best.f + o.diverged_objective) continue;
+    ++res.starts_agreeing;
+    const Vec6 d = Between(best.T, e.T);
+    res.starts_spread_deg = std::max(res.starts_spread_deg, d.head<3>().norm());
+    res.starts_spread_m = std::max(res.starts_spread_m, d.tail<3>().norm());
+  }
+  // Uncertainty: a split-half sandwich estimate. The curvature H of the full objective at the
+  // best pose (central differences of step h), and the covariance of its gradient from the
+  // difference of the gradients on random halves of the tiles (g_A - g_B has four times the
+  // covariance of the full data's gradient): Cov = H^-1 Cov(g) H^-1.
+  if (o.resamples >= 2) {
+    const Vec6 h = (Vec6() << Eigen::Vector3d::Constant(o.curvature_step_deg),
+                    Eigen::Vector3d::Constant(o.curvature_step_m))
+                       .finished();
+    const Levels full_levels = subset([](std::uint32_t) { return true; });
+    const Objective& F = full_levels.objective.back();
+    auto at = [&](const Objective& G, const Vec6& d) { return G(Apply(d, best.T)); };
+    Eigen::Matrix<double, 6, 6> H;
+    const double f0 = at(F, Vec6::Zero());
+    for (int i = 0; i < 6; ++i) {
+      for (int j = i; j < 6; ++j) {
+        Vec6 ei = Vec6::Zero(), ej = Vec6::Zero();
+        ei[i] = h[i];
+        ej[j] = h[j];
+        double v;
+        if (i == j) {
+          v = (at(F, ei) - 2.0 * f0 + at(F, -ei)) / (h[i] * h[i]);
+        } else {
+          v = (at(F, ei + ej) - at(F, ei - ej) - at(F, ej - ei) + at(F, -ei - ej)) /
+              (4.0 * h[i] * h[j]);
+        }
+        H(i, j) = H(j, i) = v;
+      }
+      progress(0.8 + 0.1 * (i + 1) / 6.0, "uncertainty");
+    }
+    Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
+    for (int k = 0; k < o.resamples; ++k) {
+      const std::uint64_t seed_k = Mix(o.seed + 1000 + static_cast<std::uint64_t>(k));
+      const Levels A = subset([&](std::uint32_t t) { return (Mix(t ^ seed_k) & 1) == 0; });
+      const Levels B = subset([&](std::uint32_t t) { return (Mix(t ^ seed_k) & 1) == 1; });
+      Vec6 g;
+      for (int i = 0; i < 6; ++i) {
+        Vec6 e = Vec6::Zero();
+        e[i] = h[i];
+        const double ga = (at(A.objective.back(), e) - at(A.objective.back(), -e)) / (2 * h[i]);
+        const double gb = (at(B.objective.back(), e) - at(B.objective.back(), -e)) / (2 * h[i]);
+        g[i] = ga - gb;
+      }
+      G += g * g.transpose() / (4.0 * o.resamples);
+      progress(0.9 + 0.1 * (k + 1) / o.resamples, "uncertainty");
+    }
+    // A flat or indefinite curvature: that direction is unconstrained (a huge std).
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> es(H);
+    Eigen::Matrix<double, 6, 1> inv_ev;
+    for (int i = 0; i < 6; ++i) {
+      const double ev = es.eigenvalues()[i];
+      inv_ev[i] = ev > 1e-12 ? 1.0 / ev : 1e12;
+    }
+    const Eigen::Matrix<double, 6, 6> Hinv =
+        es.eigenvectors() * inv_ev.asDiagonal() * es.eigenvectors().transpose();
+    const Eigen::Matrix<double, 6, 6> C = Hinv * G * Hinv;
+    res.covariance_cam = C;
+    Vec6 sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
+    for (int i = 0; i < 6; ++i) sd[i] = std::min(sd[i], i < 3 ? 180.0 : 100.0);  // unconstrained
+    res.rotation_std_deg_cam_xyz = sd.head<3>();
+    res.translation_std_m_cam_xyz = sd.tail<3>();
+  }
+  // Verdict.
+  const bool heldout_better = res.heldout_best < res.heldout_start;
+  if (!heldout_better) {
+    res.verdict = "diverged";
+    res.reason = "the held-out half of the scan does not confirm the search's result (objective " +
+                 std::to_string(res.heldout_best) + " against " +
+                 std::to_string(res.heldout_start) + " at the start): the start is kept";
+  } else if (res.starts_spread_deg > o.diverged_deg || res.starts_spread_m > o.diverged_m) {
+    res.verdict = "diverged";
+    res.reason = "the searches from different starts end in different places (" +
+                 std::to_string(res.starts_spread_deg) + " deg, " +
+                 std::to_string(res.starts_spread_m) + " m apart; " +
+                 std::to_string(res.starts_agreeing) + " of " + std::to_string(starts) +
+                 " starts agree)";
+  } else {
+    int worst = -1;
+    double worst_ratio = 1.0;
+    for (int i = 0; i < 6; ++i) {
+      const double sd =
+          i < 3 ? res.rotation_std_deg_cam_xyz[i] : res.translation_std_m_cam_xyz[i - 3];
+      const double ratio = sd / (i < 3 ? o.ambiguous_std_deg : o.ambiguous_std_m);
+      if (ratio > worst_ratio) {
+        worst_ratio = ratio;
+        worst = i;
+      }
+    }
+    if (worst >= 0) {
+      res.verdict = "ambiguous";
+      res.unconstrained = AxisWords(worst);
+      res.reason = "the scene constrains the " + res.unconstrained + " poorly";
+    } else {
+      res.verdict = "converged";
+      res.reason = "the held-out half confirms it; " + std::to_string(res.starts_agreeing) +
+                   " of " + std::to_string(starts) +
+                   " starts reach the best objective (the others stop in worse local optima)";
+    }
+  }
+  res.accepted = res.verdict != "diverged";
+  res.T_cam_scan = res.accepted ? best.T : start;
+  progress(1.0, "refined");
+  return res;
+}
+
+}  // namespace scancam::refine

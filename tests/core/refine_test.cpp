@@ -1,0 +1,194 @@
+// Dense refinement (refine/alignment.h, refine/dense_refine.h, `scancam refine`; issue 16):
+//   - the alignment check ranks a reference above poses perturbed by 0.5 deg / 5 cm (simulated
+//     64-ring lidar with a pinhole camera; road-pinhole with its reference when ../shared is
+//     there);
+//   - from 2 deg / 20 cm off, refinement comes back close to the simulator's truth;
+//   - never worse: started at the truth, the result stays at it (or the start is kept);
+//   - the CLI writes calibrate's schema plus the refinement's figures and refuses bad input.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <filesystem>
+#include <random>
+#include <string>
+
+#include "scancam/camera/camera_io.h"
+#include "scancam/camera/valid_region.h"
+#include "scancam/colour/colourise.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/json_util.h"
+#include "scancam/io/scan_io.h"
+#include "scancam/refine/alignment.h"
+#include "scancam/refine/dense_refine.h"
+#include "scancam/sim/simulate.h"
+#include "scancam/solve/calibrate.h"
+#include "test_util.h"
+
+namespace scancam {
+namespace {
+
+namespace fs = std::filesystem;
+
+double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
+}
+double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a * b.inverse()).translation().norm();
+}
+
+// A perturbation of `angle_deg` about a random axis and `offset_m` in a random direction, in
+// the camera frame.
+Eigen::Isometry3d Perturb(const Eigen::Isometry3d& T, double angle_deg, double offset_m,
+                          std::mt19937* rng) {
+  std::normal_distribution<double> g;
+  const Eigen::Vector3d axis = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
+  const Eigen::Vector3d dir = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
+  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+  d.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis).toRotationMatrix();
+  d.translation() = offset_m * dir;
+  return d * T;
+}
+
+// The simulated 64-ring lidar and pinhole camera, once per test process.
+struct LidarScene {
+  sim::Simulation sim;
+  colour::ColourView view;
+  LidarScene() {
+    sim::SimulateOptions o;
+    o.scanner = "lidar";
+    o.camera = "pinhole";
+    o.supersample = 1;
+    o.pairs = 0;
+    sim = sim::Simulate(o);
+    view.camera = sim.camera;
+    view.image = sim.image;
+    view.T_cam_scan = sim.T_cam_scan;
+  }
+};
+const LidarScene& Lidar() {
+  static const LidarScene s;
+  return s;
+}
+
+TEST(Alignment, RanksTheTruthAbovePerturbedPosesOnTheSimulator) {
+  const LidarScene& s = Lidar();
+  const refine::AlignmentData data = refine::PrepareAlignment(s.sim.scan, s.view);
+  ASSERT_FALSE(data.intensity_bin.empty()) << "the simulated lidar has reflectance";
+  const refine::AlignmentScore truth = refine::ScoreAlignment(data, s.sim.T_cam_scan);
+  EXPECT_GT(truth.visible, 1000u);
+  std::mt19937 rng(7);
+  int worse = 0;
+  for (int k = 0; k < 12; ++k) {
+    const refine::AlignmentScore p =
+        refine::ScoreAlignment(data, Perturb(s.sim.T_cam_scan, 0.5, 0.05, &rng));
+    worse += p.nid > truth.nid;
+  }
+  EXPECT_GE(worse, 11) << "NID at the truth " << truth.nid;
+}
+
+TEST(Alignment, RanksRoadPinholesReferenceAbovePerturbedPoses) {
+  SCANCAM_REQUIRE_SHARED();
+  const std::string d = test::SharedDataset("road-pinhole");
+  const OrderedScan scan = LoadScan(d + "/scan.pcd");
+  colour::ColourView view;
+  view.camera = LoadCamera(d + "/camera-intrinsic.json");
+  view.image = ReadImage(d + "/image.png");
+  view.mask = FindValidRegion(view.camera, view.image).mask;
+  const Eigen::Isometry3d ref = colour::LoadExtrinsic(d + "/reference-extrinsic.json");
+  const refine::AlignmentData data = refine::PrepareAlignment(scan, view);
+  const refine::AlignmentScore at_ref = refine::ScoreAlignment(data, ref);
+  std::mt19937 rng(1);
+  int worse = 0;
+  for (int k = 0; k < 12; ++k) {
+    worse += refine::ScoreAlignment(data, Perturb(ref, 0.5, 0.05, &rng)).nid > at_ref.nid;
+  }
+  // Measured 12 of 12 for seeds 1, 2, 3 (docs/refine.md).
+  EXPECT_GE(worse, 11) << "NID at the reference " << at_ref.nid;
+}
+
+TEST(DenseRefine, ComesBackFromTwoDegreesAndTwentyCentimetres) {
+  const LidarScene& s = Lidar();
+  std::mt19937 rng(2);
+  const Eigen::Isometry3d start = Perturb(s.sim.T_cam_scan, 2.0, 0.2, &rng);
+  const refine::DenseRefineResult r =
+      refine::DenseRefine({{&s.sim.scan, s.view}}, start, refine::DenseRefineOptions{});
+  EXPECT_TRUE(r.accepted) << r.reason;
+  EXPECT_NE(r.verdict, "diverged") << r.reason;
+  // Measured 0.055 deg / 3 mm (seed 2) and 0.082 deg / 5 mm (seed 1); the bound leaves room
+  // for another machine's floating point, not for a search that stops half way (2 deg).
+  EXPECT_LT(AngleDeg(r.T_cam_scan, s.sim.T_cam_scan), 0.3);
+  EXPECT_LT(OffsetM(r.T_cam_scan, s.sim.T_cam_scan), 0.03);
+  EXPECT_LT(r.heldout_best, r.heldout_start);
+  EXPECT_LT(r.nid_best, r.nid_start);
+  EXPECT_GT(r.evaluations, 100);
+}
+
+TEST(DenseRefine, StartedAtTheTruthItStaysThere) {
+  const LidarScene& s = Lidar();
+  refine::DenseRefineOptions o;
+  o.starts = 2;
+  o.hops = 2;
+  const refine::DenseRefineResult r =
+      refine::DenseRefine({{&s.sim.scan, s.view}}, s.sim.T_cam_scan, o);
+  EXPECT_LT(AngleDeg(r.T_cam_scan, s.sim.T_cam_scan), 0.15) << r.reason;
+  EXPECT_LT(OffsetM(r.T_cam_scan, s.sim.T_cam_scan), 0.015) << r.reason;
+  if (!r.accepted) {
+    EXPECT_TRUE(r.T_cam_scan.isApprox(s.sim.T_cam_scan)) << "the start is kept";
+  }
+}
+
+TEST(DenseRefine, AStartThatSeesNothingIsAClearError) {
+  const LidarScene& s = Lidar();
+  Eigen::Isometry3d away = s.sim.T_cam_scan;
+  away.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+                  away.linear();                     // the camera looks the other way
+  away.translation() = Eigen::Vector3d(0, 0, -100);  // and is far behind
+  try {
+    refine::DenseRefine({{&s.sim.scan, s.view}}, away);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("projects near the image"), std::string::npos) << e.what();
+  }
+}
+
+TEST(RefineCli, WritesTheCalibrationSchemaWithTheVerdictAndRefusesBadInput) {
+  const std::string dir = test::TempDir();
+  sim::SimulateOptions o;
+  o.scanner = "lidar";
+  o.camera = "pinhole";
+  o.supersample = 1;
+  o.pairs = 0;
+  const sim::Simulation s = sim::Simulate(o);
+  sim::WriteSimulation(s, dir);
+  const std::string cam = dir + "/" + sim::CameraFileName(s);
+  const std::string scan = dir + "/" + sim::ScanFileName(s);
+  const std::string base = "refine --camera " + cam + " --scan " + scan + " --image " + dir +
+                           "/image.png --starts 2 --quiet";
+  ASSERT_EQ(test::RunCli(
+                dir, base + " --init " + dir + "/ground_truth.json --out " + dir + "/refined.json"),
+            0)
+      << test::ReadFile(dir + "/stderr.txt");
+  const nlohmann::json j = ReadJsonFile(dir + "/refined.json");
+  EXPECT_TRUE(j.contains("T_cam_scan"));
+  EXPECT_TRUE(j.contains("rotation_rpy_deg"));
+  ASSERT_TRUE(j.contains("refinement"));
+  const std::string verdict = j["refinement"]["verdict"];
+  EXPECT_TRUE(verdict == "converged" || verdict == "ambiguous" || verdict == "diverged");
+  EXPECT_EQ(j["refinement"]["rotation_std_deg_cam_xyz"].size(), 3u);
+  EXPECT_LT(AngleDeg(ReadCalibrationPose(dir + "/refined.json"), s.T_cam_scan), 0.15);
+  // The start as angles and a translation; a missing image; --out naming an input.
+  EXPECT_EQ(test::RunCli(dir, base + " --init-rpy-deg 1,2,3 --out " + dir + "/x.json"), 1);
+  EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("--init-t-m"), std::string::npos);
+  EXPECT_EQ(test::RunCli(dir, "refine --camera " + cam + " --scan " + scan + " --init " + dir +
+                                  "/ground_truth.json --out " + dir + "/x.json"),
+            1);
+  EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("--image"), std::string::npos);
+  const std::string before = test::ReadFile(cam);
+  EXPECT_EQ(test::RunCli(dir, base + " --init " + dir + "/ground_truth.json --out " + cam), 1);
+  EXPECT_EQ(test::ReadFile(cam), before);
+  EXPECT_FALSE(fs::exists(dir + "/x.json"));
+}
+
+}  // namespace
+}  // namespace scancam

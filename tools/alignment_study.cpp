@@ -1,0 +1,177 @@
+// Alignment study (issue 16, item 4): does an alignment measure rank a reference calibration
+// above poses perturbed by a fixed angle and offset? Prints, per measure, the reference's score,
+// each perturbed pose's score and how many perturbed poses score worse.
+//
+//   alignment_study SCAN CAMERA IMAGE CALIB [ANGLE_DEG=0.5] [OFFSET_M=0.05] [N=12] [SEED=1]
+#include <Eigen/Geometry>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "scancam/camera/camera_io.h"
+#include "scancam/camera/valid_region.h"
+#include "scancam/colour/colourise.h"
+#include "scancam/colour/overlay.h"
+#include "scancam/image_io.h"
+#include "scancam/io/scan_io.h"
+#include "scancam/refine/alignment.h"
+#include "scancam/refine/dense_refine.h"
+
+using namespace scancam;
+using namespace scancam::colour;
+
+int main(int argc, char** argv) {
+  if (argc < 5) {
+    std::cerr << "usage: alignment_study SCAN CAMERA IMAGE CALIB [ANGLE_DEG] [OFFSET_M] [N] "
+                 "[SEED]\n";
+    return 2;
+  }
+  const double angle_deg = argc > 5 ? std::stod(argv[5]) : 0.5;
+  const double offset_m = argc > 6 ? std::stod(argv[6]) : 0.05;
+  const int n = argc > 7 ? std::stoi(argv[7]) : 12;
+  const int seed = argc > 8 ? std::stoi(argv[8]) : 1;
+  try {
+    const OrderedScan scan = LoadScan(argv[1]);
+    ColourView view;
+    view.camera = LoadCamera(argv[2]);
+    view.image = ReadImage(argv[3]);
+    if (view.image.rows != view.camera.height()) {  // road2-pinhole: 1080 in the file, 1200 image
+      std::fprintf(stderr, "camera height %d -> image height %d\n", view.camera.height(),
+                   view.image.rows);
+      view.camera =
+          CameraModel(view.camera.type(), view.camera.params(), view.image.cols, view.image.rows);
+    }
+    view.mask = FindValidRegion(view.camera, view.image).mask;
+    view.T_cam_scan = LoadExtrinsic(argv[4]);
+    const Eigen::Isometry3d ref = view.T_cam_scan;
+
+    const refine::AlignmentData data = refine::PrepareAlignment(scan, view);
+    std::fprintf(stderr, "edge points %zu, intensity points %zu\n", data.edge_points.size(),
+                 data.intensity_bin.size());
+    if (std::getenv("SWEEP")) {  // SWEEP=0..5: rx ry rz (deg) tx ty tz (m), camera frame
+      const int axis = std::atoi(std::getenv("SWEEP"));
+      for (int k = -12; k <= 12; ++k) {
+        const double v = k * (axis < 3 ? 0.25 : 0.025);
+        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+        if (axis < 3) {
+          d.linear() =
+              Eigen::AngleAxisd(v * M_PI / 180.0, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+        } else {
+          d.translation()[axis - 3] = v;
+        }
+        const refine::AlignmentScore sc = refine::ScoreAlignment(data, d * ref);
+        std::printf("%7.3f nid %.5f edge %.5f\n", v, sc.nid, sc.edge);
+      }
+      return 0;
+    }
+    if (std::getenv("REFINE")) {  // REFINE=N: N starts perturbed by ANGLE_DEG / OFFSET_M
+      std::mt19937 r2(seed);
+      std::normal_distribution<double> g2;
+      refine::RefineScene scene{&scan, view};
+      for (int k = 0; k < std::atoi(std::getenv("REFINE")); ++k) {
+        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+        if (k > 0 || !std::getenv("REFINE_FROM_REF")) {
+          const Eigen::Vector3d axis = Eigen::Vector3d(g2(r2), g2(r2), g2(r2)).normalized();
+          const Eigen::Vector3d dir = Eigen::Vector3d(g2(r2), g2(r2), g2(r2)).normalized();
+          d.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis).toRotationMatrix();
+          d.translation() = offset_m * dir;
+        }
+        const auto t0 = std::chrono::steady_clock::now();
+        refine::DenseRefineOptions ro;
+        if (std::getenv("EDGE_W")) ro.edge_weight = std::atof(std::getenv("EDGE_W"));
+        if (std::getenv("LEVELS")) {  // "s0,s1,s2"
+          ro.level_sigma_px.clear();
+          std::string l = std::getenv("LEVELS");
+          for (std::size_t p = 0; p < l.size();) {
+            std::size_t q = l.find(',', p);
+            if (q == std::string::npos) q = l.size();
+            ro.level_sigma_px.push_back(std::stod(l.substr(p, q - p)));
+            p = q + 1;
+          }
+        }
+        if (std::getenv("STARTS")) ro.starts = std::atoi(std::getenv("STARTS"));
+        if (std::getenv("SPREAD")) {
+          ro.start_spread_deg = std::atof(std::getenv("SPREAD"));
+          ro.start_spread_m = ro.start_spread_deg / 10.0;
+        }
+        if (std::getenv("NO_RETURN_EDGE")) ro.alignment.no_return_is_edge = true;
+        const refine::DenseRefineResult r = refine::DenseRefine({scene}, d * ref, ro);
+        const double sec =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        const Eigen::Isometry3d e = r.T_cam_scan * ref.inverse();
+        const Eigen::Isometry3d eb = r.T_best * ref.inverse();
+        std::printf(
+            "start %d: err %.3f deg %.3f m -> %.3f deg %.3f m (best %.3f deg %.3f m) %s "
+            "acc=%d evals %d %.1f s std %.2f %.2f %.2f deg %.3f %.3f %.3f m  %s\n",
+            k, Eigen::AngleAxisd(d.linear()).angle() * 180 / M_PI, d.translation().norm(),
+            Eigen::AngleAxisd(e.linear()).angle() * 180 / M_PI, e.translation().norm(),
+            Eigen::AngleAxisd(eb.linear()).angle() * 180 / M_PI, eb.translation().norm(),
+            r.verdict.c_str(), r.accepted, r.evaluations, sec, r.rotation_std_deg_cam_xyz[0],
+            r.rotation_std_deg_cam_xyz[1], r.rotation_std_deg_cam_xyz[2],
+            r.translation_std_m_cam_xyz[0], r.translation_std_m_cam_xyz[1],
+            r.translation_std_m_cam_xyz[2], r.reason.c_str());
+        const Eigen::Vector3d ea = Eigen::AngleAxisd(e.linear()).axis() *
+                                   Eigen::AngleAxisd(e.linear()).angle() * 180 / M_PI;
+        std::printf(
+            "   error in the camera frame: rot %.3f %.3f %.3f deg, t %.3f %.3f %.3f m; "
+            "heldout %.6f -> %.6f nid %.5f -> %.5f edge %.4f -> %.4f\n",
+            ea.x(), ea.y(), ea.z(), e.translation().x(), e.translation().y(), e.translation().z(),
+            r.heldout_start, r.heldout_best, r.nid_start, r.nid_best, r.edge_start, r.edge_best);
+        {
+          const refine::AlignmentScore at_ref = refine::ScoreAlignment(data, ref);
+          std::printf("   at the reference: nid %.5f edge %.4f\n", at_ref.nid, at_ref.edge);
+        }
+        std::fflush(stdout);
+      }
+      return 0;
+    }
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> g;
+    std::vector<Eigen::Isometry3d> poses = {ref};
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+      const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+      Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+      d.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis).toRotationMatrix();
+      d.translation() = offset_m * dir;
+      poses.push_back(d * ref);  // perturbation in the camera frame
+    }
+    const cv::Mat edge_cells = colour::BaEdgeCells(scan);
+    const cv::Mat edge_distance = colour::ImageEdgeDistance(view.image);
+    std::printf("%-4s %10s %10s %10s %10s %10s %10s\n", "pose", "old_med", "old_mean", "edge",
+                "nid", "combined", "visible");
+    std::vector<refine::AlignmentScore> scores;
+    std::vector<colour::EdgeAlignment> old;
+    for (std::size_t k = 0; k < poses.size(); ++k) {
+      ColourView v = view;
+      v.T_cam_scan = poses[k];
+      const ColouredScan cs = Colourise(scan, {v});
+      old.push_back(
+          colour::MeasureEdgeAlignment(scan, v, poses[k], edge_cells, edge_distance, &cs, 0));
+      scores.push_back(refine::ScoreAlignment(data, poses[k]));
+      std::printf("%-4zu %10.3f %10.3f %10.5f %10.5f %10.5f %10zu\n", k, old.back().median_px,
+                  old.back().mean_px, scores.back().edge, scores.back().nid, scores.back().combined,
+                  scores.back().visible);
+    }
+    int w_med = 0, w_mean = 0, w_edge = 0, w_nid = 0, w_comb = 0;
+    for (std::size_t k = 1; k < poses.size(); ++k) {
+      w_med += old[k].median_px > old[0].median_px;
+      w_mean += old[k].mean_px > old[0].mean_px;
+      w_edge += scores[k].edge < scores[0].edge;
+      w_nid += scores[k].nid > scores[0].nid;
+      w_comb += scores[k].combined < scores[0].combined;
+    }
+    std::printf(
+        "worse than the reference (of %d): old median %d, old mean %d, edge %d, nid %d, "
+        "combined %d\n",
+        n, w_med, w_mean, w_edge, w_nid, w_comb);
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
