@@ -193,6 +193,7 @@ struct CandidateFeature {
   double gap_m = 0;          // how far the background behind the edge is
   double normal_spread = 0;  // 1 - mean resultant length of the surface normals
   double break_fraction = 0;
+  double spike_fraction = 0;
 };
 
 std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
@@ -216,11 +217,23 @@ std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
   // The 5 x 5 window: depth breaks between neighbours, and the normals of the near surface.
   constexpr int kHalf = 2;
   const double near_limit = range + std::max(0.3, 0.05 * double(range));
-  int links = 0, breaks = 0, normals = 0;
+  int links = 0, breaks = 0, normals = 0, cells = 0, spikes = 0;
+  // A spike: a cell nearer or farther than both its neighbours along the row (or the column)
+  // by more than 5 cm and 2 % of its range; foliage is full of them, a clean edge has none.
+  auto spike = [&](int rr, int cc, int dr, int dc) {
+    if (!scan.valid(rr - dr, cc - dc) || !scan.valid(rr + dr, cc + dc)) return false;
+    const double x = scan.range_m[scan.index(rr, cc)];
+    const double a = scan.range_m[scan.index(rr - dr, cc - dc)] - x;
+    const double b = scan.range_m[scan.index(rr + dr, cc + dc)] - x;
+    const double tol = std::max(0.05, 0.02 * x);
+    return (a > tol && b > tol) || (a < -tol && b < -tol);
+  };
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (int rr = r - kHalf; rr <= r + kHalf; ++rr) {
     for (int cc = c - kHalf; cc <= c + kHalf; ++cc) {
       if (!scan.valid(rr, cc)) continue;
+      ++cells;
+      spikes += (spike(rr, cc, 0, 1) || spike(rr, cc, 1, 0)) ? 1 : 0;
       bool right = false, down = false;
       if (cc < c + kHalf && scan.valid(rr, cc + 1)) {
         ++links;
@@ -247,8 +260,11 @@ std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
   if (normals < 3 || links == 0) return std::nullopt;  // too little surface to judge
   f.normal_spread = 1.0 - sum.norm() / normals;
   f.break_fraction = double(breaks) / links;
-  // Foliage and clutter: scattered normals or a window broken up by depth jumps.
-  if (f.normal_spread > 0.15 || f.break_fraction > 1.0 / 3.0) return std::nullopt;
+  f.spike_fraction = double(spikes) / cells;
+  // Foliage and clutter: scattered normals, a window broken up by depth jumps, or full of
+  // spikes.
+  if (f.normal_spread > 0.15 || f.break_fraction > 1.0 / 3.0 || f.spike_fraction > 0.25)
+    return std::nullopt;
   return f;
 }
 

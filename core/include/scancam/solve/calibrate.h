@@ -123,18 +123,19 @@ struct PairResult {
 /// object outlines, where their corners are), about 1000 of them spread over each scene's
 /// grid, that the calibrated camera sees. Clutter is rejected: a candidate whose surface
 /// (the 5 x 5 cells around it that are continuous with it) has scattered normals (their mean
-/// resultant length < 0.85, about 30 deg of spread: foliage, hedges, grass) or whose window is
-/// broken by depth jumps in more than a third of its neighbour links (leaves, railings) is not
-/// suggested; in each block of the grid a corner (a depth edge both along the row and along
-/// the column) is preferred to a plain edge. Each is scored by the parameter covariance
-/// predicted after adding it (the Fisher information of a pair there under the picking-noise
-/// model, added to that of the inliers), greedily: the k-th suggestion assumes the ones before
-/// it are picked too. The objective is the largest rotation std about the camera axes (plus
-/// the largest translation std relative to the current one, so the distance of a pick counts
-/// too); suggestions keep 8 % of the image diagonal apart and stay off the image mask
-/// (CalibrateOptions::image_mask). A user picks a distinct feature (a corner) near the
-/// suggested pixel; the predicted std is that of a pick exactly there; `reason` says in words
-/// what the place is and what it tightens.
+/// resultant length < 0.85, about 30 deg of spread: foliage, hedges, grass), whose window is
+/// broken by depth jumps in more than a third of its neighbour links (leaves, railings), or
+/// whose window has more than 25 % spikes (a cell nearer or farther than both neighbours along
+/// the row or the column by > 5 cm and 2 % of its range: leaves) is not suggested; in each block of
+/// the grid a corner (a depth edge both along the row and along the column) is preferred to a plain
+/// edge. Each is scored by the parameter covariance predicted after adding it (the Fisher
+/// information of a pair there under the picking-noise model, added to that of the inliers),
+/// greedily: the k-th suggestion assumes the ones before it are picked too. The objective is the
+/// largest rotation std about the camera axes (plus the largest translation std relative to the
+/// current one, so the distance of a pick counts too); suggestions keep 8 % of the image diagonal
+/// apart and stay off the image mask (CalibrateOptions::image_mask). A user picks a distinct
+/// feature (a corner) near the suggested pixel; the predicted std is that of a pick exactly there;
+/// `reason` says in words what the place is and what it tightens.
 struct PickSuggestion {
   Eigen::Vector2d image_px = Eigen::Vector2d::Zero();  ///< OpenCV pixel convention
   int scan_row = 0, scan_col = 0;
