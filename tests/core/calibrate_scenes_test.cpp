@@ -14,6 +14,7 @@
 #include "scancam/rotation_rpy.h"
 #include "scancam/sim/simulate.h"
 #include "scancam/solve/calibrate.h"
+#include "sim_test_util.h"
 #include "test_util.h"
 
 namespace scancam {
@@ -37,34 +38,11 @@ sim::Simulation Scene(double scanner_yaw_deg, const Eigen::Vector3d& position,
   return sim::Simulate(so);
 }
 
-std::vector<PointPair> ExactPairs(const sim::Simulation& s) {
-  std::vector<PointPair> out;
-  for (const auto& t : s.pair_truth) {
-    PointPair q;
-    q.image_u = t.uv_true.x();
-    q.image_v = t.uv_true.y();
-    q.scan_row = t.cell_true.x();
-    q.scan_col = t.cell_true.y();
-    q.label = t.label;
-    out.push_back(q);
-  }
-  return out;
-}
+std::vector<PointPair> ExactPairs(const sim::Simulation& s) { return test::ExactSimPairs(s); }
 
-// The exact pairs with Gaussian picking noise (kSigmaPx, kSigmaCells per axis); pairs pushed
-// off the image or onto a cell without a return are dropped.
 std::vector<PointPair> Noisy(const std::vector<PointPair>& exact, const sim::Simulation& s,
                              std::mt19937& rng) {
-  std::normal_distribution<double> gpx(0, kSigmaPx), gcell(0, kSigmaCells);
-  std::vector<PointPair> out;
-  for (PointPair q : exact) {
-    q.image_u += gpx(rng);
-    q.image_v += gpx(rng);
-    q.scan_row += gcell(rng);
-    q.scan_col += gcell(rng);
-    if (PairLaserPoint(q, &s.scan) && s.camera.Unproject({q.image_u, q.image_v})) out.push_back(q);
-  }
-  return out;
+  return test::NoisySimPairs(exact, s, rng, kSigmaPx, kSigmaCells);
 }
 
 // R_est = exp(d) R_true: d in the camera frame, rad.

@@ -452,20 +452,19 @@ void GeometryWarnings(const CameraModel& camera, const std::vector<Eigen::Vector
          << 100 * cal->std_t_m.x() << " " << 100 * cal->std_t_m.y() << " " << 100 * cal->std_t_m.z()
          << " cm)";
   }
-  if (g.image_rows_fraction < 0.25) {
-    m << "weak geometry: the picks span " << 100 * g.image_rows_fraction
-      << " % of the image height (rows " << lo.y() << " to " << hi.y()
-      << " px): the rotation about the camera x axis and the translation are weakly determined"
-      << stds.str() << "; add picks higher and lower in the image, or another scene";
+  // A narrow band of image rows (v) or columns (u).
+  auto band = [&](double fraction, const char* extent, const char* lines, double from, double to,
+                  char axis, const char* advice) {
+    if (fraction >= 0.25) return;
+    m << "weak geometry: the picks span " << 100 * fraction << " % of the image " << extent << " ("
+      << lines << " " << from << " to " << to << " px): the rotation about the camera " << axis
+      << " axis and the translation are weakly determined" << stds.str() << "; " << advice;
     flush();
-  }
-  if (g.image_cols_fraction < 0.25) {
-    m << "weak geometry: the picks span " << 100 * g.image_cols_fraction
-      << " % of the image width (columns " << lo.x() << " to " << hi.x()
-      << " px): the rotation about the camera y axis and the translation are weakly determined"
-      << stds.str() << "; add picks further left and right";
-    flush();
-  }
+  };
+  band(g.image_rows_fraction, "height", "rows", lo.y(), hi.y(), 'x',
+       "add picks higher and lower in the image, or another scene");
+  band(g.image_cols_fraction, "width", "columns", lo.x(), hi.x(), 'y',
+       "add picks further left and right");
   if (dmax < 1.5 * dmin) {
     m << std::setprecision(1) << "weak geometry: the picks all lie " << dmin << " to " << dmax
       << " m from the camera (farthest / nearest " << std::setprecision(2) << dmax / dmin
