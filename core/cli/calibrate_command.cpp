@@ -179,6 +179,21 @@ int RunCalibrate(const Args& args) {
           << " the reported uncertainty (95 %: 3.55)";
         verdict = m.str();
       }
+      // Per axis, in the reported std: estimate - truth (R_est = exp(d) R_true, d about the
+      // camera axes, deg; t_est - t_true, m).
+      const Eigen::Vector3d d_deg = -e.head<3>() * 180.0 / M_PI;
+      const Eigen::Vector3d d_t = -e.tail<3>();
+      const Eigen::Vector3d z_r = d_deg.cwiseQuotient(cal.std_rot_cam_deg);
+      const Eigen::Vector3d z_t = d_t.cwiseQuotient(cal.std_t_m);
+      out["error_vs_truth"]["rotation_error_deg_cam_xyz"] = Vector3ToJson(d_deg);
+      out["error_vs_truth"]["translation_error_m"] = Vector3ToJson(d_t);
+      out["error_vs_truth"]["rotation_error_over_std"] = Vector3ToJson(z_r);
+      out["error_vs_truth"]["translation_error_over_std"] = Vector3ToJson(z_t);
+      std::ostringstream m;
+      m << std::fixed << std::setprecision(1) << "\n  error / reported std: rotation about camera "
+        << "x/y/z " << z_r.x() << " " << z_r.y() << " " << z_r.z() << ", translation x/y/z "
+        << z_t.x() << " " << z_t.y() << " " << z_t.z();
+      verdict += m.str();
     }
     if (!quiet)
       std::cout << "against " << args.get("--truth") << ": rotation error " << rot_deg

@@ -194,6 +194,13 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
     ASSERT_EQ(std::system(tc.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
     const auto j = ReadJsonFile(dir + "/calib.json");
     const double d = j["error_vs_truth"]["mahalanobis"].get<double>();
+    // Per axis: the truth is turned by off_deg about the camera x axis, so the estimate is
+    // -off_deg from it about x (and in std: what the per-axis figures say).
+    const auto& per_axis = j["error_vs_truth"]["rotation_error_deg_cam_xyz"];
+    EXPECT_NEAR(per_axis[0].get<double>(), -off_deg, 0.1);
+    EXPECT_NEAR(per_axis[1].get<double>(), 0.0, 0.1);
+    EXPECT_NEAR(j["error_vs_truth"]["rotation_error_over_std"][0].get<double>(),
+                per_axis[0].get<double>() / j["rotation_std_deg_cam_xyz"][0].get<double>(), 1e-9);
     const std::string text = test::ReadFile(dir + "/stdout.txt");
     if (off_deg == 0) {
       EXPECT_LT(d, 3.55) << text;
