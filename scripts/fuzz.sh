@@ -3,13 +3,15 @@
 # harness, the executions, executions per second, time and what was found.
 #
 #   scripts/fuzz.sh [--build-dir DIR] [--no-build] [--fresh] [--seconds N | --runs N]
-#                   [--keep-going] [--nice] [HARNESS...]
+#                   [--seed N] [--keep-going] [--nice] [HARNESS...]
 #
 #   --build-dir DIR  the clang build (default: build-fuzz); configured and built here unless
 #                    --no-build (SCANCAM_FUZZ_JOBS build jobs, default: all cores)
 #   --seconds N      time per harness (default 60); --runs N: executions per harness instead
 #   --fresh          start each harness's corpus from the seeds alone (CI); by default the
 #                    corpus grown by earlier runs (DIR/fuzz/corpus/HARNESS) is kept
+#   --seed N         libFuzzer's random seed (CI: 1, so that a brief run explores the same
+#                    inputs on every machine); default: a new one per run
 #   --keep-going     do not stop at the first finding: libFuzzer's fork mode (-fork=1
 #                    -ignore_crashes/timeouts/ooms), every finding saved (for long campaigns)
 #   --nice           run the harnesses under nice -n 10
@@ -27,6 +29,7 @@ do_build=1
 fresh=0
 seconds=60
 runs=""
+seed_opt=()
 keep_going=()
 nice_cmd=()
 harnesses=()
@@ -37,9 +40,10 @@ while [ $# -gt 0 ]; do
     --fresh) fresh=1; shift ;;
     --seconds) seconds="$2"; runs=""; shift 2 ;;
     --runs) runs="$2"; shift 2 ;;
+    --seed) seed_opt=(-seed="$2"); shift 2 ;;
     --keep-going) keep_going=(-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1); shift ;;
     --nice) nice_cmd=(nice -n 10); shift ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
@@ -83,7 +87,7 @@ for h in "${harnesses[@]}"; do
   before=$(ls "$art" | wc -l)
   start=$(date +%s.%N)
   rc=0
-  "${nice_cmd[@]}" "$bin" "${limit[@]}" "${keep_going[@]}" -timeout=10 -rss_limit_mb=2048 \
+  "${nice_cmd[@]}" "$bin" "${limit[@]}" "${seed_opt[@]}" "${keep_going[@]}" -timeout=10 -rss_limit_mb=2048 \
       -print_final_stats=1 -artifact_prefix="$art/" "$corpus" "$fdir/seeds/$h" >"$log" 2>&1 || rc=$?
   end=$(date +%s.%N)
   secs=$(awk -v a="$start" -v b="$end" 'BEGIN { printf "%.0f", b - a }')

@@ -206,12 +206,7 @@ int RunCalibrate(const Args& args) {
   }
   if (args.has("--valid-region-out")) {
     const std::string p = args.get("--valid-region-out");
-    std::vector<std::string> named = {camera_path, args.get("--mask"), out_path};
-    for (const std::vector<std::string>* v :
-         {&pairs_paths, &scan_paths, &image_paths,
-          static_cast<const std::vector<std::string>*>(&plot_paths)})
-      named.insert(named.end(), v->begin(), v->end());
-    WriteValidRegion(p, opt.image_mask, camera, named);
+    WriteValidRegion(p, opt.image_mask, camera);
     if (!quiet) std::cout << "wrote " << p << "\n";
   }
   if (!quiet) std::cout << "valid region: " << region_how << "\n";

@@ -244,13 +244,9 @@ int RunColorize(const Args& args) {
   const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
   std::vector<std::string> written;
   if (!region_out.empty()) {
-    std::vector<std::string> inputs = images;
-    for (const auto* list : {&cameras, &calibs, &masks})
-      inputs.insert(inputs.end(), list->begin(), list->end());
-    inputs.push_back(scan_path);
     for (std::size_t k = 0; k < n; ++k) {
       const std::string p = PerImage(region_out, k, n);
-      WriteValidRegion(p, views[k].mask, views[k].camera, inputs);
+      WriteValidRegion(p, views[k].mask, views[k].camera);
       written.push_back(p);
     }
   }

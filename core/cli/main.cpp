@@ -195,6 +195,7 @@ int main(int argc, char** argv) {
     // run that fails leaves no output and the previous run's files as they were
     // (scancam/output_file.h).
     scancam::OutputBatch outputs;
+    scancam::RemoveTemporariesOnSignals();  // Ctrl+C or kill: no .scancam-tmp-* left behind
     const int rc = cmd.run(parsed);
     if (rc == 0) outputs.Commit();
     return rc;

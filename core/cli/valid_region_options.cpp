@@ -7,7 +7,6 @@
 #include "scancam/camera/valid_region.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
-#include "scancam/output_file.h"
 
 namespace scancam::cli {
 
@@ -47,11 +46,7 @@ cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv:
   return r.mask;
 }
 
-void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera,
-                      const std::vector<std::string>& inputs) {
-  std::vector<NamedPath> named;
-  for (const std::string& in : inputs) named.push_back({"input", in});
-  CheckOutputs({{"--valid-region-out", path}}, named);
+void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera) {
   WritePng(path, region.empty() ? cv::Mat(camera.height(), camera.width(), CV_8UC1, cv::Scalar(255))
                                 : region);
 }

@@ -23,8 +23,7 @@ cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv:
                           const std::string& mask_path, std::string* how);
 
 /// Writes `region` (or an all-valid image of the camera's size when empty) as an 8-bit PNG to
-/// `path`, refusing a path that names one of `inputs` (the same file, also through links).
-void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera,
-                      const std::vector<std::string>& inputs);
+/// `path`. The caller has checked `path` against its inputs with CheckOutputs before any work.
+void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera);
 
 }  // namespace scancam::cli

@@ -1,10 +1,13 @@
 #include "scancam/output_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <cerrno>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -31,6 +34,51 @@ struct BatchState {
 
 std::mutex g_mutex;
 BatchState* g_batch = nullptr;
+
+// The temporaries that exist now, in a fixed table that a signal handler can walk without
+// allocating or locking (RemoveTemporariesOnSignals). A slot is 0 free, 1 being filled, 2 live.
+constexpr int kMaxLive = 256;
+constexpr std::size_t kLivePathMax = 4096;
+struct LiveSlot {
+  std::atomic<int> state{0};
+  char path[kLivePathMax];
+};
+LiveSlot g_live[kMaxLive];
+
+void RememberTemp(const std::string& path) {
+  if (path.size() >= kLivePathMax) return;
+  for (LiveSlot& slot : g_live) {
+    int expected = 0;
+    if (slot.state.compare_exchange_strong(expected, 1)) {
+      std::memcpy(slot.path, path.c_str(), path.size() + 1);
+      slot.state.store(2);
+      return;
+    }
+  }
+}
+
+void ForgetTemp(const std::string& path) {
+  for (LiveSlot& slot : g_live) {
+    if (slot.state.load() == 2 && path == slot.path) {
+      slot.state.store(0);
+      return;
+    }
+  }
+}
+
+// Removes (or renames) a temporary and forgets it.
+void RemoveTemp(const std::string& tmp) {
+  std::remove(tmp.c_str());
+  ForgetTemp(tmp);
+}
+
+extern "C" void RemoveTemporariesAndDie(int sig) {
+  for (LiveSlot& slot : g_live) {
+    if (slot.state.load() == 2) ::unlink(slot.path);
+  }
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
 
 std::string Quoted(const NamedPath& p) { return p.role + " '" + p.path + "'"; }
 
@@ -68,6 +116,7 @@ std::string CreateTemp(const std::string& final_path) {
         ::fchmod(fd, st.st_mode & 07777);  // keep the permissions of the file replaced
       }
       ::close(fd);
+      RememberTemp(tmp.string());
       return tmp.string();
     }
     if (errno != EEXIST) {
@@ -170,7 +219,7 @@ AtomicFile::AtomicFile(const std::string& path) : path_(path) {
 }
 
 AtomicFile::~AtomicFile() {
-  if (!done_) std::remove(tmp_.c_str());
+  if (!done_) RemoveTemp(tmp_);
 }
 
 void AtomicFile::Commit() {
@@ -184,7 +233,7 @@ void AtomicFile::Commit() {
   }
   if (std::rename(tmp_.c_str(), final_.c_str()) != 0) {
     const int err = errno;
-    std::remove(tmp_.c_str());
+    RemoveTemp(tmp_);
     throw FileError(path_, "", std::string("cannot replace the file (") + std::strerror(err) + ")");
   }
 }
@@ -214,7 +263,7 @@ OutputBatch::OutputBatch() {
 OutputBatch::~OutputBatch() {
   std::lock_guard<std::mutex> lock(g_mutex);
   if (!g_batch) return;
-  for (const Staged& s : g_batch->staged) std::remove(s.tmp.c_str());
+  for (const Staged& s : g_batch->staged) RemoveTemp(s.tmp);
   delete g_batch;
   g_batch = nullptr;
 }
@@ -245,6 +294,7 @@ void OutputBatch::Commit() {
   std::size_t done = 0;
   for (; done < staged.size(); ++done) {
     if (std::rename(staged[done].tmp.c_str(), staged[done].final_path.c_str()) != 0) break;
+    ForgetTemp(staged[done].tmp);
   }
   if (done < staged.size()) {
     const int err = errno;
@@ -257,7 +307,7 @@ void OutputBatch::Commit() {
         std::remove(staged[i].final_path.c_str());
       }
     }
-    for (std::size_t i = done; i < staged.size(); ++i) std::remove(staged[i].tmp.c_str());
+    for (std::size_t i = done; i < staged.size(); ++i) RemoveTemp(staged[i].tmp);
     for (const std::string& b : backup)
       if (!b.empty()) std::remove(b.c_str());
     staged.clear();
@@ -268,6 +318,14 @@ void OutputBatch::Commit() {
   for (const std::string& b : backup)
     if (!b.empty()) std::remove(b.c_str());
   staged.clear();
+}
+
+void RemoveTemporariesOnSignals() {
+  struct sigaction sa;
+  std::memset(&sa, 0, sizeof sa);
+  sa.sa_handler = RemoveTemporariesAndDie;
+  sigemptyset(&sa.sa_mask);
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE}) ::sigaction(sig, &sa, nullptr);
 }
 
 }  // namespace scancam

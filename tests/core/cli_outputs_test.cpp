@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -304,6 +305,41 @@ TEST(OutputFile, ABatchWritesNothingUntilCommittedAndNothingIfNot) {
   EXPECT_EQ(ReadFile(d + "/a.txt"), "old a");
   EXPECT_EQ(ReadFile(d + "/b.txt"), "new b");
   ExpectNoTemporaries(d);
+}
+
+// A run stopped by a signal (Ctrl+C, kill) leaves no temporaries: a child process with one
+// staged output and one file being written dies of SIGTERM (or SIGINT); its directory then
+// holds only the previous file. Without RemoveTemporariesOnSignals both temporaries remain
+// (checked: the control child below, which does not install the handler).
+TEST(OutputFile, ARunKilledBySignalLeavesNoTemporaries) {
+  for (const bool handler : {true, false}) {
+    for (const int sig : {SIGTERM, SIGINT}) {
+      const std::string d = test::TempDir() + (handler ? "/with" : "/without") +
+                            std::to_string(sig);
+      fs::create_directories(d);
+      WriteFile(d + "/a.txt", "old a");
+      const pid_t pid = ::fork();
+      ASSERT_GE(pid, 0);
+      if (pid == 0) {
+        if (handler) RemoveTemporariesOnSignals();
+        OutputBatch batch;
+        WriteFileAtomically(d + "/a.txt", std::string("new a"));  // staged
+        AtomicFile open(d + "/b.txt");                             // being written
+        ::raise(sig);
+        ::_exit(0);  // not reached
+      }
+      int status = 0;
+      ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+      ASSERT_TRUE(WIFSIGNALED(status)) << "the child must die of the signal, as without handler";
+      EXPECT_EQ(WTERMSIG(status), sig);
+      EXPECT_EQ(ReadFile(d + "/a.txt"), "old a");
+      EXPECT_FALSE(fs::exists(d + "/b.txt"));
+      std::size_t temporaries = 0;
+      for (const auto& e : fs::directory_iterator(d))
+        temporaries += e.path().filename().string().rfind(".scancam-tmp-", 0) == 0;
+      EXPECT_EQ(temporaries, handler ? 0u : 2u) << d;
+    }
+  }
 }
 
 TEST(OutputFile, ACommitThatFailsPutsThePreviousFilesBack) {

@@ -89,4 +89,10 @@ class OutputBatch {
   std::vector<std::string> staged() const;
 };
 
+/// For programs (the CLI): on SIGINT, SIGTERM, SIGHUP, SIGQUIT or SIGPIPE, remove every
+/// temporary file this process has open (AtomicFile, staged outputs), then die of the signal
+/// as without the handler. Outputs already renamed stay. A SIGKILL cannot be caught: its
+/// temporaries (".scancam-tmp-*" beside the outputs) remain.
+void RemoveTemporariesOnSignals();
+
 }  // namespace scancam

@@ -65,9 +65,10 @@ bool ParseDouble(const std::string& tok, double* v) {
 // =============================================================================================
 // A small YAML reader for the subset Kalibr and ROS write: block mappings by indentation, block
 // sequences ("- item", also at the parent key's indentation), flow sequences / mappings that may
-// span lines, plain and quoted scalars, comments. OpenCV's own YAML parser rejects valid files
-// of both tools (no "%YAML" header, "- [...]" at the key's indentation), hence this reader.
-// Every node remembers its line for error messages.
+// span lines, plain and quoted scalars, comments, and node tags (OpenCV's "!!opencv-matrix"),
+// which are skipped. OpenCV's own YAML parser rejects valid files of both tools (no "%YAML"
+// header, "- [...]" at the key's indentation) and hangs on some damaged files, hence this reader,
+// which also reads OpenCV's own YAML. Every node remembers its line for error messages.
 struct YNode {
   enum Kind { kNull, kScalar, kSeq, kMap } kind = kNull;
   std::string scalar;
@@ -110,7 +111,7 @@ class YamlReader {
     if (lines_.empty()) throw FileError(file_, "", "empty YAML document");
     if (lines_.size() > kMaxLines) {
       Fail(lines_[kMaxLines].no,
-           "more than " + std::to_string(kMaxLines) + " lines: not a Kalibr / ROS camera file");
+           "more than " + std::to_string(kMaxLines) + " lines: too long for a camera file");
     }
     std::size_t i = 0;
     YNode root = ParseBlock(&i, lines_[0].indent);
@@ -165,6 +166,15 @@ class YamlReader {
     return std::string::npos;
   }
 
+  // A value without its leading node tag ("!!opencv-matrix", "!local"), if any.
+  static std::string SkipTag(const std::string& v) {
+    if (v.empty() || v[0] != '!') return v;
+    const std::size_t end = v.find(' ');
+    if (end == std::string::npos) return std::string();
+    const std::size_t next = v.find_first_not_of(' ', end);
+    return next == std::string::npos ? std::string() : v.substr(next);
+  }
+
   static std::string Unquote(const std::string& s) {
     if (s.size() >= 2 && (s[0] == '"' || s[0] == '\'') && s.back() == s[0]) {
       return s.substr(1, s.size() - 2);
@@ -200,7 +210,7 @@ class YamlReader {
       if (is_seq) {
         std::string rest = item && L.text.size() > 2 ? L.text.substr(2) : std::string();
         const std::size_t f = rest.find_first_not_of(' ');
-        rest = f == std::string::npos ? std::string() : rest.substr(f);
+        rest = SkipTag(f == std::string::npos ? std::string() : rest.substr(f));
         ++*i;
         if (rest.empty()) {
           node.seq.push_back(ChildBlock(i, indent, L.no, false));
@@ -218,7 +228,7 @@ class YamlReader {
         const std::string key = Unquote(L.text.substr(0, colon));
         std::string rest = L.text.substr(colon + 1);
         const std::size_t f = rest.find_first_not_of(' ');
-        rest = f == std::string::npos ? std::string() : rest.substr(f);
+        rest = SkipTag(f == std::string::npos ? std::string() : rest.substr(f));
         ++*i;
         for (const auto& kv : node.map) {
           if (kv.first == key) Fail(L.no, "duplicate key '" + key + "'");
@@ -298,6 +308,10 @@ class YamlReader {
     SkipSpaces(t, p);
     YNode n;
     n.line = line;
+    if (*p < t.size() && t[*p] == '!') {  // a node tag: skipped
+      while (*p < t.size() && t[*p] != ' ' && t[*p] != ',' && t[*p] != ']' && t[*p] != '}') ++*p;
+      SkipSpaces(t, p);
+    }
     if (*p >= t.size()) Fail(line, "missing value in flow collection");
     const char open = t[*p];
     if (open == '[' || open == '{') {
@@ -640,134 +654,137 @@ void SaveOCam(const CameraModel& c, std::ostream& out) {
 }
 
 // =============================================================================================
-// OpenCV FileStorage (native)
+// OpenCV FileStorage files (the native format), read without cv::FileStorage: OpenCV 4.6's
+// YAML parser never returns on some damaged files (fuzz/FINDINGS.md #13), so YAML goes through
+// the YamlReader above (tags such as !!opencv-matrix skipped) and JSON through nlohmann's parser,
+// both into YNode. cv::FileStorage still writes these files (SaveOpenCv).
 
-std::vector<double> FsNumbers(const std::string& path, const cv::FileNode& n,
-                              const std::string& key) {
-  std::vector<double> out;
-  if (n.isNone() || n.empty()) throw FileError(path, key, "missing field");
-  try {
-    if (n.isReal() || n.isInt()) {
-      out.push_back(static_cast<double>(n));
-    } else if (n.isSeq()) {
-      for (auto it = n.begin(); it != n.end(); ++it) {
-        const cv::FileNode e = *it;
-        if (!e.isReal() && !e.isInt()) throw FileError(path, key, "expected a list of numbers");
-        out.push_back(static_cast<double>(e));
-      }
-    } else if (n.isMap()) {
-      // An opencv-matrix {rows, cols, dt, data}: read by hand for precise error messages.
-      const cv::FileNode data = n["data"];
-      if (!data.isSeq()) throw FileError(path, key + ".data", "missing field (a list of numbers)");
-      out = FsNumbers(path, data, key + ".data");
-      const cv::FileNode r = n["rows"], c = n["cols"];
-      if (r.isInt() && c.isInt()) {
-        const long long want = static_cast<long long>(static_cast<int>(r)) * static_cast<int>(c);
-        if (want != static_cast<long long>(out.size())) {
-          throw FileError(path, key,
-                          "rows x cols = " + std::to_string(want) + " but data has " +
-                              std::to_string(out.size()) + " values");
-        }
-      }
-    } else {
-      throw FileError(path, key, "expected a number, a list or a matrix");
-    }
-  } catch (const cv::Exception& e) {
-    throw FileError(path, key, "cannot read: " + e.err);
+// A JSON value as a YNode (numbers as text with full precision). Nesting is bounded.
+YNode JsonToYNode(const std::string& path, const nlohmann::json& j, int depth = 0) {
+  if (depth > 64) throw FileError(path, "", "JSON nested deeper than 64 levels");
+  YNode n;
+  if (j.is_object()) {
+    n.kind = YNode::kMap;
+    for (const auto& kv : j.items())
+      n.map.emplace_back(kv.key(), JsonToYNode(path, kv.value(), depth + 1));
+  } else if (j.is_array()) {
+    n.kind = YNode::kSeq;
+    for (const auto& e : j) n.seq.push_back(JsonToYNode(path, e, depth + 1));
+  } else if (j.is_string()) {
+    n.kind = YNode::kScalar;
+    n.scalar = j.get<std::string>();
+  } else if (j.is_number_float()) {
+    std::ostringstream s;
+    s << std::setprecision(17) << j.get<double>();
+    n.kind = YNode::kScalar;
+    n.scalar = s.str();
+  } else if (!j.is_null()) {  // integers and booleans
+    n.kind = YNode::kScalar;
+    n.scalar = j.dump();
   }
-  for (double v : out) {
-    if (!std::isfinite(v)) throw FileError(path, key, "non-finite value");
+  return n;
+}
+
+// "line N: key" when the node has a line (YAML), else "key" (JSON).
+std::string FsWhere(const YNode& n, const std::string& key) {
+  return n.line > 0 ? "line " + std::to_string(n.line) + ": " + key : key;
+}
+
+bool FsPresent(const YNode* n) { return n && n->kind != YNode::kNull; }
+
+double FsNumber(const std::string& path, const YNode& n, const std::string& key) {
+  double v = 0.0;
+  if (n.kind != YNode::kScalar || !ParseDouble(n.scalar, &v)) {
+    throw FileError(path, FsWhere(n, key),
+                    n.kind == YNode::kScalar
+                        ? "expected a finite number, found '" + PrintableText(n.scalar) + "'"
+                        : std::string("expected a number"));
+  }
+  return v;
+}
+
+std::vector<double> FsNumbers(const std::string& path, const YNode* n, const std::string& key) {
+  if (!FsPresent(n)) throw FileError(path, key, "missing field");
+  std::vector<double> out;
+  if (n->kind == YNode::kScalar) {
+    out.push_back(FsNumber(path, *n, key));
+  } else if (n->kind == YNode::kSeq) {
+    for (const YNode& e : n->seq) {
+      if (e.kind != YNode::kScalar) {
+        throw FileError(path, FsWhere(*n, key), "expected a list of numbers");
+      }
+      out.push_back(FsNumber(path, e, key));
+    }
+  } else {
+    // An opencv-matrix {rows, cols, dt, data}.
+    const YNode* data = n->Find("data");
+    if (!data || data->kind != YNode::kSeq) {
+      throw FileError(path, FsWhere(*n, key + ".data"), "missing field (a list of numbers)");
+    }
+    out = FsNumbers(path, data, key + ".data");
+    const YNode* r = n->Find("rows");
+    const YNode* c = n->Find("cols");
+    if (FsPresent(r) && FsPresent(c)) {
+      const double want = FsNumber(path, *r, key + ".rows") * FsNumber(path, *c, key + ".cols");
+      if (want != static_cast<double>(out.size())) {
+        throw FileError(path, FsWhere(*n, key),
+                        "rows x cols = " + Num(want) + " but data has " +
+                            std::to_string(out.size()) + " values");
+      }
+    }
   }
   return out;
 }
 
-int FsSide(const std::string& path, const cv::FileNode& root, const std::string& key) {
-  const cv::FileNode n = root[key];
-  if (n.isNone() || n.empty()) throw FileError(path, key, "missing field");
-  if (!n.isInt() && !n.isReal()) throw FileError(path, key, "expected a whole number of pixels");
-  return ImageSide(path, key,
-                   n.isInt() ? static_cast<double>(static_cast<int>(n)) : static_cast<double>(n));
+int FsSide(const std::string& path, const YNode& root, const std::string& key) {
+  const YNode* n = root.Find(key);
+  if (!FsPresent(n)) throw FileError(path, key, "missing field");
+  if (n->kind != YNode::kScalar) {
+    throw FileError(path, FsWhere(*n, key), "expected a whole number of pixels");
+  }
+  return ImageSide(path, FsWhere(*n, key), FsNumber(path, *n, key));
 }
 
-// OpenCV FileStorage's parse errors as "FILE:line N: what": e.err is "NAME(LINE): what" (the
-// line counted in the text given to OpenCV, which has `added_lines` more at its start).
-// OpenCV FileStorage's parse errors as "FILE:line N: what". OpenCV 4.6 puts "NAME(LINE): what"
-// into the exception's func field (and the function name into err): look in both. LINE counts
-// the text given to OpenCV, which has `added_lines` more at its start.
-[[noreturn]] void ThrowFsError(const std::string& path, const cv::Exception& e, int added_lines) {
-  std::string what = e.err;
-  std::string where;
-  for (const std::string& text : {e.func, e.err}) {
-    const std::size_t close = text.find("): ");
-    const std::size_t open = text.rfind('(', close);
-    if (close == std::string::npos || open == std::string::npos) continue;
-    const std::string num = text.substr(open + 1, close - open - 1);
-    if (num.empty() || num.size() > 9 || num.find_first_not_of("0123456789") != std::string::npos) {
-      continue;
-    }
-    where = "line " + std::to_string(std::max(1, std::stoi(num) - added_lines));
-    what = text.substr(close + 3);
-    break;
-  }
-  const bool json = path.size() > 5 && path.compare(path.size() - 5, 5, ".json") == 0;
-  throw FileError(
-      path, where,
-      std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") + " file: " + what);
-}
-
-CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool json,
-                       int added_lines) {
-  cv::FileStorage fs;
-  try {
-    fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY |
-                      (json ? cv::FileStorage::FORMAT_JSON : cv::FileStorage::FORMAT_YAML));
-  } catch (const cv::Exception& e) {
-    ThrowFsError(path, e, added_lines);
-  } catch (const std::exception&) {  // e.g. std::length_error from a mangled !!opencv-matrix
-    throw FileError(path, "",
-                    std::string("not a valid OpenCV FileStorage ") + (json ? "JSON" : "YAML") +
-                        " file (OpenCV's parser failed on damaged content)");
-  }
-  if (!fs.isOpened()) throw FileError(path, "", "not a valid OpenCV FileStorage file");
-  const cv::FileNode root = fs.root();
-  if (!root.isMap()) {
+CameraModel LoadOpenCv(const std::string& path, const YNode& root) {
+  if (root.kind != YNode::kMap) {
     throw FileError(path, "",
                     "the top level of an OpenCV camera file must be a map of keys (model, "
                     "image_width, camera_matrix, ...), found " +
-                        std::string(root.isSeq()    ? "a sequence"
-                                    : root.isNone() ? "nothing"
-                                                    : "a single value"));
+                        std::string(root.kind == YNode::kSeq    ? "a sequence"
+                                    : root.kind == YNode::kNull ? "nothing"
+                                                                : "a single value"));
   }
   std::string model = "pinhole";
-  const cv::FileNode mn = root["model"];
-  if (!mn.empty() && !mn.isNone()) {
-    if (!mn.isString()) throw FileError(path, "model", "expected a text value");
-    model = static_cast<std::string>(mn);
-  } else if (!root["xi"].empty() && !root["xi"].isNone()) {
+  const YNode* mn = root.Find("model");
+  if (FsPresent(mn)) {
+    if (mn->kind != YNode::kScalar)
+      throw FileError(path, FsWhere(*mn, "model"), "expected a text value");
+    model = mn->scalar;
+  } else if (FsPresent(root.Find("xi"))) {
     model = "omni";  // cv::omnidir calibration output has xi but no model name
   }
   const auto type = CameraTypeFromName(model);
   if (!type) {
-    throw FileError(
-        path, "model",
-        "unknown camera model '" + model + "' (expected pinhole, fisheye, omni, ocam or equirect)");
+    throw FileError(path, "model",
+                    "unknown camera model '" + PrintableText(model) +
+                        "' (expected pinhole, fisheye, omni, ocam or equirect)");
   }
   std::string name = FileStem(path);
-  const cv::FileNode cn = root["camera_name"];
-  if (cn.isString() && !static_cast<std::string>(cn).empty()) name = static_cast<std::string>(cn);
+  const YNode* cn = root.Find("camera_name");
+  if (cn && cn->kind == YNode::kScalar && !cn->scalar.empty()) name = cn->scalar;
   const int w = FsSide(path, root, "image_width");
   const int h = FsSide(path, root, "image_height");
   const Keys keys;
   auto K = [&] {
-    std::vector<double> k = FsNumbers(path, root["camera_matrix"], "camera_matrix");
+    std::vector<double> k = FsNumbers(path, root.Find("camera_matrix"), "camera_matrix");
     ExpectCount(path, "camera_matrix", k, {9}, "3x3 matrix");
     return k;
   };
   // Required for every model that has one: a deleted key must not read as "no distortion"
   // (cameras without distortion write zeros, as OpenCV's calibration does).
   auto dist = [&]() {
-    const cv::FileNode d = root["distortion_coefficients"];
-    if (d.isNone()) {
+    const YNode* d = root.Find("distortion_coefficients");
+    if (!FsPresent(d)) {
       throw FileError(path, "distortion_coefficients",
                       "missing field (the lens distortion; write zeros for a camera without "
                       "distortion)");
@@ -797,7 +814,7 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
     case CameraType::kOmni: {
       const std::vector<double> k = K();
       CheckK(path, "camera_matrix", k, true);
-      const std::vector<double> xi = FsNumbers(path, root["xi"], "xi");
+      const std::vector<double> xi = FsNumbers(path, root.Find("xi"), "xi");
       ExpectCount(path, "xi", xi, {1}, "xi");
       const std::vector<double> d = dist();
       ExpectCount(path, "distortion_coefficients", d, {4}, "k1 k2 p1 p2");
@@ -808,19 +825,18 @@ CameraModel LoadOpenCv(const std::string& path, const std::string& text, bool js
     }
     case CameraType::kOCam: {
       OCamParams o;
-      o.pol = FsNumbers(path, root["ocam_pol"], "ocam_pol");
-      const cv::FileNode inv = root["ocam_invpol"];
-      if (!inv.empty() && !inv.isNone()) o.invpol = FsNumbers(path, inv, "ocam_invpol");
-      const std::vector<double> c = FsNumbers(path, root["ocam_center_uv"], "ocam_center_uv");
+      o.pol = FsNumbers(path, root.Find("ocam_pol"), "ocam_pol");
+      const YNode* inv = root.Find("ocam_invpol");
+      if (FsPresent(inv)) o.invpol = FsNumbers(path, inv, "ocam_invpol");
+      const std::vector<double> c = FsNumbers(path, root.Find("ocam_center_uv"), "ocam_center_uv");
       ExpectCount(path, "ocam_center_uv", c, {2}, "u v");
-      const std::vector<double> a = FsNumbers(path, root["ocam_affine"], "ocam_affine");
+      const std::vector<double> a = FsNumbers(path, root.Find("ocam_affine"), "ocam_affine");
       ExpectCount(path, "ocam_affine", a, {3}, "c d e");
       o.center_u = c[0], o.center_v = c[1], o.c = a[0], o.d = a[1], o.e = a[2];
       return Build(path, CameraType::kOCam, keys, [&] { return CameraModel::OCam(o, w, h, name); });
     }
     case CameraType::kEquirect: {
-      const cv::FileNode kn = root["camera_matrix"];
-      if (kn.empty() || kn.isNone()) {
+      if (!FsPresent(root.Find("camera_matrix"))) {
         return Build(path, CameraType::kEquirect, keys,
                      [&] { return CameraModel::Equirect(w, h, name); });
       }
@@ -1319,13 +1335,8 @@ CameraModel LoadCameraUnwrapped(const std::string& path, const LoadCameraOptions
     case CameraFileFormat::kOpenCv: {
       const std::size_t f = t.find_first_not_of(" \t\r\n");
       const bool json = f != std::string::npos && t[f] == '{';
-      std::string text = t;
-      int added_lines = 0;
-      if (!json && t.compare(f, 5, "%YAML") != 0) {
-        text = "%YAML:1.0\n---\n" + t;
-        added_lines = 2;
-      }
-      cam = LoadOpenCv(path, text, json, added_lines);
+      cam = LoadOpenCv(
+          path, json ? JsonToYNode(path, ParseJsonText(t, path)) : YamlReader(path, t).Parse());
       break;
     }
     case CameraFileFormat::kKalibr:

@@ -391,12 +391,16 @@ void CameraModel::Init() {
       if (ang > model_max_angle_rad_) all = false;
       a_img = std::max(a_img, ang);
     };
+    // At most about 2048 border points (each an iterative unprojection): every step-th pixel
+    // edge and the four corners, so a large image does not cost seconds here.
     const double u1 = width_ - 0.5, v1 = height_ - 0.5;
-    for (int i = 0; i <= width_ && all; ++i) {
+    const int step = std::max(1, (width_ + height_) / 1024);
+    for (int i = 0; i <= width_ && all; i = (i < width_ && i + step > width_) ? width_ : i + step) {
       visit(-0.5 + i, -0.5);
       visit(-0.5 + i, v1);
     }
-    for (int j = 0; j <= height_ && all; ++j) {
+    for (int j = 0; j <= height_ && all;
+         j = (j < height_ && j + step > height_) ? height_ : j + step) {
       visit(-0.5, -0.5 + j);
       visit(u1, -0.5 + j);
     }
@@ -459,7 +463,7 @@ void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs,
                std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
   const double* prm = params.data();
   const float fnan = std::numeric_limits<float>::quiet_NaN();
-#pragma omp parallel for schedule(static, 4096)
+#pragma omp parallel for if (n >= 65536) schedule(static, 4096)
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p = R * pts[i].cast<double>() + t;
     const double nn = p.norm();

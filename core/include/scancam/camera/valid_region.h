@@ -2,11 +2,7 @@
 // automatically from the camera model and the image, so that nothing is coloured, suggested or
 // textured from the black border around a fisheye's image circle, the rim of a catadioptric
 // mirror, or the camera's own reflection at the mirror's centre.
-//
-// Why: a calibrated model projects far beyond what the lens shows. An OCamCalib camera without a
-// mask painted a quarter of its "coloured" points pure black: points 112-165 deg off the axis,
-// where the polynomial still projects but the image circle had ended at ~110 deg. Users of
-// fisheye and catadioptric cameras rarely have a mask file.
+// Rationale and measurements: docs/valid_region.md.
 //
 // Pixels: OpenCV's convention ((0, 0) is the centre of the top-left pixel). The result is a
 // CV_8UC1 image of the camera's size, 255 = valid, 0 = not (the convention of
@@ -32,9 +28,7 @@
 //      bite into the scene; sectors without a dark edge have no border, except next to
 //      sectors with one, where the image circle meets the image edge (their own walk). Pixels
 //      beyond the border radius minus margin_px are invalid (the rim pixels mix scene and
-//      black; with 1 px the simulated omni and fisheye colourings come within 0.03 points of
-//      those with their true masks, 0 lets 238 and 45 cells take rim colours, 3 loses 0.8 and
-//      0.3 points of the visible cells, tests/core/valid_region_test.cpp). A one-pixel black
+//      black; the choice of 1 px is measured in docs/valid_region.md). A one-pixel black
 //      line along the edges of an undistorted photo (road-pinhole) is such a border too.
 //   3. The central blind spot (blind_spot; catadioptric models only: omni and ocam): the
 //      camera's own reflection, a dark blob (<= blind_spot_level after the median) around c.
@@ -59,8 +53,7 @@
 //
 // Cost (OpenMP): the round trip of test 1 on a 4-px lattice (per pixel only in the blocks its
 // boundary crosses), the monotonic-angle test every 2 px along 720 rays, a 5 x 5 median and a
-// few operations per pixel: road-pinhole's 1920 x 1200 photo adds to `scancam
-// colorize` on 2 busy cores (0.4-0.9 s measured).
+// few operations per pixel (timings in docs/valid_region.md).
 #pragma once
 
 #include <opencv2/core.hpp>
