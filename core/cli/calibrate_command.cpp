@@ -22,13 +22,15 @@ namespace {
 
 // The photo with every pair: the picked pixel (circle), the calibrated projection of its laser
 // point (cross) joined by the residual, green for inliers and red for flagged pairs, numbered;
-// and the pick suggestions as magenta squares "next k".
-cv::Mat PlotPairs(const cv::Mat& image, const Calibration& cal) {
+// and the pick suggestions as magenta squares "next k". Only scene `scene`'s pairs and
+// suggestions (the photo is that scene's).
+cv::Mat PlotPairs(const cv::Mat& image, const Calibration& cal, int scene) {
   cv::Mat out = image.clone();
   const double s = std::max(1.0, image.cols / 640.0);  // line widths for big images
   const int th = static_cast<int>(std::lround(s));
   auto pt = [](const Eigen::Vector2d& p) { return cv::Point2d(p.x(), p.y()); };
   for (const PairResult& p : cal.pairs) {
+    if (p.scene != scene) continue;
     const cv::Scalar col = p.inlier ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 0, 255);
     cv::circle(out, pt(p.image_px), static_cast<int>(6 * s), col, th, cv::LINE_AA);
     if (p.reprojected_px) {
@@ -40,6 +42,7 @@ cv::Mat PlotPairs(const cv::Mat& image, const Calibration& cal) {
                 cv::FONT_HERSHEY_SIMPLEX, 0.45 * s, col, th, cv::LINE_AA);
   }
   for (std::size_t k = 0; k < cal.suggestions.size(); ++k) {
+    if (cal.suggestions[k].scene != scene) continue;
     const cv::Point2d c = pt(cal.suggestions[k].image_px);
     const cv::Scalar mag(255, 0, 255);
     cv::rectangle(out, c - cv::Point2d(8 * s, 8 * s), c + cv::Point2d(8 * s, 8 * s), mag, th,
@@ -50,40 +53,68 @@ cv::Mat PlotPairs(const cv::Mat& image, const Calibration& cal) {
   return out;
 }
 
+// FILE.png -> FILE-scene<k>.png (k 1-based) for the plots of several scenes.
+std::string ScenePath(const std::string& path, std::size_t k) {
+  const std::size_t dot = path.find_last_of('.');
+  const std::size_t slash = path.find_last_of('/');
+  const bool ext = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+  const std::string tag = "-scene" + std::to_string(k + 1);
+  return ext ? path.substr(0, dot) + tag + path.substr(dot) : path + tag;
+}
+
 int RunCalibrate(const Args& args) {
   if (!args.positional().empty())
     throw Error("unexpected argument '" + args.positional()[0] + "' (see --help)");
   const std::string camera_path = args.required("--camera");
-  const std::string pairs_path = args.required("--pairs");
+  args.required("--pairs");
+  // Scenes: the k-th --pairs, --scan and --image belong to scene k.
+  const std::vector<std::string> pairs_paths = args.all("--pairs");
+  const std::vector<std::string> scan_paths = args.all("--scan");
+  const std::vector<std::string> image_paths = args.all("--image");
+  const std::size_t scenes = pairs_paths.size();
+  for (const auto& [name, count] :
+       {std::pair{"--scan", scan_paths.size()}, std::pair{"--image", image_paths.size()}}) {
+    if (count != 0 && count != scenes) {
+      throw Error(std::string(name) + " given " + std::to_string(count) + " time(s) but --pairs " +
+                  std::to_string(scenes) +
+                  " time(s): give one per scene (the k-th --pairs, --scan and --image are scene "
+                  "k) or none");
+    }
+  }
   const std::string out_path = args.required("--out");
   const bool quiet = args.has("--quiet");
+  std::vector<std::string> plot_paths;
+  if (args.has("--plot")) {
+    for (std::size_t k = 0; k < scenes; ++k)
+      plot_paths.push_back(scenes == 1 ? args.get("--plot") : ScenePath(args.get("--plot"), k));
+  }
   // Before any work: no output may overwrite an input (or another output).
-  CheckOutputs({{"--out", out_path},
-                {"--plot", args.get("--plot")},
-                {"--valid-region-out", args.get("--valid-region-out")}},
-               {{"--camera", camera_path},
-                {"--pairs", pairs_path},
-                {"--scan", args.get("--scan")},
-                {"--image", args.get("--image")},
-                {"--mask", args.get("--mask")},
-                {"--truth", args.get("--truth")}});
+  std::vector<NamedPath> outputs = {{"--out", out_path},
+                                    {"--valid-region-out", args.get("--valid-region-out")}};
+  for (const auto& p : plot_paths) outputs.push_back({"--plot", p});
+  std::vector<NamedPath> inputs = {
+      {"--camera", camera_path}, {"--mask", args.get("--mask")}, {"--truth", args.get("--truth")}};
+  for (const auto& p : pairs_paths) inputs.push_back({"--pairs", p});
+  for (const auto& p : scan_paths) inputs.push_back({"--scan", p});
+  for (const auto& p : image_paths) inputs.push_back({"--image", p});
+  CheckOutputs(outputs, inputs);
 
   const CameraModel camera = LoadCamera(camera_path);
-  cv::Mat image;
-  if (args.has("--image")) {
-    const std::string image_path = args.get("--image");
-    image = ReadImage(image_path, cv::IMREAD_COLOR, "image",
-                      [&](int w, int h) { CheckImageSize(camera, w, h, image_path); });
+  std::vector<cv::Mat> images;
+  for (const std::string& image_path : image_paths) {
+    images.push_back(ReadImage(image_path, cv::IMREAD_COLOR, "image",
+                               [&](int w, int h) { CheckImageSize(camera, w, h, image_path); }));
   }
+  const cv::Mat image = images.empty() ? cv::Mat() : images[0];
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");
-  const std::vector<PointPair> pairs = ReadPairsCsv(pairs_path);
-  OrderedScan scan;
-  const bool have_scan = args.has("--scan");
-  if (have_scan) {
-    scan =
-        LoadScan(args.get("--scan"), ParseScanLoadOptions(args), Progress(StderrProgress(quiet)));
+  std::vector<std::vector<PointPair>> scene_pairs;
+  for (const auto& p : pairs_paths) scene_pairs.push_back(ReadPairsCsv(p));
+  std::vector<OrderedScan> scans(scan_paths.size());
+  for (std::size_t k = 0; k < scan_paths.size(); ++k) {
+    scans[k] = LoadScan(scan_paths[k], ParseScanLoadOptions(args), Progress(StderrProgress(quiet)));
   }
+  const bool have_scan = !scans.empty();
 
   CalibrateOptions opt;
   // A mask file wins; else the valid region found from the camera (and the image, if given).
@@ -105,13 +136,22 @@ int RunCalibrate(const Args& args) {
       opt.sigma_px + opt.sigma_cells + opt.sigma_point_m <= 0) {
     throw Error("--sigma-px, --sigma-cells and --sigma-point-m must be >= 0, not all 0");
   }
-  opt.pairs_source = pairs_path;
-  const Calibration cal = Calibrate(pairs, have_scan ? &scan : nullptr, camera, opt);
+  opt.noise_prior_pairs = args.get_double("--noise-prior-pairs", opt.noise_prior_pairs);
+  if (!(opt.noise_prior_pairs >= 0)) throw Error("--noise-prior-pairs must be >= 0");
+  opt.pairs_source = pairs_paths[0];
+  std::vector<CalibrationScene> scene_list;
+  for (std::size_t k = 0; k < scenes; ++k)
+    scene_list.push_back({scene_pairs[k], have_scan ? &scans[k] : nullptr, pairs_paths[k]});
+  const Calibration cal = CalibrateScenes(scene_list, camera, opt);
 
-  nlohmann::json inputs = {{"camera", camera_path}, {"pairs", pairs_path}};
-  if (have_scan) inputs["scan"] = args.get("--scan");
-  if (args.has("--image")) inputs["image"] = args.get("--image");
-  nlohmann::json out = CalibrationToJson(cal, inputs);
+  // One scene: the names as strings (as before); several: one array entry per scene.
+  auto names = [&](const std::vector<std::string>& v) {
+    return scenes == 1 ? nlohmann::json(v[0]) : nlohmann::json(v);
+  };
+  nlohmann::json json_inputs = {{"camera", camera_path}, {"pairs", names(pairs_paths)}};
+  if (have_scan) json_inputs["scan"] = names(scan_paths);
+  if (!image_paths.empty()) json_inputs["image"] = names(image_paths);
+  nlohmann::json out = CalibrationToJson(cal, json_inputs);
   if (args.has("--truth")) {
     // Compare with a known answer (the simulator's ground_truth.json).
     const Eigen::Isometry3d T_true = ReadCalibrationPose(args.get("--truth"));
@@ -139,16 +179,30 @@ int RunCalibrate(const Args& args) {
           << " the reported uncertainty (95 %: 3.55)";
         verdict = m.str();
       }
+      // Per axis, in the reported std: estimate - truth (R_est = exp(d) R_true, d about the
+      // camera axes, deg; t_est - t_true, m).
+      const Eigen::Vector3d d_deg = -e.head<3>() * 180.0 / M_PI;
+      const Eigen::Vector3d d_t = -e.tail<3>();
+      const Eigen::Vector3d z_r = d_deg.cwiseQuotient(cal.std_rot_cam_deg);
+      const Eigen::Vector3d z_t = d_t.cwiseQuotient(cal.std_t_m);
+      out["error_vs_truth"]["rotation_error_deg_cam_xyz"] = Vector3ToJson(d_deg);
+      out["error_vs_truth"]["translation_error_m"] = Vector3ToJson(d_t);
+      out["error_vs_truth"]["rotation_error_over_std"] = Vector3ToJson(z_r);
+      out["error_vs_truth"]["translation_error_over_std"] = Vector3ToJson(z_t);
+      std::ostringstream m;
+      m << std::fixed << std::setprecision(1) << "\n  error / reported std: rotation about camera "
+        << "x/y/z " << z_r.x() << " " << z_r.y() << " " << z_r.z() << ", translation x/y/z "
+        << z_t.x() << " " << z_t.y() << " " << z_t.z();
+      verdict += m.str();
     }
     if (!quiet)
       std::cout << "against " << args.get("--truth") << ": rotation error " << rot_deg
                 << " deg, translation error " << t_m << " m" << verdict << "\n";
   }
   WriteJsonFile(out_path, out);
-  if (args.has("--plot")) {
-    const std::string plot_path = args.get("--plot");
-    WritePng(plot_path, PlotPairs(image, cal));
-    if (!quiet) std::cout << "wrote " << plot_path << "\n";
+  for (std::size_t k = 0; k < plot_paths.size(); ++k) {
+    WritePng(plot_paths[k], PlotPairs(images[k], cal, static_cast<int>(k)));
+    if (!quiet) std::cout << "wrote " << plot_paths[k] << "\n";
   }
   if (args.has("--valid-region-out")) {
     const std::string p = args.get("--valid-region-out");
@@ -164,12 +218,18 @@ Command MakeCalibrateCommand() {
   Command c;
   c.name = "calibrate";
   c.summary = "T_cam_scan from picked pairs (paper linear PnP / RANSAC + Ceres refinement)";
-  c.usage = "scancam calibrate --camera C --pairs P [--scan S] --out calib.json [options]";
+  c.usage =
+      "scancam calibrate --camera C --pairs P [--scan S] [--image I] [--pairs P2 [--scan S2] "
+      "[--image I2] ...] --out calib.json [options]";
   c.description =
       "Recovers the rigid transform T_cam_scan (X_cam = R X_scan + t) between a scanner and a\n"
       "camera from pairs of an image pixel and a laser point (the pairs CSV: image_u,image_v,\n"
       "scan_row,scan_col[,x,y,z][,label]; see README). Pixels become unit bearings through the\n"
       "camera model, so every model (ocam, omni, pinhole, fisheye, equirect) is handled alike.\n"
+      "\n"
+      "Several scenes of one rig: repeat --pairs (and --scan, --image: the k-th of each is\n"
+      "scene k). One T_cam_scan fits all pairs, each keeping its own scene's noise model; each\n"
+      "scene is also solved alone and compared with the joint result in sigma.\n"
       "\n"
       "Methods (--method):\n"
       "  ransac  RANSAC over P3P (Kneip) with an angular threshold, EPnP on the inliers; finds\n"
@@ -181,8 +241,11 @@ Command MakeCalibrateCommand() {
       "\n"
       "Writes calib.json: T_cam_scan (4x4 row-major), rotation_rpy_deg (R = Rz(yaw) Ry(pitch)\n"
       "Rx(roll)), translation_m, reprojection errors (px, mean/std/max as the paper's Table I)\n"
-      "and angular errors (deg), parameter std (deg, m), per-pair residuals and inlier flags,\n"
-      "warnings, method and inputs. Prints a readable summary. Exit 1 with a message naming\n"
+      "and angular errors (deg), parameter std (deg, m; rotation_std_deg_cam_xyz: small angles\n"
+      "about the camera axes, valid for every rig, unlike the roll/pitch/yaw std near pitch\n"
+      "+-90), per-pair residuals and inlier flags, pick geometry, scenes (alone vs joint),\n"
+      "warnings (weak geometry, gimbal lock, outliers), method and inputs. Prints a readable "
+      "summary. Exit 1 with a message naming\n"
       "the file and line on unusable input (fewer than 4 pairs, duplicates, collinear picks,\n"
       "a pixel outside the image, a cell without a return, a camera/image size mismatch).";
   c.options = Concat(
@@ -190,12 +253,19 @@ Command MakeCalibrateCommand() {
           {"--camera", "FILE",
            "Camera file: OCamCalib calib_results.txt, OpenCV YAML/JSON, Kalibr camchain, ROS "
            "camera_info, OpenCalib JSON. Required."},
-          {"--pairs", "FILE", "Pairs CSV. Required."},
+          {"--pairs", "FILE",
+           "Pairs CSV. Required. Repeat for several scenes of one rig (the k-th --pairs, "
+           "--scan and --image are scene k).",
+           true},
           {"--scan", "FILE",
            "The scan the pairs' scan_row/scan_col refer to (needed unless every pair has "
-           "x,y,z)."},
+           "x,y,z). One per --pairs when repeated.",
+           true},
           {"--out", "FILE", "Output calibration JSON. Required."},
-          {"--image", "FILE", "The camera image: checked against the camera file's size."},
+          {"--image", "FILE",
+           "The camera image: checked against the camera file's size. One per --pairs when "
+           "repeated.",
+           true},
           {"--mask", "FILE",
            "Image mask (black = unusable, e.g. outside an omni mirror): pick suggestions "
            "avoid it; pairs on it are warned about. Without it the valid region is found "
@@ -203,7 +273,7 @@ Command MakeCalibrateCommand() {
           {"--plot", "FILE.png",
            "Draw the pairs on the --image: picked pixel (circle), projected laser point "
            "(cross), residual line; green inliers, red flagged; magenta squares: where to pick "
-           "next."},
+           "next. Several scenes: FILE-scene1.png, FILE-scene2.png, ..."},
           {"--suggest", "K",
            "Suggest K places where one more pair would lower the parameter std most "
            "(0 = none). Default 3."},
@@ -224,6 +294,10 @@ Command MakeCalibrateCommand() {
           {"--sigma-cells", "C", "Picking noise on the scan grid, cells per axis. Default 0.5."},
           {"--sigma-point-m", "M",
            "Noise of a laser point given as x,y,z (no scan cell), metres. Default 0 (exact)."},
+          {"--noise-prior-pairs", "N",
+           "Weight of the picking-noise prior (--sigma-px/--sigma-cells) in the noise level "
+           "that scales the std, in pairs: with few pairs the chi-square alone is unreliable. "
+           "0 = the chi-square alone. Default 4."},
           {"--unweighted", "",
            "Refine the paper's eq. 7 as written (every pair weighs the same) instead of the "
            "maximum-likelihood weighting by the picking noise."},

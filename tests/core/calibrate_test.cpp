@@ -194,6 +194,13 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
     ASSERT_EQ(std::system(tc.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
     const auto j = ReadJsonFile(dir + "/calib.json");
     const double d = j["error_vs_truth"]["mahalanobis"].get<double>();
+    // Per axis: the truth is turned by off_deg about the camera x axis, so the estimate is
+    // -off_deg from it about x (and in std: what the per-axis figures say).
+    const auto& per_axis = j["error_vs_truth"]["rotation_error_deg_cam_xyz"];
+    EXPECT_NEAR(per_axis[0].get<double>(), -off_deg, 0.1);
+    EXPECT_NEAR(per_axis[1].get<double>(), 0.0, 0.1);
+    EXPECT_NEAR(j["error_vs_truth"]["rotation_error_over_std"][0].get<double>(),
+                per_axis[0].get<double>() / j["rotation_std_deg_cam_xyz"][0].get<double>(), 1e-9);
     const std::string text = test::ReadFile(dir + "/stdout.txt");
     if (off_deg == 0) {
       EXPECT_LT(d, 3.55) << text;
@@ -227,6 +234,64 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
   EXPECT_EQ(WEXITSTATUS(rc), 1);
   EXPECT_NE(test::ReadFile(dir + "/err.txt").find("bad.csv:2"), std::string::npos)
       << test::ReadFile(dir + "/err.txt");
+}
+
+// Several scenes of one rig: repeated --pairs (and --image: the k-th of each is scene k), one
+// pose, each scene alone against the joint result in the JSON and on stdout; one plot per
+// scene; a count that does not match is refused. One scene keeps its JSON as before (plus
+// the new fields).
+TEST(CalibrateCli, SeveralScenesOneRig) {
+  const std::string dir = test::TempDir();
+  const auto cam = Pinhole();
+  SaveCamera(cam, dir + "/cam.yaml");
+  WritePairsCsv(dir + "/a.csv", MakePairs(cam, TruePose(), 10, 0.5, 21));
+  WritePairsCsv(dir + "/b.csv", MakePairs(cam, TruePose(), 12, 0.5, 22));
+  cv::imwrite(dir + "/photo.png", cv::Mat(cam.height(), cam.width(), CV_8UC3, cv::Scalar::all(0)));
+  const std::string base = std::string(SCANCAM_CLI) + " calibrate --camera " + dir + "/cam.yaml";
+  const std::string two = base + " --pairs " + dir + "/a.csv --pairs " + dir + "/b.csv --image " +
+                          dir + "/photo.png --image " + dir + "/photo.png --sigma-point-m 0.001" +
+                          " --plot " + dir + "/plot.png --out " + dir + "/joint.json > " + dir +
+                          "/stdout.txt 2>&1";
+  ASSERT_EQ(std::system(two.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  const auto j = ReadJsonFile(dir + "/joint.json");
+  EXPECT_EQ(j.at("pair_count"), 22);
+  EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/joint.json"), TruePose()), 0.1);
+  ASSERT_EQ(j.at("scenes").size(), 2u);
+  for (const auto& s : j.at("scenes")) {
+    EXPECT_TRUE(s.at("solved_alone").get<bool>());
+    EXPECT_EQ(s.at("vs_joint").at("translation_diff_sigma").size(), 3u);
+    EXPECT_LT(s.at("vs_joint").at("mahalanobis").get<double>(), 6.0);
+  }
+  EXPECT_EQ(j.at("inputs").at("pairs").size(), 2u);
+  EXPECT_EQ(j.at("pairs")[0].at("scene"), 1);
+  EXPECT_EQ(j.at("pairs")[21].at("scene"), 2);
+  EXPECT_EQ(j.at("rotation_std_deg_cam_xyz").size(), 3u);
+  const std::string text = test::ReadFile(dir + "/stdout.txt");
+  EXPECT_NE(text.find("scene 2 (" + dir + "/b.csv, 12 pairs) alone vs joint"), std::string::npos)
+      << text;
+  EXPECT_NE(text.find("sigma); Mahalanobis"), std::string::npos) << text;
+  EXPECT_FALSE(cv::imread(dir + "/plot-scene1.png").empty());
+  EXPECT_FALSE(cv::imread(dir + "/plot-scene2.png").empty());
+
+  // One --image for two --pairs: which scene it belongs to is unclear, so it is refused.
+  const std::string odd = base + " --pairs " + dir + "/a.csv --pairs " + dir + "/b.csv --image " +
+                          dir + "/photo.png --out " + dir + "/odd.json > " + dir + "/err.txt 2>&1";
+  EXPECT_EQ(WEXITSTATUS(std::system(odd.c_str())), 1);
+  EXPECT_NE(test::ReadFile(dir + "/err.txt").find("--image given 1 time(s) but --pairs 2"),
+            std::string::npos)
+      << test::ReadFile(dir + "/err.txt");
+
+  // One scene: inputs keep plain strings, the new fields are there, no "scenes".
+  const std::string one =
+      base + " --pairs " + dir + "/a.csv --out " + dir + "/one.json > " + dir + "/stdout.txt 2>&1";
+  ASSERT_EQ(std::system(one.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  const auto o = ReadJsonFile(dir + "/one.json");
+  EXPECT_TRUE(o.at("inputs").at("pairs").is_string());
+  EXPECT_FALSE(o.contains("scenes"));
+  EXPECT_FALSE(o.at("pairs")[0].contains("scene"));
+  EXPECT_EQ(o.at("std").at("rotation_std_deg_cam_xyz").size(), 3u);
+  EXPECT_TRUE(o.contains("reduced_chi_square"));
+  EXPECT_GT(o.at("geometry").at("image_rows_span_fraction").get<double>(), 0.5);
 }
 
 }  // namespace

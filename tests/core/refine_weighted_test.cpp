@@ -9,6 +9,7 @@
 #include "scancam/sim/simulate.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/refine.h"
+#include "sim_test_util.h"
 
 namespace scancam {
 namespace {
@@ -145,38 +146,20 @@ TEST(WeightedCalibrate, NoiseModelFitsPickingNoiseOnThePaperRig) {
   so.pick_sigma_cells = 0;
   so.seed = 3;
   const auto s = sim::Simulate(so);
-  std::vector<PointPair> exact;
-  for (std::size_t i = 0; i < s.pair_truth.size(); ++i) {
-    if (s.pair_truth[i].wrong) continue;
-    PointPair q;
-    q.image_u = s.pair_truth[i].uv_true.x();
-    q.image_v = s.pair_truth[i].uv_true.y();
-    q.scan_row = s.pair_truth[i].cell_true.x();
-    q.scan_col = s.pair_truth[i].cell_true.y();
-    exact.push_back(q);
-  }
+  const std::vector<PointPair> exact = test::ExactSimPairs(s);
   ASSERT_GE(exact.size(), 20u);
   std::mt19937 rng(9);
-  std::normal_distribution<double> gpx(0, 1.0), gcell(0, 0.5);
   double chi2 = 0, err_w = 0, err_u = 0;
   int used = 0;
   for (int t = 0; t < 40; ++t) {
-    std::vector<PointPair> pairs;
-    for (auto q : exact) {
-      q.image_u += gpx(rng);
-      q.image_v += gpx(rng);
-      q.scan_row += gcell(rng);
-      q.scan_col += gcell(rng);
-      if (PairLaserPoint(q, &s.scan) && s.camera.Unproject({q.image_u, q.image_v}))
-        pairs.push_back(q);
-    }
+    const std::vector<PointPair> pairs = test::NoisySimPairs(exact, s, rng, 1.0, 0.5);
     CalibrateOptions co;
     co.method = "epnp";
     const auto w = Calibrate(pairs, &s.scan, s.camera, co);
     co.weighted = false;
     const auto u = Calibrate(pairs, &s.scan, s.camera, co);
     ASSERT_TRUE(w.weighted);
-    chi2 += w.variance_factor;
+    chi2 += w.reduced_chi_square;
     err_w += RotVecErr(w.T_cam_scan, s.T_cam_scan).squaredNorm();
     err_u += RotVecErr(u.T_cam_scan, s.T_cam_scan).squaredNorm();
     ++used;
@@ -197,15 +180,7 @@ TEST(PickSuggestions, PredictWhatAnExtraPairThereGives) {
   so.pairs = 8;
   so.seed = 4;
   const auto s = sim::Simulate(so);
-  std::vector<PointPair> pairs;
-  for (const auto& t : s.pair_truth) {
-    PointPair q;
-    q.image_u = t.uv_true.x();
-    q.image_v = t.uv_true.y();
-    q.scan_row = t.cell_true.x();
-    q.scan_col = t.cell_true.y();
-    pairs.push_back(q);
-  }
+  std::vector<PointPair> pairs = test::ExactSimPairs(s);
   CalibrateOptions co;
   co.refine_options.scale_covariance = false;
   const cv::Mat mask = sim::MaskImage(s.mask, s.camera.width(), s.camera.height());

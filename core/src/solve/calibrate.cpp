@@ -18,11 +18,6 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-std::string Where(const CalibrateOptions& o, const PointPair& p, std::size_t i) {
-  return o.pairs_source + ":" +
-         (p.line > 0 ? std::to_string(p.line) : "pair " + std::to_string(i + 1));
-}
-
 // Second singular value of the centred point set relative to the first: ~0 when
 // the points lie on a line.
 double LineSpread(const std::vector<Eigen::Vector3d>& pts) {
@@ -175,90 +170,194 @@ void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* 
   *sd = v.size() > 1 ? std::sqrt(*sd / (v.size() - 1)) : 0.0;
 }
 
+// The flat list of every scene's pairs (CalibrateScenes): pair i, its scene's scan and name,
+// and its position within its scene.
+struct FlatPairs {
+  std::vector<PointPair> pairs;
+  std::vector<const OrderedScan*> scan;
+  std::vector<int> scene;
+  std::vector<std::size_t> local;  // index within the scene
+  std::vector<std::string> source;
+};
+
+std::string Where(const FlatPairs& f, std::size_t i) {
+  const PointPair& p = f.pairs[i];
+  return f.source[i] + ":" +
+         (p.line > 0 ? std::to_string(p.line) : "pair " + std::to_string(f.local[i] + 1));
+}
+
+// What a candidate cell of the suggestions is (see PickSuggestion in calibrate.h); nullopt when
+// it is no depth-edge feature or it is clutter.
+struct CandidateFeature {
+  bool corner = false;
+  double gap_m = 0;          // how far the background behind the edge is
+  double normal_spread = 0;  // 1 - mean resultant length of the surface normals
+  double break_fraction = 0;
+  double spike_fraction = 0;
+};
+
+std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
+                                                  const colour::ContinuityTest& continuous, int r,
+                                                  int c) {
+  if (!scan.valid(r, c)) return std::nullopt;
+  const float range = scan.range_m[scan.index(r, c)];
+  CandidateFeature f;
+  bool edge_row = false, edge_col = false;
+  for (const auto& [dr, dc] :
+       {std::pair{0, 1}, std::pair{1, 0}, std::pair{0, -1}, std::pair{-1, 0}}) {
+    if (!scan.valid(r + dr, c + dc)) continue;
+    const float other = scan.range_m[scan.index(r + dr, c + dc)];
+    if (other > range && !continuous(scan, r, c, dr, dc)) {
+      (dr != 0 ? edge_row : edge_col) = true;
+      f.gap_m = std::max(f.gap_m, double(other - range));
+    }
+  }
+  if (!edge_row && !edge_col) return std::nullopt;
+  f.corner = edge_row && edge_col;
+  // The 5 x 5 window: depth breaks between neighbours, and the normals of the near surface.
+  constexpr int kHalf = 2;
+  const double near_limit = range + std::max(0.3, 0.05 * double(range));
+  int links = 0, breaks = 0, normals = 0, cells = 0, spikes = 0;
+  // A spike: a cell nearer or farther than both its neighbours along the row (or the column)
+  // by more than 5 cm and 2 % of its range; foliage is full of them, a clean edge has none.
+  auto spike = [&](int rr, int cc, int dr, int dc) {
+    if (!scan.valid(rr - dr, cc - dc) || !scan.valid(rr + dr, cc + dc)) return false;
+    const double x = scan.range_m[scan.index(rr, cc)];
+    const double a = scan.range_m[scan.index(rr - dr, cc - dc)] - x;
+    const double b = scan.range_m[scan.index(rr + dr, cc + dc)] - x;
+    const double tol = std::max(0.05, 0.02 * x);
+    return (a > tol && b > tol) || (a < -tol && b < -tol);
+  };
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int rr = r - kHalf; rr <= r + kHalf; ++rr) {
+    for (int cc = c - kHalf; cc <= c + kHalf; ++cc) {
+      if (!scan.valid(rr, cc)) continue;
+      ++cells;
+      spikes += (spike(rr, cc, 0, 1) || spike(rr, cc, 1, 0)) ? 1 : 0;
+      bool right = false, down = false;
+      if (cc < c + kHalf && scan.valid(rr, cc + 1)) {
+        ++links;
+        right = continuous(scan, rr, cc, 0, 1);
+        breaks += right ? 0 : 1;
+      }
+      if (rr < r + kHalf && scan.valid(rr + 1, cc)) {
+        ++links;
+        down = continuous(scan, rr, cc, 1, 0);
+        breaks += down ? 0 : 1;
+      }
+      if (!right || !down || scan.range_m[scan.index(rr, cc)] > near_limit) continue;
+      const Eigen::Vector3d p = scan.point_m[scan.index(rr, cc)].cast<double>();
+      const Eigen::Vector3d a = scan.point_m[scan.index(rr, cc + 1)].cast<double>() - p;
+      const Eigen::Vector3d b = scan.point_m[scan.index(rr + 1, cc)].cast<double>() - p;
+      Eigen::Vector3d n = a.cross(b);
+      if (!(n.norm() > 0)) continue;
+      n.normalize();
+      if (n.dot(p) > 0) n = -n;  // towards the scanner
+      sum += n;
+      ++normals;
+    }
+  }
+  if (normals < 3 || links == 0) return std::nullopt;  // too little surface to judge
+  f.normal_spread = 1.0 - sum.norm() / normals;
+  f.break_fraction = double(breaks) / links;
+  f.spike_fraction = double(spikes) / cells;
+  // Foliage and clutter: scattered normals, a window broken up by depth jumps, or full of
+  // spikes.
+  if (f.normal_spread > 0.15 || f.break_fraction > 1.0 / 3.0 || f.spike_fraction > 0.25)
+    return std::nullopt;
+  return f;
+}
+
 // Fills cal->suggestions (see PickSuggestion in calibrate.h).
-void SuggestPicks(const CameraModel& camera, const OrderedScan& scan,
-                  const std::vector<PointPair>& pairs, const std::vector<Eigen::Vector3d>& bearings,
+void SuggestPicks(const CameraModel& camera, const FlatPairs& f,
+                  const std::vector<const OrderedScan*>& scene_scans,
+                  const std::vector<Eigen::Vector3d>& bearings,
                   const std::vector<Eigen::Vector3d>& points, const std::vector<bool>& inlier,
                   const CalibrateOptions& options, Calibration* cal) {
   const Eigen::Isometry3d& T = cal->T_cam_scan;
   // Information of the inliers under the noise model: the predicted covariances are in the
   // model's units; the reported std is scaled by the ratio predicted / current, so the
-  // suggestion keeps the calibration's own (chi-square scaled) level.
+  // suggestion keeps the calibration's own (variance-factor scaled) level.
   using Mat6 = Eigen::Matrix<double, 6, 6>;
   Mat6 info = Mat6::Zero();
-  for (std::size_t i = 0; i < pairs.size(); ++i) {
+  for (std::size_t i = 0; i < f.pairs.size(); ++i) {
     if (!inlier[i]) continue;
     info += PairInformation(
         T, points[i],
-        BearingCovariance(camera, &scan, pairs[i], bearings[i], points[i], T, options));
+        BearingCovariance(camera, f.scan[i], f.pairs[i], bearings[i], points[i], T, options));
   }
   Eigen::LDLT<Mat6> ldlt(info);
   if (ldlt.info() != Eigen::Success) return;
   Mat6 C = ldlt.solve(Mat6::Identity());
   const Eigen::Matrix3d R = T.linear();
   const Eigen::Vector3d std0 = RpyStdDeg(R, C.topLeftCorner<3, 3>());  // model units
+  const Eigen::Vector3d std0_cam = C.topLeftCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
   const Eigen::Vector3d std0_t = C.bottomRightCorner<3, 3>().diagonal().cwiseSqrt();
-  if (!(std0.minCoeff() > 0) || !(std0_t.minCoeff() > 0)) return;
+  if (!(std0_cam.minCoeff() > 0) || !(std0_t.minCoeff() > 0)) return;
 
   // Candidates: features a user can pick in the scan — the near side of a depth edge (a cell
   // with a grid neighbour that is farther and not continuous with it, colour/colourise.h: an
-  // object's outline, where its corners are), about 1000 of them spread over the grid, that
-  // the camera sees.
+  // object's outline, where its corners are), about 1000 of them spread over each grid, that
+  // the camera sees, with clutter rejected and corners preferred (ClassifyCandidate).
   const colour::ContinuityTest continuous;
-  auto feature = [&](int r, int c) {
-    if (!scan.valid(r, c)) return false;
-    const float range = scan.range_m[scan.index(r, c)];
-    for (const auto& [dr, dc] :
-         {std::pair{0, 1}, std::pair{1, 0}, std::pair{0, -1}, std::pair{-1, 0}}) {
-      if (!scan.valid(r + dr, c + dc)) continue;
-      if (scan.range_m[scan.index(r + dr, c + dc)] > range && !continuous(scan, r, c, dr, dc))
-        return true;
-    }
-    return false;
-  };
   struct Cand {
-    int r, c;
+    int scene, r, c;
     Eigen::Vector3d p;
     Eigen::Vector2d px;
+    CandidateFeature feature;
     Eigen::Matrix<double, 6, 2> L;  // information = L L^T (rank 2)
   };
   std::vector<Cand> cands;
-  const int stride =
-      std::max(1, static_cast<int>(std::sqrt(double(scan.rows) * double(scan.cols) / 1000.0)));
-  for (int r0 = 0; r0 < scan.rows; r0 += stride) {
-    for (int c0 = 0; c0 < scan.cols; c0 += stride) {
-      // One feature cell of this stride x stride block (the first in row order).
-      int r = -1, c = -1;
-      for (int rr = r0; rr < std::min(r0 + stride, scan.rows) && r < 0; ++rr)
-        for (int cc = c0; cc < std::min(c0 + stride, scan.cols); ++cc)
-          if (feature(rr, cc)) {
-            r = rr;
-            c = cc;
-            break;
+  for (std::size_t s = 0; s < scene_scans.size(); ++s) {
+    if (!scene_scans[s]) continue;
+    const OrderedScan& scan = *scene_scans[s];
+    const int stride =
+        std::max(1, static_cast<int>(std::sqrt(double(scan.rows) * double(scan.cols) / 1000.0)));
+    for (int r0 = 0; r0 < scan.rows; r0 += stride) {
+      for (int c0 = 0; c0 < scan.cols; c0 += stride) {
+        // One feature cell of this stride x stride block: the first corner in row order, else
+        // the first edge, that the camera sees.
+        std::optional<Cand> pick;
+        for (int rr = r0; rr < std::min(r0 + stride, scan.rows); ++rr) {
+          for (int cc = c0; cc < std::min(c0 + stride, scan.cols); ++cc) {
+            if (pick && pick->feature.corner) break;
+            const auto feat = ClassifyCandidate(scan, continuous, rr, cc);
+            if (!feat || (pick && !feat->corner)) continue;
+            const Eigen::Vector3d p = scan.point_m[scan.index(rr, cc)].cast<double>();
+            const auto px = camera.Project(T * p);
+            if (!px || !Usable(options.image_mask, *px)) continue;
+            pick = Cand{
+                static_cast<int>(s), rr, cc, p, *px, *feat, Eigen::Matrix<double, 6, 2>::Zero()};
           }
-      if (r < 0) continue;
-      const Eigen::Vector3d p = scan.point_m[scan.index(r, c)].cast<double>();
-      const auto px = camera.Project(T * p);
-      if (!px || !Usable(options.image_mask, *px)) continue;
-      PointPair q;
-      q.image_u = px->x();
-      q.image_v = px->y();
-      q.scan_row = r;
-      q.scan_col = c;
-      const auto b = camera.Unproject(*px);
-      if (!b) continue;
-      const Mat6 I = PairInformation(T, p, BearingCovariance(camera, &scan, q, *b, p, T, options));
-      Eigen::SelfAdjointEigenSolver<Mat6> es(I);
-      Cand k{r, c, p, *px, Eigen::Matrix<double, 6, 2>::Zero()};
-      for (int m = 0; m < 2; ++m)  // the two non-zero eigenpairs
-        k.L.col(m) =
-            es.eigenvectors().col(4 + m) * std::sqrt(std::max(0.0, es.eigenvalues()(4 + m)));
-      cands.push_back(k);
+        }
+        if (!pick) continue;
+        Cand& k = *pick;
+        PointPair q;
+        q.image_u = k.px.x();
+        q.image_v = k.px.y();
+        q.scan_row = k.r;
+        q.scan_col = k.c;
+        const auto b = camera.Unproject(k.px);
+        if (!b) continue;
+        const Mat6 I =
+            PairInformation(T, k.p, BearingCovariance(camera, &scan, q, *b, k.p, T, options));
+        Eigen::SelfAdjointEigenSolver<Mat6> es(I);
+        for (int m = 0; m < 2; ++m)  // the two non-zero eigenpairs
+          k.L.col(m) =
+              es.eigenvectors().col(4 + m) * std::sqrt(std::max(0.0, es.eigenvalues()(4 + m)));
+        cands.push_back(k);
+      }
     }
   }
   const double min_dist = 0.08 * std::hypot(double(camera.width()), double(camera.height()));
   // The rpy map's Jacobian, once: std_rpy = sqrt(diag(Jr C_rot Jr^T)).
   const Eigen::Matrix3d Jr = RpyJacobianDegPerRad(R);
+  const double rot0 = std0_cam.maxCoeff() * std0_cam.maxCoeff();
+  const double t0 = std0_t.maxCoeff() * std0_t.maxCoeff();
+  auto objective = [&](const Mat6& Cn) {
+    return Cn.topLeftCorner<3, 3>().diagonal().maxCoeff() / rot0 +
+           Cn.bottomRightCorner<3, 3>().diagonal().maxCoeff() / t0;
+  };
   std::vector<Eigen::Vector2d> taken;
   for (int round = 0; round < options.suggest_picks; ++round) {
     int best = -1;
@@ -273,7 +372,7 @@ void SuggestPicks(const CameraModel& camera, const OrderedScan& scan,
       const Eigen::Matrix<double, 6, 2> CL = C * k.L;
       const Eigen::Matrix2d M = Eigen::Matrix2d::Identity() + k.L.transpose() * CL;
       const Mat6 Cn = C - CL * M.inverse() * CL.transpose();
-      const double v = (Jr * Cn.topLeftCorner<3, 3>() * Jr.transpose()).diagonal().maxCoeff();
+      const double v = objective(Cn);
       if (v < best_v) {
         best_v = v;
         best = static_cast<int>(i);
@@ -281,6 +380,8 @@ void SuggestPicks(const CameraModel& camera, const OrderedScan& scan,
       }
     }
     if (best < 0) break;
+    const Eigen::Vector3d before_cam = C.topLeftCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
+    const Eigen::Vector3d before_t = C.bottomRightCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
     C = best_C;
     const Cand& k = cands[best];
     taken.push_back(k.px);
@@ -289,23 +390,149 @@ void SuggestPicks(const CameraModel& camera, const OrderedScan& scan,
     sug.scan_row = k.r;
     sug.scan_col = k.c;
     sug.p_scan = k.p;
+    sug.scene = k.scene;
     const Eigen::Vector3d std_r =
         (Jr * C.topLeftCorner<3, 3>() * Jr.transpose()).diagonal().cwiseMax(0).cwiseSqrt();
+    const Eigen::Vector3d std_cam = C.topLeftCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
     const Eigen::Vector3d std_t = C.bottomRightCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt();
     sug.predicted_std_rpy_deg = cal->std_rpy_deg.cwiseProduct(std_r.cwiseQuotient(std0));
+    sug.predicted_std_rot_cam_deg =
+        cal->std_rot_cam_deg.cwiseProduct(std_cam.cwiseQuotient(std0_cam));
     sug.predicted_std_t_m = cal->std_t_m.cwiseProduct(std_t.cwiseQuotient(std0_t));
+    // Why: what the place is, and which std it lowers most (relative to before it).
+    Eigen::Index ax_r = 0, ax_t = 0;
+    (std_cam.cwiseQuotient(before_cam)).minCoeff(&ax_r);
+    (std_t.cwiseQuotient(before_t)).minCoeff(&ax_t);
+    const double scale_r = cal->std_rot_cam_deg(ax_r) / std0_cam(ax_r);
+    const double scale_t = cal->std_t_m(ax_t) / std0_t(ax_t);
+    std::ostringstream why;
+    why << std::fixed << std::setprecision(1) << (k.feature.corner ? "corner" : "edge")
+        << " of a smooth surface (normals within ~"
+        << std::acos(std::clamp(1.0 - k.feature.normal_spread, -1.0, 1.0)) / kDeg << " deg) "
+        << k.feature.gap_m << " m in front of what lies behind it, " << (T * k.p).norm()
+        << " m from the camera; lowers the rotation std about camera " << char('x' + ax_r) << " "
+        << std::setprecision(3) << before_cam(ax_r) * scale_r << " -> " << std_cam(ax_r) * scale_r
+        << " deg and the translation std along " << char('x' + ax_t) << " " << std::setprecision(1)
+        << 100 * before_t(ax_t) * scale_t << " -> " << 100 * std_t(ax_t) * scale_t << " cm";
+    sug.reason = why.str();
     cal->suggestions.push_back(sug);
   }
 }
 
-}  // namespace
+// Weak-geometry and gimbal-lock warnings (calibrate.h, "Uncertainty").
+void GeometryWarnings(const CameraModel& camera, const std::vector<Eigen::Vector3d>& points,
+                      Calibration* cal) {
+  Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
+  double dmin = 1e300, dmax = 0;
+  for (std::size_t i = 0; i < cal->pairs.size(); ++i) {
+    if (!cal->pairs[i].inlier) continue;
+    lo = lo.cwiseMin(cal->pairs[i].image_px);
+    hi = hi.cwiseMax(cal->pairs[i].image_px);
+    const double d = (cal->T_cam_scan * points[i]).norm();
+    dmin = std::min(dmin, d);
+    dmax = std::max(dmax, d);
+  }
+  if (dmax <= 0) return;
+  PickGeometry& g = cal->geometry;
+  g.image_rows_fraction = (hi.y() - lo.y()) / camera.height();
+  g.image_cols_fraction = (hi.x() - lo.x()) / camera.width();
+  g.distance_min_m = dmin;
+  g.distance_max_m = dmax;
+  std::ostringstream m;
+  m << std::fixed << std::setprecision(0);
+  auto flush = [&] {
+    cal->warnings.push_back(m.str());
+    m.str("");
+  };
+  std::ostringstream stds;
+  if (cal->has_covariance) {
+    stds << std::fixed << std::setprecision(3) << " (std now: rotation about camera x/y/z "
+         << cal->std_rot_cam_deg.x() << " " << cal->std_rot_cam_deg.y() << " "
+         << cal->std_rot_cam_deg.z() << " deg, translation " << std::setprecision(1)
+         << 100 * cal->std_t_m.x() << " " << 100 * cal->std_t_m.y() << " " << 100 * cal->std_t_m.z()
+         << " cm)";
+  }
+  // A narrow band of image rows (v) or columns (u).
+  auto band = [&](double fraction, const char* extent, const char* lines, double from, double to,
+                  char axis, const char* advice) {
+    if (fraction >= 0.25) return;
+    m << "weak geometry: the picks span " << 100 * fraction << " % of the image " << extent << " ("
+      << lines << " " << from << " to " << to << " px): the rotation about the camera " << axis
+      << " axis and the translation are weakly determined" << stds.str() << "; " << advice;
+    flush();
+  };
+  band(g.image_rows_fraction, "height", "rows", lo.y(), hi.y(), 'x',
+       "add picks higher and lower in the image, or another scene");
+  band(g.image_cols_fraction, "width", "columns", lo.x(), hi.x(), 'y',
+       "add picks further left and right");
+  if (dmax < 1.5 * dmin) {
+    m << std::setprecision(1) << "weak geometry: the picks all lie " << dmin << " to " << dmax
+      << " m from the camera (farthest / nearest " << std::setprecision(2) << dmax / dmin
+      << "): the translation is entangled with the rotation" << stds.str()
+      << "; add picks nearer and farther away";
+    flush();
+  }
+  if (dmin > 10.0) {
+    m << std::setprecision(1) << "weak geometry: the nearest pick is " << dmin
+      << " m away: a pick's angular noise moves it sideways by that distance times the angle, "
+         "so the translation is fixed only loosely"
+      << stds.str() << "; add picks within a few metres of the rig";
+    flush();
+  }
+  const double pitch = cal->rotation_rpy_deg.y();
+  if (std::abs(std::abs(pitch) - 90.0) < 10.0) {
+    m << std::setprecision(1) << "rotation_rpy_deg has pitch " << pitch
+      << " deg, within 10 deg of +-90 (gimbal lock, the usual lidar-to-camera rig): roll and "
+         "yaw are not separable there and their std is meaningless; use "
+         "rotation_std_deg_cam_xyz (small angles about the camera axes) instead";
+    flush();
+  }
+}
 
-Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
-                      const CameraModel& camera, const CalibrateOptions& options) {
-  if (!camera.valid()) throw Error("calibration: no camera model");
+// One scene alone against the joint result (SceneResult in calibrate.h).
+void CompareScene(const Calibration& joint, const Calibration& alone, SceneResult* s) {
+  s->solved = true;
+  s->inlier_count = alone.inlier_count;
+  s->T_cam_scan = alone.T_cam_scan;
+  s->std_rot_cam_deg = alone.std_rot_cam_deg;
+  s->std_t_m = alone.std_t_m;
+  const Eigen::AngleAxisd aa(alone.T_cam_scan.linear() * joint.T_cam_scan.linear().transpose());
+  Eigen::Matrix<double, 6, 1> d;
+  d << aa.angle() * aa.axis(), alone.T_cam_scan.translation() - joint.T_cam_scan.translation();
+  s->rotation_diff_cam_deg = d.head<3>() / kDeg;
+  s->translation_diff_m = d.tail<3>();
+  if (!joint.has_covariance || !alone.has_covariance || !(joint.variance_factor > 0) ||
+      !(alone.variance_factor > 0)) {
+    s->error = "no covariance to compare with";
+    return;
+  }
+  using Mat6 = Eigen::Matrix<double, 6, 6>;
+  // Model covariances (unscaled), their difference, scaled by the joint's variance factor.
+  Mat6 D = joint.variance_factor *
+           (alone.covariance / alone.variance_factor - joint.covariance / joint.variance_factor);
+  D = 0.5 * (D + D.transpose());
+  // Linearised at slightly different poses the difference can lose definiteness in a direction
+  // the joint adds almost nothing to: floor its eigenvalues at 1 % of the scene's own.
+  Eigen::SelfAdjointEigenSolver<Mat6> es(D);
+  const Mat6 Ca = joint.variance_factor * alone.covariance / alone.variance_factor;
+  Eigen::SelfAdjointEigenSolver<Mat6> ea(Ca);
+  const double floor = 1e-2 * std::max(ea.eigenvalues().minCoeff(), 0.0) + 1e-300;
+  const Eigen::Matrix<double, 6, 1> ev = es.eigenvalues().cwiseMax(floor);
+  D = es.eigenvectors() * ev.asDiagonal() * es.eigenvectors().transpose();
+  const Eigen::Matrix<double, 6, 1> sd = D.diagonal().cwiseSqrt();
+  s->rotation_diff_sigma = d.head<3>().cwiseQuotient(sd.head<3>());
+  s->translation_diff_sigma = d.tail<3>().cwiseQuotient(sd.tail<3>());
+  const Eigen::Matrix<double, 6, 1> w = es.eigenvectors().transpose() * d;
+  s->mahalanobis = std::sqrt(w.cwiseAbs2().cwiseQuotient(ev).sum());
+}
+
+Calibration CalibrateFlat(const FlatPairs& f, const std::vector<const OrderedScan*>& scene_scans,
+                          const CameraModel& camera, const CalibrateOptions& options) {
+  const std::vector<PointPair>& pairs = f.pairs;
+  const std::string& first_source = f.source.empty() ? options.pairs_source : f.source[0];
   const std::size_t n = pairs.size();
   if (n < 4) {
-    throw Error(options.pairs_source + ": " + std::to_string(n) +
+    throw Error(first_source + ": " + std::to_string(n) +
                 " pairs; at least 4 are needed to calibrate (6 or more, spread over the scene, "
                 "are recommended)");
   }
@@ -323,10 +550,12 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   cal.pairs.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
     const PointPair& p = pairs[i];
+    const OrderedScan* scan = f.scan[i];
     PairResult& r = cal.pairs[i];
     r.index = static_cast<int>(i);
     r.line = p.line;
     r.label = p.label;
+    r.scene = f.scene[i];
     r.image_px = Eigen::Vector2d(p.image_u, p.image_v);
     r.scan_row = p.scan_row;
     r.scan_col = p.scan_col;
@@ -336,7 +565,7 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
       m << "pixel (" << p.image_u << ", " << p.image_v << ") is outside the image ("
         << camera.width() << "x" << camera.height()
         << ") or the camera's field of view: check that the pairs belong to this camera";
-      throw Error(Where(options, p, i) + ": " + m.str());
+      throw Error(Where(f, i) + ": " + m.str());
     }
     const auto x = PairLaserPoint(p, scan);
     if (!x) {
@@ -347,32 +576,32 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
       else
         m << ": the cell has no return (or lies outside the " << (scan ? scan->rows : 0) << " x "
           << (scan ? scan->cols : 0) << " grid)";
-      throw Error(Where(options, p, i) + ": " + m.str());
+      throw Error(Where(f, i) + ": " + m.str());
     }
     bearings[i] = *b;
     points[i] = *x;
     r.p_scan = *x;
   }
-  // Duplicates: the same pixel or the same laser point twice adds no information
-  // and usually means a double click.
+  // Duplicates within a scene: the same pixel or the same laser point twice adds no
+  // information and usually means a double click.
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = i + 1; j < n; ++j) {
+      if (f.scene[i] != f.scene[j]) continue;
       const bool same_px = (cal.pairs[i].image_px - cal.pairs[j].image_px).norm() < 0.5;
       const bool same_pt = (points[i] - points[j]).norm() < 1e-3;
       if (same_px || same_pt) {
-        throw Error(Where(options, pairs[j], j) + ": duplicate of the pair at " +
-                    Where(options, pairs[i], i) + " (same " + (same_px ? "pixel" : "laser point") +
-                    "): remove one of them");
+        throw Error(Where(f, j) + ": duplicate of the pair at " + Where(f, i) + " (same " +
+                    (same_px ? "pixel" : "laser point") + "): remove one of them");
       }
     }
   }
   if (LineSpread(points) < 1e-3) {
-    throw Error(options.pairs_source +
+    throw Error(first_source +
                 ": the laser points are (nearly) collinear: the rotation about their line is "
                 "undetermined; pick points that are not on one line");
   }
   if (LineSpread(bearings) < 1e-4) {
-    throw Error(options.pairs_source +
+    throw Error(first_source +
                 ": the image points are (nearly) on one line through the camera centre; pick "
                 "points spread over the image");
   }
@@ -398,7 +627,8 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
       }
     }
     const double per_px = cnt ? sum / cnt : 1e-3;
-    thr[i] = options.threshold_px * per_px + options.threshold_cells * CellAngle(scan, pairs[i]);
+    thr[i] =
+        options.threshold_px * per_px + options.threshold_cells * CellAngle(f.scan[i], pairs[i]);
   }
   for (std::size_t i = 0; i < n; ++i) cal.pairs[i].threshold_deg = thr[i] / kDeg;
 
@@ -422,7 +652,7 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
                 "' (expected paper, ransac, epnp or upnp)");
   }
   if (!T0) {
-    throw Error(options.pairs_source + ": the " + options.method +
+    throw Error(first_source + ": the " + options.method +
                 " solver found no pose consistent with at least 4 pairs; check the pairs "
                 "(a mirrored or swapped pick?), the camera file" +
                 (camera.source().empty() ? std::string() : " " + camera.source()) +
@@ -430,19 +660,21 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   }
   cal.T_cam_scan = *T0;
   if (options.refine) {
+    RefineOptions ro = options.refine_options;
+    if (options.weighted) ro.prior_dof = 2.0 * std::max(0.0, options.noise_prior_pairs);
     // Weighted: covariances from the pose they are evaluated at (see calibrate.h).
     auto covs = [&](const Eigen::Isometry3d& T) {
       std::vector<Eigen::Matrix3d> c;
       if (!options.weighted) return c;
       for (std::size_t i = 0; i < n; ++i)
-        c.push_back(BearingCovariance(camera, scan, pairs[i], bearings[i], points[i], T, options));
+        c.push_back(
+            BearingCovariance(camera, f.scan[i], pairs[i], bearings[i], points[i], T, options));
       return c;
     };
     auto refine = [&](const Eigen::Isometry3d& T) {
-      RefineResult r = RefinePose(bearings, points, T, options.refine_options, inlier, covs(T));
+      RefineResult r = RefinePose(bearings, points, T, ro, inlier, covs(T));
       if (options.weighted)
-        r = RefinePose(bearings, points, r.T_cam_scan, options.refine_options, inlier,
-                       covs(r.T_cam_scan));
+        r = RefinePose(bearings, points, r.T_cam_scan, ro, inlier, covs(r.T_cam_scan));
       return r;
     };
     RefineResult rr = refine(*T0);
@@ -465,14 +697,18 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
     cal.std_rpy_deg = rr.std_rpy_deg;
     cal.std_t_m = rr.std_t_m;
     cal.covariance = rr.covariance;
+    cal.std_rot_cam_deg =
+        rr.covariance.topLeftCorner<3, 3>().diagonal().cwiseMax(0).cwiseSqrt() / kDeg;
     cal.weighted = options.weighted;
     cal.variance_factor = rr.variance_factor;
+    cal.reduced_chi_square = rr.reduced_chi_square;
+    cal.noise_prior_dof = options.weighted ? ro.prior_dof : 0.0;
     if (!rr.has_covariance) cal.warnings.push_back("no parameter uncertainty: " + rr.message);
   }
   cal.rotation_rpy_deg = RotationToRpyDeg(cal.T_cam_scan.linear());
 
-  if (options.refine && cal.has_covariance && scan && options.suggest_picks > 0) {
-    SuggestPicks(camera, *scan, pairs, bearings, points, inlier, options, &cal);
+  if (options.refine && cal.has_covariance && options.suggest_picks > 0) {
+    SuggestPicks(camera, f, scene_scans, bearings, points, inlier, options, &cal);
   }
 
   // Per-pair errors; non-RANSAC methods flag by the same threshold after the fact.
@@ -495,22 +731,24 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
   MeanStdMax(deg_err, &cal.mean_deg, &cal.std_deg, &cal.max_deg);
 
   // Warnings a user can act on.
+  const bool several = scene_scans.size() > 1;
+  auto pair_name = [&](const PairResult& r) {
+    return "pair " + std::to_string(r.index + 1) +
+           (several ? " (scene " + std::to_string(r.scene + 1) + ")" : "") +
+           (r.line ? " (line " + std::to_string(r.line) + ")" : "");
+  };
   for (const auto& r : cal.pairs) {
     if (!r.inlier) {
       std::ostringstream m;
-      m << "pair " << (r.index + 1) << (r.line ? " (line " + std::to_string(r.line) + ")" : "")
-        << (r.label.empty() ? "" : " '" + r.label + "'") << " is an outlier: " << std::fixed
-        << std::setprecision(2) << r.error_deg << " deg / " << r.error_px
-        << " px from the solution; re-pick it or remove it";
+      m << pair_name(r) << (r.label.empty() ? "" : " '" + r.label + "'")
+        << " is an outlier: " << std::fixed << std::setprecision(2) << r.error_deg << " deg / "
+        << r.error_px << " px from the solution; re-pick it or remove it";
       cal.warnings.push_back(m.str());
     }
   }
   for (const auto& r : cal.pairs) {
-    if (!Usable(options.image_mask, r.image_px)) {
-      cal.warnings.push_back("pair " + std::to_string(r.index + 1) +
-                             (r.line ? " (line " + std::to_string(r.line) + ")" : "") +
-                             " lies on the image mask (a pixel marked unusable)");
-    }
+    if (!Usable(options.image_mask, r.image_px))
+      cal.warnings.push_back(pair_name(r) + " lies on the image mask (a pixel marked unusable)");
   }
   if (n < 6) {
     cal.warnings.push_back("only " + std::to_string(n) +
@@ -549,6 +787,71 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
       cal.warnings.push_back(m.str());
     }
   }
+  GeometryWarnings(camera, points, &cal);
+  return cal;
+}
+
+FlatPairs Flatten(const std::vector<CalibrationScene>& scenes, const CalibrateOptions& options,
+                  std::vector<const OrderedScan*>* scene_scans) {
+  FlatPairs f;
+  for (std::size_t s = 0; s < scenes.size(); ++s) {
+    scene_scans->push_back(scenes[s].scan);
+    const std::string source =
+        scenes[s].pairs_source.empty() ? options.pairs_source : scenes[s].pairs_source;
+    for (std::size_t i = 0; i < scenes[s].pairs.size(); ++i) {
+      f.pairs.push_back(scenes[s].pairs[i]);
+      f.scan.push_back(scenes[s].scan);
+      f.scene.push_back(static_cast<int>(s));
+      f.local.push_back(i);
+      f.source.push_back(source);
+    }
+  }
+  return f;
+}
+
+}  // namespace
+
+Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
+                      const CameraModel& camera, const CalibrateOptions& options) {
+  return CalibrateScenes({CalibrationScene{pairs, scan, options.pairs_source}}, camera, options);
+}
+
+Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes, const CameraModel& camera,
+                            const CalibrateOptions& options) {
+  if (!camera.valid()) throw Error("calibration: no camera model");
+  if (scenes.empty()) throw Error("calibration: no scene given");
+  std::vector<const OrderedScan*> scene_scans;
+  const FlatPairs f = Flatten(scenes, options, &scene_scans);
+  Calibration cal = CalibrateFlat(f, scene_scans, camera, options);
+  if (scenes.size() < 2) return cal;
+  // Each scene alone against the joint result.
+  CalibrateOptions alone_options = options;
+  alone_options.suggest_picks = 0;
+  for (std::size_t s = 0; s < scenes.size(); ++s) {
+    SceneResult r;
+    r.source = scenes[s].pairs_source.empty() ? options.pairs_source : scenes[s].pairs_source;
+    r.pair_count = static_cast<int>(scenes[s].pairs.size());
+    try {
+      std::vector<const OrderedScan*> one_scan;
+      const FlatPairs one = Flatten({scenes[s]}, options, &one_scan);
+      CompareScene(cal, CalibrateFlat(one, one_scan, camera, alone_options), &r);
+    } catch (const Error& e) {
+      r.solved = false;
+      r.error = e.what();
+    }
+    if (!r.solved) {
+      cal.warnings.push_back("scene " + std::to_string(s + 1) + " (" + r.source +
+                             ") cannot be solved alone: " + r.error);
+    } else if (r.mahalanobis > 3.55) {
+      std::ostringstream m;
+      m << std::fixed << std::setprecision(1) << "scene " << s + 1 << " (" << r.source
+        << ") alone differs from the joint result by " << r.mahalanobis
+        << " sigma (Mahalanobis, 6 dof; 95 %: 3.55): a wrong pick, a rig that moved between "
+           "the scenes, or picks noisier than the noise model";
+      cal.warnings.push_back(m.str());
+    }
+    cal.scenes.push_back(r);
+  }
   return cal;
 }
 
@@ -564,14 +867,20 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
   j["method"] = c.method;
   j["refined"] = c.refined;
   j["weighted"] = c.weighted;
-  if (c.refined) j["variance_factor"] = c.variance_factor;
+  if (c.refined) {
+    j["variance_factor"] = c.variance_factor;
+    j["reduced_chi_square"] = c.reduced_chi_square;
+    j["noise_prior_dof"] = c.noise_prior_dof;
+  }
   j["pair_count"] = c.pair_count;
   j["inlier_count"] = c.inlier_count;
   j["errors"] = {{"reprojection_px", {{"mean", c.mean_px}, {"std", c.std_px}, {"max", c.max_px}}},
                  {"angular_deg", {{"mean", c.mean_deg}, {"std", c.std_deg}, {"max", c.max_deg}}}};
   if (c.has_covariance) {
     j["std"] = {{"rotation_rpy_deg", Vector3ToJson(c.std_rpy_deg)},
+                {"rotation_std_deg_cam_xyz", Vector3ToJson(c.std_rot_cam_deg)},
                 {"translation_m", Vector3ToJson(c.std_t_m)}};
+    j["rotation_std_deg_cam_xyz"] = Vector3ToJson(c.std_rot_cam_deg);
     nlohmann::json cov = nlohmann::json::array();
     for (int r = 0; r < 6; ++r) {
       nlohmann::json row = nlohmann::json::array();
@@ -580,10 +889,18 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
     }
     j["covariance_rotvec_rad_t_m"] = cov;
   }
+  if (c.geometry.distance_max_m > 0) {
+    j["geometry"] = {{"image_rows_span_fraction", c.geometry.image_rows_fraction},
+                     {"image_cols_span_fraction", c.geometry.image_cols_fraction},
+                     {"distance_min_m", c.geometry.distance_min_m},
+                     {"distance_max_m", c.geometry.distance_max_m}};
+  }
+  const bool several = !c.scenes.empty();
   nlohmann::json pairs = nlohmann::json::array();
   for (const auto& p : c.pairs) {
     nlohmann::json q;
     q["index"] = p.index + 1;
+    if (several) q["scene"] = p.scene + 1;
     if (p.line) q["line"] = p.line;
     if (!p.label.empty()) q["label"] = p.label;
     q["image_px"] = {p.image_px.x(), p.image_px.y()};
@@ -599,13 +916,46 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
   j["pairs"] = pairs;
   nlohmann::json sug = nlohmann::json::array();
   for (const auto& g : c.suggestions) {
-    sug.push_back({{"image_px", {g.image_px.x(), g.image_px.y()}},
-                   {"scan_cell", {g.scan_row, g.scan_col}},
-                   {"p_scan_m", Vector3ToJson(g.p_scan)},
-                   {"predicted_std_rotation_rpy_deg", Vector3ToJson(g.predicted_std_rpy_deg)},
-                   {"predicted_std_translation_m", Vector3ToJson(g.predicted_std_t_m)}});
+    nlohmann::json q = {
+        {"image_px", {g.image_px.x(), g.image_px.y()}},
+        {"scan_cell", {g.scan_row, g.scan_col}},
+        {"p_scan_m", Vector3ToJson(g.p_scan)},
+        {"predicted_std_rotation_rpy_deg", Vector3ToJson(g.predicted_std_rpy_deg)},
+        {"predicted_rotation_std_deg_cam_xyz", Vector3ToJson(g.predicted_std_rot_cam_deg)},
+        {"predicted_std_translation_m", Vector3ToJson(g.predicted_std_t_m)},
+        {"reason", g.reason}};
+    if (several) q["scene"] = g.scene + 1;
+    sug.push_back(q);
   }
   j["suggested_picks"] = sug;
+  if (several) {
+    nlohmann::json sc = nlohmann::json::array();
+    for (std::size_t k = 0; k < c.scenes.size(); ++k) {
+      const SceneResult& r = c.scenes[k];
+      nlohmann::json q = {{"scene", k + 1},
+                          {"pairs", r.source},
+                          {"pair_count", r.pair_count},
+                          {"solved_alone", r.solved}};
+      if (!r.error.empty()) q["error"] = r.error;
+      if (r.solved) {
+        q["alone"] = {{"T_cam_scan", PoseToJson(r.T_cam_scan)},
+                      {"inlier_count", r.inlier_count},
+                      {"rotation_std_deg_cam_xyz", Vector3ToJson(r.std_rot_cam_deg)},
+                      {"std_translation_m", Vector3ToJson(r.std_t_m)}};
+        q["vs_joint"] = {
+            {"rotation_diff_deg_cam_xyz", Vector3ToJson(r.rotation_diff_cam_deg)},
+            {"translation_diff_m", Vector3ToJson(r.translation_diff_m)},
+            {"rotation_diff_sigma", Vector3ToJson(r.rotation_diff_sigma)},
+            {"translation_diff_sigma", Vector3ToJson(r.translation_diff_sigma)},
+            {"mahalanobis", r.mahalanobis},
+            {"convention",
+             "R_alone = exp(d) R_joint, d in the camera frame (deg); translation_diff = t_alone - "
+             "t_joint; sigma = diff / std of the difference (covariance C_alone - C_joint)"}};
+      }
+      sc.push_back(q);
+    }
+    j["scenes"] = sc;
+  }
   j["warnings"] = c.warnings;
   if (!inputs.is_null()) j["inputs"] = inputs;
   return j;
@@ -637,35 +987,64 @@ std::string FormatCalibrationSummary(const Calibration& c) {
   if (c.has_covariance)
     o << "  (std " << c.std_rpy_deg.x() << " " << c.std_rpy_deg.y() << " " << c.std_rpy_deg.z()
       << ")";
+  if (c.has_covariance)
+    o << "\nrotation std about camera x/y/z (small angles): " << c.std_rot_cam_deg.x() << " "
+      << c.std_rot_cam_deg.y() << " " << c.std_rot_cam_deg.z() << " deg";
   o << "\ntranslation x/y/z:       " << std::setprecision(4) << c.T_cam_scan.translation().x()
     << " " << c.T_cam_scan.translation().y() << " " << c.T_cam_scan.translation().z() << " m";
   if (c.has_covariance)
     o << "  (std " << c.std_t_m.x() << " " << c.std_t_m.y() << " " << c.std_t_m.z() << ")";
   if (c.refined && c.weighted) {
     o << "\nresiduals / picking-noise model (reduced chi-square): " << std::setprecision(2)
-      << c.variance_factor
-      << (c.variance_factor > 4 ? "  (picks noisier than --sigma-px/--sigma-cells say)" : "");
+      << c.reduced_chi_square << "; std scaled by " << c.variance_factor
+      << " (pooled with a prior of " << std::setprecision(0) << c.noise_prior_dof << " dof)"
+      << (c.reduced_chi_square > 4 ? "  (picks noisier than --sigma-px/--sigma-cells say)" : "");
   }
   o << "\nreprojection error: mean " << std::setprecision(2) << c.mean_px << " px, std " << c.std_px
     << ", max " << c.max_px << "   angular: mean " << std::setprecision(3) << c.mean_deg
     << " deg, max " << c.max_deg << "\n";
-  o << "pair   image (u, v)        error px   error deg  inlier  label\n";
+  const bool several = !c.scenes.empty();
+  o << "pair " << (several ? "scene " : "")
+    << "  image (u, v)        error px   error deg  inlier  label\n";
   for (const auto& p : c.pairs) {
-    o << std::setw(4) << p.index + 1 << "  " << std::setprecision(1) << std::setw(8)
-      << p.image_px.x() << " " << std::setw(8) << p.image_px.y() << "  " << std::setprecision(2)
-      << std::setw(9) << p.error_px << "  " << std::setprecision(3) << std::setw(9) << p.error_deg
-      << "  " << (p.inlier ? "  yes " : "  NO  ") << "  " << p.label << "\n";
+    o << std::setw(4) << p.index + 1 << "  ";
+    if (several) o << std::setw(5) << p.scene + 1 << " ";
+    o << std::setprecision(1) << std::setw(8) << p.image_px.x() << " " << std::setw(8)
+      << p.image_px.y() << "  " << std::setprecision(2) << std::setw(9) << p.error_px << "  "
+      << std::setprecision(3) << std::setw(9) << p.error_deg << "  "
+      << (p.inlier ? "  yes " : "  NO  ") << "  " << p.label << "\n";
   }
   if (!c.suggestions.empty()) {
-    o << "to tighten the result, pick next a feature near (predicted std roll/pitch/yaw deg "
-         "after each, assuming the ones above are picked):\n";
+    o << "to tighten the result, pick next a feature near (predicted rotation std about camera "
+         "x/y/z deg and translation std cm after each, assuming the ones above are picked):\n";
     for (std::size_t k = 0; k < c.suggestions.size(); ++k) {
       const auto& g = c.suggestions[k];
-      o << "  " << k + 1 << ". pixel (" << std::setprecision(0) << g.image_px.x() << ", "
-        << g.image_px.y() << "), scan cell (" << g.scan_row << ", " << g.scan_col
-        << "): " << std::setprecision(3) << g.predicted_std_rpy_deg.x() << " "
-        << g.predicted_std_rpy_deg.y() << " " << g.predicted_std_rpy_deg.z() << "\n";
+      o << "  " << k + 1 << ". " << (several ? "scene " + std::to_string(g.scene + 1) + ", " : "")
+        << "pixel (" << std::setprecision(0) << g.image_px.x() << ", " << g.image_px.y()
+        << "), scan cell (" << g.scan_row << ", " << g.scan_col << "): " << std::setprecision(3)
+        << g.predicted_std_rot_cam_deg.x() << " " << g.predicted_std_rot_cam_deg.y() << " "
+        << g.predicted_std_rot_cam_deg.z() << " deg, " << std::setprecision(1)
+        << 100 * g.predicted_std_t_m.x() << " " << 100 * g.predicted_std_t_m.y() << " "
+        << 100 * g.predicted_std_t_m.z() << " cm\n     why: " << g.reason << "\n";
     }
+  }
+  for (std::size_t k = 0; k < c.scenes.size(); ++k) {
+    const SceneResult& r = c.scenes[k];
+    o << "scene " << k + 1 << " (" << r.source << ", " << r.pair_count
+      << " pairs) alone vs joint: ";
+    if (!r.solved) {
+      o << "not solvable alone: " << r.error << "\n";
+      continue;
+    }
+    o << std::setprecision(3) << "rotation about camera x/y/z " << r.rotation_diff_cam_deg.x()
+      << " " << r.rotation_diff_cam_deg.y() << " " << r.rotation_diff_cam_deg.z() << " deg ("
+      << std::setprecision(1) << r.rotation_diff_sigma.x() << " " << r.rotation_diff_sigma.y()
+      << " " << r.rotation_diff_sigma.z() << " sigma), translation " << std::setprecision(3)
+      << r.translation_diff_m.x() << " " << r.translation_diff_m.y() << " "
+      << r.translation_diff_m.z() << " m (" << std::setprecision(1) << r.translation_diff_sigma.x()
+      << " " << r.translation_diff_sigma.y() << " " << r.translation_diff_sigma.z()
+      << " sigma); Mahalanobis " << std::setprecision(2) << r.mahalanobis
+      << " (6 dof, 95 %: 3.55)\n";
   }
   for (const auto& w : c.warnings) o << "warning: " << w << "\n";
   return o.str();

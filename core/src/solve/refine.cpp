@@ -3,6 +3,7 @@
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "scancam/error.h"
@@ -214,7 +215,9 @@ RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
   }
   const double dof = 2.0 * used - 6.0;
   res.sigma_rad = dof > 0 ? std::sqrt(ss / dof) : 0.0;
-  res.variance_factor = dof > 0 ? ssw / dof : 0.0;
+  res.reduced_chi_square = dof > 0 ? ssw / dof : 0.0;
+  const double nu0 = bearing_cov_rad2.empty() ? 0.0 : std::max(0.0, options.prior_dof);
+  res.variance_factor = dof + nu0 > 0 ? (nu0 + ssw) / (nu0 + dof) : 0.0;
   if (options.scale_covariance) C *= res.variance_factor;
 
   // Tangent delta d rotates by 2|d| (see the manifold note above): rotation vector = 2 d.

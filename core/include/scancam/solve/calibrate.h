@@ -3,6 +3,10 @@
 //
 // Input: pairs (image pixel <-> laser point, io/pairs_csv.h), the ordered scan the
 // scan cells refer to (may be null when every pair gives x,y,z), and the camera.
+// Several scenes of one rig (CalibrateScenes): each scene is its own pairs + scan (the rig
+// moved between them, or the same rig recorded twice); one T_cam_scan for all of them, every
+// pair keeping its own scene's noise model (its scan's angular steps). Each scene is also
+// solved alone and compared with the joint result (SceneResult: the difference in sigma).
 // Every pixel becomes a unit bearing (CameraModel::Unproject), so one path serves
 // every camera model. Methods:
 //   paper    the paper's linear PnP (Quan & Lan) + closed-form rigid motion;
@@ -26,11 +30,27 @@
 // pose, then from the refined one. This is the maximum-likelihood estimate to first order
 // when both picks have Gaussian noise of these sizes.
 //
+// Uncertainty. The 6x6 covariance of (rotation vector delta, t), R = exp(delta) R_hat with
+// delta in the CAMERA frame, is scaled by a variance factor pooled from the reduced chi-square
+// and a prior (refine.h "Few pairs": the picking noise sigma_px / sigma_cells, i.e. the image's
+// and the grid's resolution, counted as noise_prior_pairs pairs), so that 5 pairs that happen to
+// fit well do not report a std near 0. Reported:
+//   rotation_std_deg_cam_xyz   std of delta about the camera's x, y, z axes (small angles, deg):
+//                              well defined for every rig; what the suggestions minimise;
+//   std_rpy_deg                std of roll, pitch, yaw: meaningless near pitch +-90 deg (gimbal
+//                              lock, the usual lidar-to-camera rig: scanner x forward = camera z),
+//                              where roll and yaw are not separable; a warning says so.
+// Weak geometry is warned about with its figure (it shows in the std too, as the covariance is
+// that of this geometry): picks in a narrow band of image rows or columns (< 25 % of the image
+// height / width), in a narrow band of distance (farthest / nearest < 1.5), or all far away
+// (nearest > 10 m: the translation is then fixed only to about distance x angular noise).
+//
 // Errors (scancam::Error, naming the pairs file and line): fewer than 4 usable
 // pairs, a pixel outside the image / field of view, a scan cell with no return,
-// duplicate pairs, collinear laser points or bearings. Warnings (in the result):
-// fewer than 6 pairs, pairs clustered in one part of the image or the scan (the
-// paper's Figs. 6-7 show the bias this causes), flagged outliers.
+// duplicate pairs (within a scene), collinear laser points or bearings. Warnings (in the
+// result): fewer than 6 pairs, pairs clustered in one part of the image or the scan (the
+// paper's Figs. 6-7 show the bias this causes), weak geometry (above), pitch near +-90 deg,
+// flagged outliers, a scene that disagrees with the joint result by more than 3 sigma.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -74,6 +94,9 @@ struct CalibrateOptions {
   /// Optional image mask (CV_8UC1, the camera's size; 0 = unusable, e.g. outside a
   /// catadioptric mirror): suggestions avoid it, and pairs picked on it get a warning.
   cv::Mat image_mask;
+  /// Prior on the picking-noise level (see "Uncertainty" above): the noise model counts as
+  /// this many pairs (2 residuals each) of variance factor 1; 0 = the chi-square alone.
+  double noise_prior_pairs = 4.0;
   std::uint64_t seed = 1;  ///< RANSAC random seed
   RefineOptions refine_options;
   std::string pairs_source = "pairs";  ///< name used in error messages (the pairs file)
@@ -86,6 +109,7 @@ struct PairResult {
   std::string label;
   Eigen::Vector2d image_px = Eigen::Vector2d::Zero();
   double scan_row = PointPair::kNaN, scan_col = PointPair::kNaN;
+  int scene = 0;  ///< 0-based scene (CalibrateScenes); 0 for a single scene
   Eigen::Vector3d p_scan = Eigen::Vector3d::Zero();  ///< laser point, scanner frame, m
   bool inlier = true;
   double threshold_deg = 0;  ///< the inlier threshold used for this pair
@@ -96,20 +120,68 @@ struct PairResult {
 
 /// Where one more pair would tighten the calibration most. Candidates are features a user can
 /// pick in the scan (the near side of depth edges, colour/colourise.h ContinuousNeighbours:
-/// object outlines, where their corners are), about 1000 of them spread over the grid, that
-/// the calibrated camera sees; each is scored by the parameter covariance
-/// predicted after adding it (the Fisher information of a pair there under the picking-noise
-/// model, added to that of the inliers), greedily: the k-th suggestion assumes the ones before
-/// it are picked too. The objective is the largest roll/pitch/yaw std; suggestions keep 8 % of
-/// the image diagonal apart and stay off the image mask (CalibrateOptions::image_mask). A user
-/// picks a distinct feature (a corner) near the suggested pixel; the predicted std is that of a
-/// pick exactly there.
+/// object outlines, where their corners are), about 1000 of them spread over each scene's
+/// grid, that the calibrated camera sees. Clutter is rejected: a candidate whose surface
+/// (the 5 x 5 cells around it that are continuous with it) has scattered normals (their mean
+/// resultant length < 0.85, about 30 deg of spread: foliage, hedges, grass), whose window is
+/// broken by depth jumps in more than a third of its neighbour links (leaves, railings), or
+/// whose window has more than 25 % spikes (a cell nearer or farther than both neighbours along
+/// the row or the column by > 5 cm and 2 % of its range: leaves) is not suggested; in each block of
+/// the grid a corner (a depth edge both along the row and along the column) is preferred to a plain
+/// edge. Each is scored by the parameter covariance predicted after adding it (the Fisher
+/// information of a pair there under the picking-noise model, added to that of the inliers),
+/// greedily: the k-th suggestion assumes the ones before it are picked too. The objective is the
+/// largest rotation std about the camera axes (plus the largest translation std relative to the
+/// current one, so the distance of a pick counts too); suggestions keep 8 % of the image diagonal
+/// apart and stay off the image mask (CalibrateOptions::image_mask). A user picks a distinct
+/// feature (a corner) near the suggested pixel; the predicted std is that of a pick exactly there;
+/// `reason` says in words what the place is and what it tightens.
 struct PickSuggestion {
   Eigen::Vector2d image_px = Eigen::Vector2d::Zero();  ///< OpenCV pixel convention
   int scan_row = 0, scan_col = 0;
   Eigen::Vector3d p_scan = Eigen::Vector3d::Zero();  ///< laser point, scanner frame, m
   Eigen::Vector3d predicted_std_rpy_deg = Eigen::Vector3d::Zero();  ///< after adding it
   Eigen::Vector3d predicted_std_t_m = Eigen::Vector3d::Zero();
+  /// Std of the small rotation angles about the camera's x, y, z axes after adding it (deg).
+  Eigen::Vector3d predicted_std_rot_cam_deg = Eigen::Vector3d::Zero();
+  int scene = 0;       ///< the scene whose scan the cell is in (CalibrateScenes)
+  std::string reason;  ///< why here, e.g. "corner of a smooth surface 2.1 m in front of ..."
+};
+
+/// One scene of a rig for CalibrateScenes.
+struct CalibrationScene {
+  std::vector<PointPair> pairs;
+  const OrderedScan* scan = nullptr;  ///< the scan its cells refer to; null if all give x,y,z
+  std::string pairs_source;           ///< name in messages; empty: CalibrateOptions::pairs_source
+};
+
+/// One scene solved alone against the joint solution (CalibrateScenes with >= 2 scenes).
+/// delta: R_alone = exp(delta) R_joint (camera frame, small angles), dt = t_alone - t_joint.
+/// Their covariance is C_alone - C_joint (the joint estimate contains the scene: for efficient
+/// estimators the difference has that covariance, Hausman 1978), both taken from the noise
+/// model and scaled by the joint's variance factor; sigma = difference / its std per axis, and
+/// mahalanobis the 6-dof distance. With the noise model right, each sigma is ~N(0, 1).
+struct SceneResult {
+  std::string source;  ///< the scene's pairs source
+  int pair_count = 0;
+  bool solved = false;  ///< false: the scene alone cannot be solved (`error` says why)
+  std::string error;
+  int inlier_count = 0;                                             ///< of the scene alone
+  Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();     ///< the scene alone
+  Eigen::Vector3d std_rot_cam_deg = Eigen::Vector3d::Zero();        ///< the scene alone
+  Eigen::Vector3d std_t_m = Eigen::Vector3d::Zero();                ///< the scene alone
+  Eigen::Vector3d rotation_diff_cam_deg = Eigen::Vector3d::Zero();  ///< delta, deg
+  Eigen::Vector3d translation_diff_m = Eigen::Vector3d::Zero();     ///< dt, m
+  Eigen::Vector3d rotation_diff_sigma = Eigen::Vector3d::Zero();
+  Eigen::Vector3d translation_diff_sigma = Eigen::Vector3d::Zero();
+  double mahalanobis = 0;  ///< sqrt(d^T (C_alone - C_joint)^-1 d), 6 dof
+};
+
+/// The spread of the picks (inliers), behind the weak-geometry warnings.
+struct PickGeometry {
+  double image_rows_fraction = 0;                 ///< (v_max - v_min) / image height
+  double image_cols_fraction = 0;                 ///< (u_max - u_min) / image width
+  double distance_min_m = 0, distance_max_m = 0;  ///< |X_cam| of the laser points
 };
 
 struct Calibration {
@@ -125,9 +197,18 @@ struct Calibration {
   bool has_covariance = false;
   Eigen::Vector3d std_rpy_deg = Eigen::Vector3d::Zero();
   Eigen::Vector3d std_t_m = Eigen::Vector3d::Zero();
+  /// Std of the small rotation angles about the camera's x, y, z axes (deg): the rotation's
+  /// uncertainty for every rig (std_rpy_deg breaks down near pitch +-90 deg).
+  Eigen::Vector3d std_rot_cam_deg = Eigen::Vector3d::Zero();
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
-  bool weighted = false;       ///< the refinement used the picking-noise weights
-  double variance_factor = 0;  ///< reduced chi-square of the refinement (RefineResult)
+  bool weighted = false;  ///< the refinement used the picking-noise weights
+  /// The factor the covariance was scaled by: the reduced chi-square pooled with the prior
+  /// (CalibrateOptions::noise_prior_pairs; RefineResult).
+  double variance_factor = 0;
+  double reduced_chi_square = 0;  ///< the residuals' own estimate (chi-square / dof)
+  double noise_prior_dof = 0;     ///< the prior's weight, pseudo degrees of freedom
+  PickGeometry geometry;
+  std::vector<SceneResult> scenes;  ///< per scene alone vs joint (>= 2 scenes only)
   std::vector<PairResult> pairs;
   std::vector<PickSuggestion> suggestions;  ///< where to pick next (CalibrateOptions)
   std::vector<std::string> warnings;
@@ -137,9 +218,18 @@ struct Calibration {
 Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
                       const CameraModel& camera, const CalibrateOptions& options = {});
 
+/// Calibrates one rig from several scenes (one T_cam_scan; see the file comment). With one
+/// scene it is Calibrate. Pairs are numbered over all scenes in order (PairResult::scene
+/// says whose); errors name the scene's pairs source.
+Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes, const CameraModel& camera,
+                            const CalibrateOptions& options = {});
+
 /// The calibration as JSON: T_cam_scan (4x4 row-major), rotation_rpy_deg,
-/// translation_m, errors, parameter std, per-pair table, method, and `inputs`
-/// (free-form: file names the caller adds).
+/// translation_m, errors, parameter std (std.rotation_std_deg_cam_xyz, std.rotation_rpy_deg,
+/// std.translation_m; and rotation_std_deg_cam_xyz at the top level), variance_factor,
+/// reduced_chi_square, noise_prior_dof, geometry, per-pair table (with "scene" when there are
+/// several), suggested picks (with "reason"), "scenes" (>= 2 scenes: each alone vs the joint
+/// result), method, and `inputs` (free-form: file names the caller adds).
 nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inputs = {});
 
 /// T_cam_scan from a calibration JSON (this tool's, or any JSON with a 4x4
