@@ -168,6 +168,7 @@ int RunBa(const Args& args) {
   }
 
   out.ticks = args.has("--ticks");
+  const CropRanges crop = ParseCropRanges(args);
   const std::string intensity_stretch = args.get("--intensity-stretch", "percentile");
   const double intensity_gamma = args.get_double("--intensity-gamma", 0.5);
   if (!(intensity_gamma > 0.0 && intensity_gamma <= 10.0))
@@ -181,10 +182,9 @@ int RunBa(const Args& args) {
   const OrderedScan scan = LoadScan(path, load, progress);
   if (scan.rows <= 0 || scan.cols <= 0) throw FileError(path, "", "the scan grid is empty");
   out.angles = ComputeScanAngles(scan);
-  out.crop = ParseScanView(args, out.angles, scan.rows, scan.cols, false);
-  if (args.has("--true-aspect")) {
-    out.aspect = ParseScanView(args, out.angles, scan.rows, scan.cols, true);
-  }
+  out.crop = MakeScanView(crop, out.angles, scan.rows, scan.cols, false);
+  if (args.has("--true-aspect"))
+    out.aspect = MakeScanView(crop, out.angles, scan.rows, scan.cols, true);
 
   // BA images: the four traces in one pass, then the extra steps.
   std::vector<std::pair<std::string, cv::Mat>> images;

@@ -2,6 +2,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 
 #include "command.h"
 #include "scan_options.h"
@@ -63,15 +64,21 @@ int RunCell(const Args& args) {
     const Eigen::Vector3d p = args.get_vector3("--xyz");
     q = {CellQuery::Kind::kXyz, p.x(), p.y(), p.z()};
   }
+  const CropRanges crop = ParseCropRanges(args);
   const ScanLoadOptions load = ParseScanLoadOptions(args);
   const OrderedScan scan = LoadScan(path, load, Progress(StderrProgress(true)));
   if (scan.rows <= 0 || scan.cols <= 0) throw FileError(path, "", "the scan grid is empty");
   const ScanAngles angles = ComputeScanAngles(scan);
-  const ScanView plain = ParseScanView(args, angles, scan.rows, scan.cols, false);
-  const ScanView aspect = ParseScanView(args, angles, scan.rows, scan.cols, true);
+  const ScanView plain = MakeScanView(crop, angles, scan.rows, scan.cols, false);
   const bool on_aspect = args.has("--view-aspect");
-  const CellInfo info = LookUpCell(scan, q, on_aspect ? aspect : plain);
-  Print(info, plain, &aspect);
+  std::optional<ScanView> aspect;
+  try {
+    aspect = MakeScanView(crop, angles, scan.rows, scan.cols, true);
+  } catch (const Error&) {
+    if (on_aspect) throw;  // else: no aspect pixel to print
+  }
+  const CellInfo info = LookUpCell(scan, q, on_aspect ? *aspect : plain);
+  Print(info, plain, aspect ? &*aspect : nullptr);
   return 0;
 }
 

@@ -25,10 +25,15 @@ std::vector<OptionSpec> CropOptionSpecs() {
   };
 }
 
-ScanView ParseScanView(const Args& args, const ScanAngles& angles, int rows, int cols,
-                       bool true_aspect) {
-  const std::optional<AngleRange> az = ParseAngleRange(args, "--azimuth-range", "A0,A1");
-  const std::optional<AngleRange> el = ParseAngleRange(args, "--elevation-range", "E0,E1");
+CropRanges ParseCropRanges(const Args& args) {
+  return {ParseAngleRange(args, "--azimuth-range", "A0,A1"),
+          ParseAngleRange(args, "--elevation-range", "E0,E1")};
+}
+
+ScanView MakeScanView(const CropRanges& crop, const ScanAngles& angles, int rows, int cols,
+                      bool true_aspect) {
+  const std::optional<AngleRange>& az = crop.azimuth_deg;
+  const std::optional<AngleRange>& el = crop.elevation_deg;
   ScanView v;
   try {
     v.cells = (az || el) ? CropCells(angles, az, el) : cv::Rect(0, 0, cols, rows);

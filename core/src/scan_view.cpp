@@ -115,6 +115,34 @@ ScanAngles ComputeScanAngles(const OrderedScan& scan) {
   }
   for (double& g : a.row_gap_deg)
     if (!std::isfinite(g)) g = a.col_step_deg;
+
+  // Layout: the median spread of the beams' elevation inside a row, azimuth inside a column.
+  std::vector<double> spreads, dev;
+  for (int r = 0; r < rows; ++r) {
+    dev.clear();
+    for (int c = 0; c < cols; ++c) {
+      const Eigen::Vector3f& b = scan.beam_dir[scan.index(r, c)];
+      if (Known(b))
+        dev.push_back(std::abs(ElevationDeg(b.cast<double>()) - a.row_elevation_deg[r]));
+    }
+    if (!dev.empty()) spreads.push_back(Median(dev));
+  }
+  const double row_spread = Median(spreads);
+  spreads.clear();
+  for (int c = 0; c < cols; ++c) {
+    dev.clear();
+    for (int r = 0; r < rows; ++r) {
+      const Eigen::Vector3f& b = scan.beam_dir[scan.index(r, c)];
+      const double az = Known(b) ? AzimuthDeg(b.cast<double>()) : kNaN;
+      if (std::isfinite(az)) dev.push_back(std::abs(WrapDeg(az - a.col_azimuth_deg[c])));
+    }
+    if (!dev.empty()) spreads.push_back(Median(dev));
+  }
+  const double col_spread = Median(spreads);
+  std::vector<double> gaps(a.row_gap_deg);
+  const double gap = gaps.empty() ? a.col_step_deg : Median(gaps);
+  a.rows_are_elevations = std::isfinite(row_spread) && row_spread <= gap + 0.01;
+  a.cols_are_azimuths = std::isfinite(col_spread) && col_spread <= a.col_step_deg + 0.01;
   return a;
 }
 
@@ -239,6 +267,14 @@ cv::Rect CropCells(const ScanAngles& angles, const std::optional<AngleRange>& az
     return std::isfinite(lo) ? std::string(buf) : std::string("no known angle");
   };
   int c0 = 0, c1 = cols - 1, r0 = 0, r1 = rows - 1;
+  if (az && !angles.cols_are_azimuths)
+    throw Error(
+        "this scan's columns are not at constant azimuth (not a lidar-like grid): an "
+        "azimuth range cannot crop it");
+  if (el && !angles.rows_are_elevations)
+    throw Error(
+        "this scan's rows are not at constant elevation (not a lidar-like grid): an "
+        "elevation range cannot crop it");
   if (az) {
     if (!(std::abs(az->lo) <= 360.0 && std::abs(az->hi) <= 360.0))
       throw Error("azimuth range " + Num(az->lo) + "," + Num(az->hi) +
@@ -300,7 +336,7 @@ void DrawAngleTicks(cv::Mat& bgr, const ScanAngles& angles, const ScanView& view
   const cv::Scalar white(255, 255, 255), green(0, 220, 0);
   // Azimuth ticks: where the column azimuth crosses a multiple of az_step.
   int last_label_x = -1000;
-  for (int c = b.x; c + 1 < b.x + b.width; ++c) {
+  for (int c = b.x; angles.cols_are_azimuths && c + 1 < b.x + b.width; ++c) {
     const double a0 = angles.col_azimuth_deg[c], a1 = angles.col_azimuth_deg[c + 1];
     if (!std::isfinite(a0) || !std::isfinite(a1)) continue;
     const double d = WrapDeg(a1 - a0);
@@ -329,7 +365,7 @@ void DrawAngleTicks(cv::Mat& bgr, const ScanAngles& angles, const ScanView& view
   }
   // Elevation ticks: where the row elevation crosses a multiple of el_step.
   int last_label_y = -1000;
-  for (int r = b.y; r + 1 < b.y + b.height; ++r) {
+  for (int r = b.y; angles.rows_are_elevations && r + 1 < b.y + b.height; ++r) {
     const double e0 = angles.row_elevation_deg[r], e1 = angles.row_elevation_deg[r + 1];
     if (!std::isfinite(e0) || !std::isfinite(e1) || e0 == e1) continue;
     const double lo = std::min(e0, e1), hi = std::max(e0, e1);

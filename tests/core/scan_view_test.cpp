@@ -67,6 +67,30 @@ TEST(ScanAngles, RowElevationsColumnAzimuthsAndGaps) {
   // Horizontal neighbours are 2 deg apart in azimuth: the angle between beams is 2 deg at the
   // elevation of the sampled rows (cos(e) * 2 deg, slightly less off the horizon).
   EXPECT_NEAR(a.col_step_deg, 2.0, 0.05);
+  EXPECT_TRUE(a.rows_are_elevations);
+  EXPECT_TRUE(a.cols_are_azimuths);
+}
+
+// The same beams transposed (rows = columns of constant azimuth, as a PTX lays a terrestrial
+// scan out): neither rows at constant elevation nor columns at constant azimuth; crops refuse.
+TEST(ScanAngles, TransposedLayoutIsNotLidarLike) {
+  const OrderedScan s = LidarScan();
+  OrderedScan t = OrderedScan::Empty(s.cols, s.rows);
+  for (int r = 0; r < s.rows; ++r)
+    for (int c = 0; c < s.cols; ++c) t.beam_dir[t.index(c, r)] = s.beam_dir[s.index(r, c)];
+  const ScanAngles a = ComputeScanAngles(t);
+  EXPECT_FALSE(a.rows_are_elevations);
+  EXPECT_FALSE(a.cols_are_azimuths);
+  test::ExpectError(
+      [&] {
+        CropCells(a, AngleRange{-10, 10}, std::nullopt);
+      },
+      {"not at constant azimuth"});
+  test::ExpectError(
+      [&] {
+        CropCells(a, std::nullopt, AngleRange{-1, 1});
+      },
+      {"not at constant elevation"});
 }
 
 TEST(IntensityImage, EqualsTheScansIntensitiesAndNaNWithoutReturn) {

@@ -9,8 +9,10 @@
 // A row's elevation is the median elevation of its known beams; a column's azimuth is the
 // direction of the sum of its known beams' horizontal parts (a circular mean). Both are NaN
 // where the row/column has no known beam. They describe a spinning lidar's grid (rows = rings,
-// columns = azimuth) exactly; for other layouts (PTX scan lines, the rotating 2D scanner) they
-// are what the beams give and the ticks may be sparse.
+// columns = azimuth) and re-gridded clouds; other layouts (PTX scan lines, the rotating 2D
+// scanner) are recognised (ScanAngles::rows_are_elevations / cols_are_azimuths) and get no
+// ticks or crops on the axis that is not an angle. The true-aspect row spacing needs no such
+// layout: it is the median angle between vertically adjacent beams.
 //
 // Coordinates: a view pixel (u, v) in OpenCV's convention ((0, 0) the centre of the top-left
 // pixel); cell coordinates (u = column, v = row) likewise, cell (r, c) centred at (c, r). A
@@ -46,6 +48,13 @@ struct ScanAngles {
   std::vector<double> col_azimuth_deg;    ///< cols; NaN where the column has no known beam
   std::vector<double> row_gap_deg;        ///< rows - 1: angle between rows r and r + 1
   double col_step_deg = 0.0;              ///< median angle between horizontal neighbours
+  /// Rows are at constant elevation / columns at constant azimuth (a spinning lidar's or an
+  /// azimuth x elevation grid): the median spread (median |deviation|) of the beams inside a
+  /// row / column is at most the median row gap / the column step (+ 0.01 deg). Not so e.g. for
+  /// the rotating 2D scanner (rows = scan planes) or a PTX (rows = vertical scan lines): angle
+  /// ticks and crops need it and refuse otherwise.
+  bool rows_are_elevations = false;
+  bool cols_are_azimuths = false;
 };
 
 /// Computes ScanAngles from the beam directions. Unknown row gaps (no column with both beams)
@@ -103,9 +112,9 @@ struct ScanView {
 /// az1, so 170,-170 is the 20 deg behind the sensor) and whose row elevation lies in
 /// [el0, el1] (deg, el0 <= el1). A missing range keeps every column / row. The result is the
 /// bounding block of the matching columns and rows. Throws scancam::Error when a range is not
-/// in degrees (|az| > 360, |el| > 90, el0 > el1), no cell matches (naming the scan's own
-/// azimuth/elevation span), or the matching columns are not contiguous (the range crosses the
-/// seam of a 360 deg grid).
+/// in degrees (|az| > 360, |el| > 90, el0 > el1), the grid's columns / rows are not at constant
+/// azimuth / elevation, no cell matches (naming the scan's own azimuth/elevation span), or the
+/// matching columns are not contiguous (the range crosses the seam of a 360 deg grid).
 struct AngleRange {
   double lo = 0.0, hi = 0.0;  ///< deg
 };
@@ -116,7 +125,8 @@ cv::Rect CropCells(const ScanAngles& angles, const std::optional<AngleRange>& az
 /// (drawn as `view` says): azimuth ticks along the top every `azimuth_step_deg`, elevation
 /// ticks along the left every `elevation_step_deg`, labelled in degrees, and azimuth 0 (+x,
 /// forward) as a dashed green vertical line labelled "+x". Drawn inside the picture, so its
-/// pixel coordinates stay those of the view.
+/// pixel coordinates stay those of the view. Azimuth ticks only when cols_are_azimuths,
+/// elevation ticks only when rows_are_elevations.
 void DrawAngleTicks(cv::Mat& bgr, const ScanAngles& angles, const ScanView& view,
                     double azimuth_step_deg = 10.0, double elevation_step_deg = 5.0);
 
