@@ -374,7 +374,9 @@ void DrawAngleTicks(cv::Mat& bgr, const ScanAngles& angles, const ScanView& view
       const double v = r + (m - e0) / (e1 - e0);
       const int yi = static_cast<int>(std::lround(view.CellToPixel({double(b.x), v}).y));
       cv::line(bgr, {0, yi}, {5, yi}, white, 1);
-      if (std::abs(yi - last_label_y) > 11) {
+      // Labels keep clear of the azimuth labels along the top and of one another.
+      const bool clear_of_top = !angles.cols_are_azimuths || yi >= 16;
+      if (clear_of_top && std::abs(yi - last_label_y) > 11) {
         char buf[16];
         std::snprintf(buf, sizeof buf, "%g", m + 0.0);  // no "-0"
         label(buf, {7, std::clamp(yi + 4, 9, bgr.rows - 1)}, white);
