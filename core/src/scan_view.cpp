@@ -199,7 +199,7 @@ AspectMap AspectMap::TrueAspect(const ScanAngles& angles, const cv::Rect& cells)
   m.width_ = std::max(1, static_cast<int>(std::lround(cols * m.sx_)));
   m.height_ = std::max(1, static_cast<int>(std::lround(m.knot_y_.back() + 0.5)));
   const double pixels = double(m.width_) * double(m.height_);
-  if (pixels > double(1 << 28))
+  if (pixels > double(1 << 26))  // 64 Mpx: 192 MiB as BGR
     throw Error("true-aspect view: " + std::to_string(m.width_) + " x " +
                 std::to_string(m.height_) + " pixels is too large (crop with an angle range)");
   return m;

@@ -23,6 +23,7 @@
 #include <QPushButton>
 #include <QSaveFile>
 #include <QSettings>
+#include <QSignalBlocker>
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QTableView>
@@ -547,9 +548,7 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
     range_ = range;
     intensity_ = intensity;
     angles_ = std::move(angles);
-    aspect_.reset();
-    if (act_true_aspect_->isChecked())
-      aspect_ = AspectMap::TrueAspect(angles_, cv::Rect(0, 0, scan_->cols, scan_->rows));
+    rebuildAspect();
     scan_tabs_->setTabVisible(kIntensityView, !intensity_.empty());
     if (intensity_.empty() && scan_tabs_->currentIndex() == kIntensityView)
       scan_tabs_->setCurrentIndex(0);
@@ -611,14 +610,23 @@ void CalibrationWindow::setTrueAspect(bool on) {
     act_true_aspect_->setChecked(on);  // comes back here through toggled()
     return;
   }
-  guarded(tr("True angular aspect"), [&] {
-    aspect_.reset();
-    if (on && scan_)
-      aspect_ = AspectMap::TrueAspect(angles_, cv::Rect(0, 0, scan_->cols, scan_->rows));
-    refreshScanPictures();
-    refreshMarkers();
-    for (ImageView* v : scan_views_) v->fitImage();
-  });
+  rebuildAspect();
+  refreshScanPictures();
+  refreshMarkers();
+  for (ImageView* v : scan_views_) v->fitImage();
+}
+
+void CalibrationWindow::rebuildAspect() {
+  aspect_.reset();
+  if (!act_true_aspect_->isChecked() || !scan_) return;
+  try {
+    aspect_ = AspectMap::TrueAspect(angles_, cv::Rect(0, 0, scan_->cols, scan_->rows));
+  } catch (const std::exception& e) {
+    // E.g. a huge grid: the views stay one pixel per cell; the scan itself is fine.
+    const QSignalBlocker block(act_true_aspect_);
+    act_true_aspect_->setChecked(false);
+    setStatus(tr("True angular aspect is off: %1").arg(e.what()), kWarning);
+  }
 }
 
 void CalibrationWindow::setAngleTicks(bool on) {

@@ -262,6 +262,8 @@ class CalibrationWindow : public QMainWindow {
   void restoreIncompletePair(const QString& path);
   bool writePairsFile(const QString& path);
   void setStatus(const QString& text, int level);
+  /// aspect_ from the action and the scan; a failure turns the action off with a warning.
+  void rebuildAspect();
   /// Whose keys a widget's are: this window's (itself, its children, its docks), a popup of
   /// it (a menu: no host shortcut, but the popup handles its keys), or not ours.
   enum class KeyTarget { kNone, kWindow, kPopup };

@@ -70,7 +70,8 @@ class AspectMap {
   static AspectMap Identity(int rows, int cols);
   /// The true-aspect mapping of the grid cells in `cells` (a crop; the picture's cell (0, 0) is
   /// grid cell (cells.y, cells.x)). Pixels per degree: 1 / column step, raised so the
-  /// narrowest row gap gets kMinRowGapPx when that needs at most 4 pixels per column.
+  /// narrowest row gap gets kMinRowGapPx when that needs at most 4 pixels per column. Throws
+  /// scancam::Error when the block is outside the grid or the picture would exceed 2^26 pixels.
   static AspectMap TrueAspect(const ScanAngles& angles, const cv::Rect& cells);
 
   int width() const { return width_; }    ///< display pixels
