@@ -224,14 +224,30 @@ class CalibrationWindowTest : public QObject {
     w->hoverScanPixel(px.x(), px.y());
     QVERIFY2(w->hoverText().startsWith(QString("cell row %1, col %2:").arg(r).arg(c)),
              qPrintable(w->hoverText()));
-    // Ticks draw into the pictures (some pixel changes), and go away again.
+    // The rotating scanner's rows are scan planes, not elevations: no angle ticks.
     const QImage before = w->scanView(4)->image();
     w->setAngleTicks(true);
-    QVERIFY(w->scanView(4)->image() != before);
-    w->setAngleTicks(false);
     QVERIFY(w->scanView(4)->image() == before);
+    w->setAngleTicks(false);
     w->setTrueAspect(false);
     QCOMPARE(w->scanView(0)->image().size(), QSize(s.cols, s.rows));
+
+    // A lidar-like grid (rows = rings at constant elevation, columns = azimuth): ticks draw
+    // into the pictures (some pixels change) and go away again.
+    auto lidar = std::make_shared<scancam::OrderedScan>(scancam::OrderedScan::Empty(16, 360));
+    for (int rr = 0; rr < lidar->rows; ++rr)
+      for (int cc = 0; cc < lidar->cols; ++cc) {
+        const double az = (179.5 - cc) * M_PI / 180, el = (10.0 - 2.0 * rr) * M_PI / 180;
+        const Eigen::Vector3f b(float(std::cos(el) * std::cos(az)),
+                                float(std::cos(el) * std::sin(az)), float(std::sin(el)));
+        lidar->set_point(rr, cc, (10.f + float(rr)) * b);
+      }
+    QVERIFY(w->setScan(lidar, "lidar"));
+    const QImage plain = w->scanView(4)->image();
+    w->setAngleTicks(true);
+    QVERIFY(w->scanView(4)->image() != plain);
+    w->setAngleTicks(false);
+    QVERIFY(w->scanView(4)->image() == plain);
 
     // A scan without intensity: no Intensity tab.
     auto bare = std::make_shared<scancam::OrderedScan>(s);
