@@ -93,6 +93,32 @@ TEST(ScanAngles, TransposedLayoutIsNotLidarLike) {
       {"not at constant elevation"});
 }
 
+TEST(DrawAngleTicks, ForwardLineAtAzimuthZeroAndElevationTicks) {
+  const OrderedScan s = LidarScan();
+  const ScanAngles a = ComputeScanAngles(s);
+  cv::Mat bgr(s.rows, s.cols, CV_8UC3, cv::Scalar(0, 0, 0));
+  DrawAngleTicks(bgr, a, ScanView::Whole(s));
+  // Azimuth 0 lies between columns 89 (+1 deg) and 90 (-1 deg): u = 89.5, drawn at x = 90 as
+  // a dashed green line; no green left of it (the "+x" label is to its right).
+  const auto green = [&](int x, int y) { return bgr.at<cv::Vec3b>(y, x) == cv::Vec3b(0, 220, 0); };
+  int on_line = 0;
+  for (int y = 0; y < bgr.rows; ++y) on_line += green(90, y);
+  EXPECT_GE(on_line, 4);
+  for (int x = 0; x < 88; ++x)
+    for (int y = 0; y < bgr.rows; ++y) ASSERT_FALSE(green(x, y)) << x << "," << y;
+  // Elevation 0 is row 3: a white tick at the left edge.
+  EXPECT_EQ(bgr.at<cv::Vec3b>(3, 2), cv::Vec3b(255, 255, 255));
+  // At true aspect the forward line follows the stretched columns: x = CellToView(89.5).
+  ScanView v = ScanView::Whole(s);
+  v.aspect = AspectMap::TrueAspect(a, v.cells);
+  cv::Mat big(v.aspect->height(), v.aspect->width(), CV_8UC3, cv::Scalar(0, 0, 0));
+  DrawAngleTicks(big, a, v);
+  const int x0 = static_cast<int>(std::lround(v.CellToPixel({89.5, 0}).x));
+  int on_big = 0;
+  for (int y = 0; y < big.rows; ++y) on_big += big.at<cv::Vec3b>(y, x0) == cv::Vec3b(0, 220, 0);
+  EXPECT_GE(on_big, big.rows / 3);
+}
+
 TEST(IntensityImage, EqualsTheScansIntensitiesAndNaNWithoutReturn) {
   const OrderedScan s = LidarScan();
   const cv::Mat im = IntensityImage(s);
