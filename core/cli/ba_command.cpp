@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "command.h"
@@ -13,6 +14,8 @@
 #include "scancam/image_io.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
+#include "scancam/scan_view.h"
+#include "view_options.h"
 
 namespace scancam::cli {
 namespace {
@@ -58,18 +61,39 @@ struct Writer {
   std::string colormap;  // grey | jet | both
   ViewOptions view;      // percentiles or fixed range; colormap set per file
   std::vector<std::string> written;
+  // Where the pictures sit in the grid and how they are drawn.
+  ScanAngles angles;
+  ScanView crop;                   // the cells written, one pixel per cell
+  std::optional<ScanView> aspect;  // with --true-aspect: NAME_aspect.png
+  bool ticks = false;              // --ticks: azimuth/elevation ticks on the PNGs
 
+  cv::Mat Decorated(const cv::Mat& view, const ScanView& v) const {
+    if (!ticks) return view;
+    cv::Mat bgr = view.clone();  // `view` may be resampled again afterwards
+    DrawAngleTicks(bgr, angles, v);
+    return bgr;
+  }
+  // `image` is already cropped.
   void Png(const std::string& name, const cv::Mat& image) {
     const bool grey = colormap != "jet";
     ViewOptions o = view;
     o.colormap = grey ? Colormap::kGrey : Colormap::kJet;
-    Write(name + ".png", [&](const std::string& p) { WritePng(p, MakeView(image, o)); });
+    const cv::Mat first = MakeView(image, o);
+    Write(name + ".png", [&](const std::string& p) { WritePng(p, Decorated(first, crop)); });
+    if (aspect) {
+      Write(name + "_aspect.png", [&](const std::string& p) {
+        WritePng(p, Decorated(aspect->aspect->Resample(first), *aspect));
+      });
+    }
     if (colormap == "both") {
       o.colormap = Colormap::kJet;
-      Write(name + "_jet.png", [&](const std::string& p) { WritePng(p, MakeView(image, o)); });
+      Write(name + "_jet.png",
+            [&](const std::string& p) { WritePng(p, Decorated(MakeView(image, o), crop)); });
     }
   }
-  void Image(const std::string& name, const cv::Mat& image) {
+  // `image` is the whole grid: cropped to the written cells here.
+  void Image(const std::string& name, const cv::Mat& full) {
+    const cv::Mat image = full(crop.cells).clone();
     Write(name + ".tiff", [&](const std::string& p) { WriteFloatTiff(p, image); });
     Png(name, image);
   }
@@ -133,11 +157,34 @@ int RunBa(const Args& args) {
       }
     }
     image("range");
+    image("intensity");
+    for (std::size_t k = 0, n = outs.size(); k < n; ++k) {
+      const std::string& p = outs[k].path;
+      if (p.size() > 4 && p.compare(p.size() - 4, 4, ".png") == 0 &&
+          p.find("_jet.png") == std::string::npos)
+        outs.push_back({"--out", p.substr(0, p.size() - 4) + "_aspect.png"});
+    }
     CheckOutputs(outs, {{"SCAN", path}});
   }
 
+  out.ticks = args.has("--ticks");
+  const CropRanges crop = ParseCropRanges(args);
+  const std::string intensity_stretch = args.get("--intensity-stretch", "percentile");
+  const double intensity_gamma = args.get_double("--intensity-gamma", 0.5);
+  if (!(intensity_gamma > 0.0 && intensity_gamma <= 10.0))
+    throw Error("option --intensity-gamma: " + args.get("--intensity-gamma") +
+                " is not in (0, 10]");
+  if (intensity_stretch != "equalize" && intensity_stretch != "percentile")
+    throw Error("option --intensity-stretch: '" + intensity_stretch +
+                "' is not equalize or percentile");
+
   const Progress progress(StderrProgress(quiet));
   const OrderedScan scan = LoadScan(path, load, progress);
+  if (scan.rows <= 0 || scan.cols <= 0) throw FileError(path, "", "the scan grid is empty");
+  out.angles = ComputeScanAngles(scan);
+  out.crop = MakeScanView(crop, out.angles, scan.rows, scan.cols, false);
+  if (args.has("--true-aspect"))
+    out.aspect = MakeScanView(crop, out.angles, scan.rows, scan.cols, true);
 
   // BA images: the four traces in one pass, then the extra steps.
   std::vector<std::pair<std::string, cv::Mat>> images;
@@ -149,6 +196,7 @@ int RunBa(const Args& args) {
                         ComputeBearingAngle(scan, s, progress));
   }
 
+  const cv::Mat intensity = IntensityImage(scan);
   const std::size_t total = images.size() + 1;
   std::size_t done = 0;
   for (const auto& [name, ba] : images) {
@@ -159,8 +207,9 @@ int RunBa(const Args& args) {
       out.view.fixed_range = false;  // radians per cell: always stretched
       out.Image(name + "_edges", e);
       out.view = keep;
-      out.Write(name + "_edgemask.png",
-                [&](const std::string& p) { WritePng(p, EdgeMask(e, edge_percentile)); });
+      out.Write(name + "_edgemask.png", [&](const std::string& p) {
+        WritePng(p, EdgeMask(e(out.crop.cells).clone(), edge_percentile));
+      });
     }
     progress(double(++done) / double(total), "writing");
   }
@@ -168,6 +217,12 @@ int RunBa(const Args& args) {
     ViewOptions keep = out.view;
     out.view.fixed_range = false;  // metres: always stretched
     out.Image("range", RangeImage(scan));
+    if (!intensity.empty()) {
+      out.view = IntensityViewOptions();
+      out.view.equalize = intensity_stretch == "equalize";
+      if (args.has("--intensity-gamma")) out.view.gamma = intensity_gamma;
+      out.Image("intensity", intensity);
+    }
     out.view = keep;
     progress(1.0, "writing");
   }
@@ -179,6 +234,21 @@ int RunBa(const Args& args) {
               << "; cols: " << (scan.col_axis.empty() ? "?" : scan.col_axis) << ")\n"
               << "valid:  " << Percent(scan.valid_fraction()) << " of " << scan.size()
               << " cells\n";
+    const cv::Rect& b = out.crop.cells;
+    if (b.width != scan.cols || b.height != scan.rows)
+      std::cout << "crop:   rows " << b.y << ".." << b.y + b.height - 1 << ", cols " << b.x << ".."
+                << b.x + b.width - 1 << " (" << b.height << " x " << b.width
+                << "): pixel (u, v) of the pictures = cell (row v + " << b.y << ", col u + " << b.x
+                << ")\n";
+    if (out.aspect)
+      std::cout << "aspect: *_aspect.png are " << out.aspect->aspect->width() << " x "
+                << out.aspect->aspect->height() << " px at true angular aspect ("
+                << out.aspect->aspect->pixels_per_col() << " px per column)\n";
+    if (intensity.empty())
+      std::cout << "intensity: the scan has none (no intensity.tiff/.png)\n";
+    else
+      std::cout << "        intensity: " << Percent(ValidFraction(intensity(b)))
+                << " with a value\n";
     for (const auto& [name, ba] : images)
       std::cout << "        " << name << ": " << Percent(ValidFraction(ba)) << " with a BA\n";
     std::cout << "wrote " << out.written.size() << " files to " << out.dir.string() << ":\n";
@@ -221,10 +291,29 @@ Command MakeBaCommand() {
       "                 percentiles of the valid values (or [0, pi] with --fixed-range); cells\n"
       "                 without a value are magenta.\n"
       "  NAME_jet.png   the jet view too, with --colormap both.\n"
+      "  intensity.tiff/.png  whenever the scan has intensity (reflectance): the exact values\n"
+      "                 (the sensor's unit; NaN where no return), and a view for picking:\n"
+      "                 1-99 % percentile stretch shown with gamma 0.5 (--intensity-gamma), so\n"
+      "                 lane markings, signs and number plates stand out white and the dark\n"
+      "                 returns stay readable (--intensity-stretch equalize: histogram\n"
+      "                 equalisation, more texture, noisier asphalt).\n"
+      "  NAME_aspect.png  with --true-aspect: the view drawn at true angular aspect (one pixel\n"
+      "                 spans the same angle across and down; rows stretched by the angle\n"
+      "                 between them). Cell coordinates are those of NAME.png: use\n"
+      "                 `scancam cell --pixel U,V --view-aspect` to find the cell of a pixel.\n"
       "  with --edges:  NAME_edges.tiff/.png, the Sobel gradient magnitude of each BA image\n"
       "                 (radians per cell; holes do not make edges, NaN next to them), and\n"
       "                 NAME_edgemask.png (white = edge cell: strongest (100 - P) % of the\n"
       "                 valid gradient values, P = --edge-percentile).\n"
+      "\n"
+      "\n"
+      "Angles (deg): azimuth = atan2(y, x), 0 = +x (forward), +90 = +y (left); elevation =\n"
+      "atan2(z, hypot(x, y)), + = up; a column's azimuth and a row's elevation come from their\n"
+      "beams. --azimuth-range / --elevation-range crop every output (TIFFs and PNGs) to the\n"
+      "block of columns / rows inside the range; the crop is printed, and `scancam cell` with\n"
+      "the same options maps the cropped pictures' pixels back to grid cells. --ticks marks the\n"
+      "azimuth (top) and elevation (left) on the PNG views and azimuth 0 (+x) with a dashed\n"
+      "green line, drawn inside the picture so pixel = cell stays true.\n"
       "\n"
       "Prints the grid size, the fraction of valid cells and the files written (stdout);\n"
       "progress goes to stderr. Exit code 0 on success, 1 on an error (the message names the\n"
@@ -244,9 +333,19 @@ Command MakeBaCommand() {
           {"--edges", "", "Also write Sobel edge maps of every BA image (paper Fig. 8b)."},
           {"--edge-percentile", "P",
            "Edge mask threshold as a percentile of the valid gradient values, 0-100. Default 90."},
+          {"--true-aspect", "",
+           "Also write NAME_aspect.png: the views at true angular aspect (rows stretched by "
+           "their elevation spacing)."},
+          {"--intensity-stretch", "HOW",
+           "intensity.png: percentile (1-99 % stretch with gamma, default) or equalize "
+           "(histogram equalisation)."},
+          {"--intensity-gamma", "G",
+           "intensity.png with --intensity-stretch percentile: show the stretched t in [0, 1] as "
+           "t^G (G < 1 lifts dark returns). Default 0.5."},
+          {"--ticks", "", "Draw azimuth/elevation ticks and the forward direction on the PNGs."},
           {"--quiet", "", "No progress on stderr and no summary on stdout (errors still printed)."},
       },
-      ScanLoadOptionSpecs());
+      Concat(CropOptionSpecs(), ScanLoadOptionSpecs()));
   c.run = RunBa;
   return c;
 }

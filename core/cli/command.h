@@ -37,6 +37,10 @@ class Args {
   int get_int(const std::string& name, int fallback) const;
   /// Three finite numbers "X,Y,Z"; throws scancam::Error naming the option otherwise.
   Eigen::Vector3d get_vector3(const std::string& name) const;
+  /// `count` finite numbers separated by commas; throws scancam::Error "option NAME: 'TEXT'
+  /// is not COUNT numbers FORM" otherwise (FORM e.g. "A0,A1").
+  std::vector<double> get_numbers(const std::string& name, std::size_t count,
+                                  const std::string& form) const;
   const std::vector<std::string>& positional() const { return positional_; }
 
  private:

@@ -80,7 +80,8 @@ double Args::get_double(const std::string& name, double fallback) const {
     throw Error("option " + name + ": '" + v + "' is not a number");
   }
 }
-Eigen::Vector3d Args::get_vector3(const std::string& name) const {
+std::vector<double> Args::get_numbers(const std::string& name, std::size_t count,
+                                      const std::string& form) const {
   const std::string text = get(name);
   std::stringstream ss(text);
   std::string item;
@@ -89,15 +90,22 @@ Eigen::Vector3d Args::get_vector3(const std::string& name) const {
     try {
       std::size_t used = 0;
       v.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument(item);
+      if (used != item.size() || !std::isfinite(v.back())) throw std::invalid_argument(item);
     } catch (const std::exception&) {
       v.clear();
       break;
     }
   }
-  if (v.size() != 3 || !std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
-    throw Error("option " + name + ": '" + text + "' is not three numbers X,Y,Z");
-  }
+  if (v.size() != count || text.empty() || text.back() == ',')
+    throw Error("option " + name + ": '" + text + "' is not " +
+                (count == 2   ? std::string("two")
+                 : count == 3 ? "three"
+                              : std::to_string(count)) +
+                " numbers " + form);
+  return v;
+}
+Eigen::Vector3d Args::get_vector3(const std::string& name) const {
+  const std::vector<double> v = get_numbers(name, 3, "X,Y,Z");
   return {v[0], v[1], v[2]};
 }
 int Args::get_int(const std::string& name, int fallback) const {

@@ -368,6 +368,32 @@ cv::Mat RangeImage(const OrderedScan& scan) {
   return out;
 }
 
+cv::Mat IntensityImage(const OrderedScan& scan) {
+  CheckSizes(scan);
+  if (!scan.has_intensity()) return cv::Mat();
+  if (scan.intensity.size() != scan.size())
+    throw Error("intensity image of scan '" + scan.source +
+                "': " + std::to_string(scan.intensity.size()) + " intensities for " +
+                std::to_string(scan.size()) + " cells");
+  cv::Mat out(scan.rows, scan.cols, CV_32FC1);
+  for (int r = 0; r < scan.rows; ++r) {
+    float* o = out.ptr<float>(r);
+    for (int c = 0; c < scan.cols; ++c) {
+      const std::size_t i = scan.index(r, c);
+      const float v = scan.intensity[i];
+      o[c] = (scan.valid(i) && std::isfinite(v)) ? v : kNaN;
+    }
+  }
+  return out;
+}
+
+ViewOptions IntensityViewOptions() {
+  ViewOptions o;
+  o.colormap = Colormap::kGrey;
+  o.gamma = 0.5;
+  return o;
+}
+
 cv::Mat SobelEdges(const cv::Mat& image) {
   if (image.empty()) return cv::Mat();
   if (image.type() != CV_32FC1) throw Error("SobelEdges: expected a CV_32FC1 image");

@@ -475,7 +475,26 @@ cv::Vec2f ViewRange(const cv::Mat& image, const ViewOptions& options) {
 cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options) {
   if (image.empty()) return cv::Mat();
   CheckFloat1(image, "MakeView");
-  const cv::Vec2f range = ViewRange(image, options);
+  if (!(options.gamma > 0.0 && options.gamma <= 10.0))
+    throw Error("MakeView: gamma " + std::to_string(options.gamma) + " is not in (0, 10]");
+  // Equalisation: the sorted finite values; a value's grey is its rank among them.
+  std::vector<float> sorted;
+  if (options.equalize) {
+    sorted.reserve(image.total());
+    for (int r = 0; r < image.rows; ++r) {
+      const float* p = image.ptr<float>(r);
+      for (int c = 0; c < image.cols; ++c)
+        if (std::isfinite(p[c])) sorted.push_back(p[c]);
+    }
+    std::sort(sorted.begin(), sorted.end());
+  }
+  const auto equalized = [&](float v) {
+    const std::size_t rank = static_cast<std::size_t>(
+        std::upper_bound(sorted.begin(), sorted.end(), v) - sorted.begin());
+    if (sorted.size() < 2) return uchar{128};
+    return static_cast<uchar>(std::lround(255.0 * double(rank - 1) / double(sorted.size() - 1)));
+  };
+  const cv::Vec2f range = options.equalize ? cv::Vec2f(0.f, 1.f) : ViewRange(image, options);
   const float lo = range[0], hi = range[1];
   const bool flat = !(hi > lo);  // also true when there is no finite value
   const float scale = flat ? 0.f : 255.f / (hi - lo);
@@ -491,10 +510,14 @@ cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options) {
       bad[c] = std::isfinite(v) ? 0 : 255;
       if (!std::isfinite(v)) {
         g[c] = 0;
+      } else if (options.equalize) {
+        g[c] = equalized(v);
       } else if (flat) {
         g[c] = 128;
       } else {
-        const float t = std::clamp((v - lo) * scale, 0.f, 255.f);
+        float t = std::clamp((v - lo) * scale, 0.f, 255.f);
+        if (options.gamma != 1.0)
+          t = 255.f * static_cast<float>(std::pow(t / 255.0, options.gamma));
         g[c] = static_cast<uchar>(std::lround(t));
       }
     }

@@ -33,12 +33,18 @@ Eigen::Isometry3d ToEigen(const ccGLMatrix& m) {
   return T;
 }
 
-// The cloud's intensity scalar field (PTX: "Intensity"), or null.
+// The cloud's intensity-like scalar field (PTX: "Intensity"; PCD/LAS/PLY: "intensity",
+// "reflectance", "reflectivity", CloudCompare's "Scalar_Intensity"...), or null. The first
+// name of the list that the cloud has wins.
 const ScalarField* IntensityField(const ccPointCloud& cloud) {
-  for (unsigned i = 0; i < cloud.getNumberOfScalarFields(); ++i) {
-    const QString name = QString(cloud.getScalarFieldName(static_cast<int>(i))).toLower();
-    if (name == "intensity" || name == "scalar_intensity")
-      return cloud.getScalarField(static_cast<int>(i));
+  static const char* const kNames[] = {
+      "intensity",    "scalar_intensity",    "reflectance", "scalar_reflectance",
+      "reflectivity", "scalar_reflectivity", "remission"};
+  for (const char* want : kNames) {
+    for (unsigned i = 0; i < cloud.getNumberOfScalarFields(); ++i) {
+      const QString name = QString(cloud.getScalarFieldName(static_cast<int>(i))).toLower();
+      if (name == want) return cloud.getScalarField(static_cast<int>(i));
+    }
   }
   return nullptr;
 }

@@ -23,6 +23,7 @@
 #include <QPushButton>
 #include <QSaveFile>
 #include <QSettings>
+#include <QSignalBlocker>
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QTableView>
@@ -156,15 +157,18 @@ bool CalibrationWindow::guarded(const QString& what, F&& f) {
 void CalibrationWindow::buildUi() {
   // Centre: scan views.
   scan_tabs_ = new QTabWidget(this);
-  for (int i = 0; i < 5; ++i) {
+  for (int i = 0; i < 6; ++i) {
     auto* view = new ImageView(scan_tabs_);
     view->setObjectName(QString("scanView%1").arg(i));
     scan_views_[static_cast<std::size_t>(i)] = view;
     view->setPlaceholderText(tr("No scan"));
-    scan_tabs_->addTab(view, i < 4 ? tr(kTraceTitles[i]) : tr("Range"));
+    scan_tabs_->addTab(view, i < 4 ? tr(kTraceTitles[i]) : i == 4 ? tr("Range") : tr("Intensity"));
     connect(view, &ImageView::pixelClicked, this,
             [this](double x, double y) { onScanClicked(x, y); });
+    connect(view, &ImageView::pixelHovered, this,
+            [this](double x, double y) { hoverScanPixel(x, y); });
   }
+  scan_tabs_->setTabVisible(kIntensityView, false);  // until a scan with intensity
   setCentralWidget(scan_tabs_);
 
   // Camera image dock.
@@ -340,6 +344,18 @@ void CalibrationWindow::buildUi() {
     });
     return a;
   };
+  act_true_aspect_ = new QAction(tr("True angular aspect"), this);
+  act_true_aspect_->setCheckable(true);
+  act_true_aspect_->setToolTip(
+      tr("Draw the scan views with rows stretched by their angular spacing (a spinning "
+         "lidar's widely spaced top rings get tall rows); picks still store cells"));
+  connect(act_true_aspect_, &QAction::toggled, this, [this](bool on) { setTrueAspect(on); });
+  act_ticks_ = new QAction(tr("Angle ticks"), this);
+  act_ticks_->setCheckable(true);
+  act_ticks_->setToolTip(
+      tr("Azimuth (top) and elevation (left) ticks in degrees, and azimuth "
+         "0 (+x, forward) as a dashed green line"));
+  connect(act_ticks_, &QAction::toggled, this, [this](bool on) { setAngleTicks(on); });
   act_transpose_ = orient_action(tr("Transpose scan views"));
   act_flip_h_ = orient_action(tr("Flip scan views left-right"));
   act_flip_v_ = orient_action(tr("Flip scan views upside down"));
@@ -412,6 +428,8 @@ void CalibrationWindow::buildUi() {
   view->addAction(act_transpose_);
   view->addAction(act_flip_h_);
   view->addAction(act_flip_v_);
+  view->addAction(act_true_aspect_);
+  view->addAction(act_ticks_);
   view->addSeparator();
   view->addAction(tr("Fit images"), this, [this] {
     camera_view_->fitImage();
@@ -428,6 +446,10 @@ void CalibrationWindow::buildUi() {
   status_label_->setObjectName("statusLabel");
   status_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
   statusBar()->addWidget(status_label_, 1);
+  hover_label_ = new QLabel(this);
+  hover_label_->setObjectName("hoverLabel");
+  hover_label_->setTextInteractionFlags(Qt::TextSelectableByMouse);
+  statusBar()->addPermanentWidget(hover_label_);
   refreshActiveInputs();
   setStatus(tr("Choose the camera file and the image, then click matching points: on the "
                "camera image and on a scan view"),
@@ -487,7 +509,8 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
       throw Error(name.toStdString() + ": the scan grid is empty");
     CheckScan(*scan, name.toStdString());
     std::array<cv::Mat, 4> ba;
-    cv::Mat range;
+    cv::Mat range, intensity;
+    ScanAngles angles;
     std::vector<Eigen::Vector3f> edges;
     std::vector<std::size_t> edge_index;
     cv::Mat edge_cells;
@@ -498,6 +521,8 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
       }));
       progress(0.8, "range image");
       range = RangeImage(*scan);
+      intensity = IntensityImage(*scan);
+      angles = ComputeScanAngles(*scan);
       progress(0.85, "edges");
       colour::OverlayOptions edge_options;
       edge_options.edge_percentile = kEdgePercentile;
@@ -521,6 +546,13 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
     pairs_->setScan(scan_);
     ba_ = ba;
     range_ = range;
+    intensity_ = intensity;
+    angles_ = std::move(angles);
+    rebuildAspect();
+    scan_tabs_->setTabVisible(kIntensityView, !intensity_.empty());
+    if (intensity_.empty() && scan_tabs_->currentIndex() == kIntensityView)
+      scan_tabs_->setCurrentIndex(0);
+    hover_label_->clear();
     edge_points_ = std::move(edges);
     edge_point_cells_ = std::move(edge_index);
     edge_cells_ = edge_cells;
@@ -547,20 +579,103 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
 void CalibrationWindow::refreshScanPictures() {
   if (!scan_) return;
   try {
-    for (int i = 0; i < 5; ++i) {
+    ScanView drawn = ScanView::Whole(*scan_);
+    drawn.aspect = aspect_;
+    for (int i = 0; i < 6; ++i) {
       ViewOptions opt;
       cv::Mat view;
       if (i < 4) {
         view = MakeView(ba_[static_cast<std::size_t>(i)], opt);
-      } else {
+      } else if (i == 4) {
         opt.colormap = Colormap::kJet;
         view = MakeView(range_, opt);
+      } else if (!intensity_.empty()) {
+        view = MakeView(intensity_, IntensityViewOptions());
+      } else {
+        scan_views_[static_cast<std::size_t>(i)]->setImage(QImage());
+        continue;
       }
+      if (aspect_) view = aspect_->Resample(view);
+      if (act_ticks_->isChecked()) DrawAngleTicks(view, angles_, drawn);
       scan_views_[static_cast<std::size_t>(i)]->setImage(
           BgrToQImage(OrientView(view, orientation_)));
     }
   } catch (const std::exception& e) {
     reportError(tr("Scan views: %1").arg(e.what()));
+  }
+}
+
+void CalibrationWindow::setTrueAspect(bool on) {
+  if (act_true_aspect_->isChecked() != on) {
+    act_true_aspect_->setChecked(on);  // comes back here through toggled()
+    return;
+  }
+  rebuildAspect();
+  refreshScanPictures();
+  refreshMarkers();
+  for (ImageView* v : scan_views_) v->fitImage();
+}
+
+void CalibrationWindow::rebuildAspect() {
+  aspect_.reset();
+  if (!act_true_aspect_->isChecked() || !scan_) return;
+  try {
+    aspect_ = AspectMap::TrueAspect(angles_, cv::Rect(0, 0, scan_->cols, scan_->rows));
+  } catch (const std::exception& e) {
+    // E.g. a huge grid: the views stay one pixel per cell; the scan itself is fine.
+    const QSignalBlocker block(act_true_aspect_);
+    act_true_aspect_->setChecked(false);
+    setStatus(tr("True angular aspect is off: %1").arg(e.what()), kWarning);
+  }
+}
+
+void CalibrationWindow::setAngleTicks(bool on) {
+  if (act_ticks_->isChecked() != on) {
+    act_ticks_->setChecked(on);
+    return;
+  }
+  refreshScanPictures();
+}
+
+QPointF CalibrationWindow::cellToScanViewPixel(const QPointF& cell) const {
+  if (!scan_) return cell;
+  QPointF p = cell;
+  int w = scan_->cols, h = scan_->rows;
+  if (aspect_) {
+    const cv::Point2d a = aspect_->CellToView({cell.x(), cell.y()});
+    p = QPointF(a.x, a.y);
+    w = aspect_->width();
+    h = aspect_->height();
+  }
+  return CellToViewPixel(p, h, w, orientation_);
+}
+
+QPointF CalibrationWindow::scanViewPixelToCell(const QPointF& px) const {
+  if (!scan_) return px;
+  const int w = aspect_ ? aspect_->width() : scan_->cols;
+  const int h = aspect_ ? aspect_->height() : scan_->rows;
+  const QPointF p = ViewPixelToCell(px, h, w, orientation_);
+  if (!aspect_) return p;
+  const cv::Point2d c = aspect_->ViewToCell({p.x(), p.y()});
+  return {c.x, c.y};
+}
+
+QString CalibrationWindow::hoverText() const { return hover_label_->text(); }
+
+void CalibrationWindow::hoverScanPixel(double x, double y) {
+  if (!scan_) return;
+  try {
+    const QPointF cell = scanViewPixelToCell({x, y});
+    const int r = static_cast<int>(std::floor(cell.y() + 0.5));
+    const int c = static_cast<int>(std::floor(cell.x() + 0.5));
+    if (!scan_->inside(r, c)) {
+      hover_label_->clear();
+      return;
+    }
+    const CellInfo info = LookUpCell(*scan_, {CellQuery::Kind::kCell, double(r), double(c), 0});
+    hover_label_->setText(QString::fromStdString(FormatCellInfo(info)));
+  } catch (const std::exception& e) {
+    hover_label_->setText(QString::fromStdString(e.what()));
   }
 }
 
@@ -871,7 +986,7 @@ void CalibrationWindow::onCameraClicked(double u, double v) { addImagePick(u, v)
 
 void CalibrationWindow::onScanClicked(double x, double y) {
   if (!scan_) return;
-  const QPointF cell = ViewPixelToCell({x, y}, scan_->rows, scan_->cols, orientation_);
+  const QPointF cell = scanViewPixelToCell({x, y});
   addScanPick(cell.y(), cell.x());
 }
 
@@ -953,7 +1068,7 @@ void CalibrationWindow::refreshMarkers() {
       image_markers.push_back(m);
     }
     if (p.scan_cell && scan_) {
-      m.px = CellToViewPixel(*p.scan_cell, scan_->rows, scan_->cols, orientation_);
+      m.px = cellToScanViewPixel(*p.scan_cell);
       scan_markers.push_back(m);
     }
   }
@@ -968,8 +1083,7 @@ void CalibrationWindow::refreshMarkers() {
       m.px = QPointF(g.image_px.x(), g.image_px.y());
       image_markers.push_back(m);
       if (scan_) {
-        m.px = CellToViewPixel(QPointF(g.scan_col, g.scan_row), scan_->rows, scan_->cols,
-                               orientation_);
+        m.px = cellToScanViewPixel(QPointF(g.scan_col, g.scan_row));
         scan_markers.push_back(m);
       }
     }

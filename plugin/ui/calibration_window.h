@@ -33,7 +33,13 @@
 // Scan views: pixel (x, y) of an unrotated view is cell (row = y, col = x) (ba_image.h). The
 // View menu can transpose / flip the pictures (e.g. PTX grids are transposed panoramas,
 // io/ptx.h); ScanViewOrientation maps between view pixels and cells, so picks always store
-// cells in the scan's own indexing.
+// cells in the scan's own indexing. "True angular aspect" draws the pictures with rows
+// stretched by their angular spacing (scan_view.h AspectMap, applied before the orientation);
+// picks still store cells. "Angle ticks" draws azimuth/elevation ticks and azimuth 0 (+x,
+// forward) into the pictures. Tabs: the four BA traces, Range, and Intensity when the scan
+// has intensity (the cloud's intensity / reflectance scalar field). Hovering a scan view shows
+// the cell under the mouse (scan_view.h LookUpCell: x,y,z, range, intensity, azimuth,
+// elevation) on the status bar's right.
 //
 // Messages: everything the user should read goes to the status line and to logMessage()
 // (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
@@ -55,6 +61,7 @@
 #include "scancam/colour/colourise.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
+#include "scancam/scan_view.h"
 #include "scancam/solve/calibrate.h"
 
 class QAction;
@@ -191,8 +198,21 @@ class CalibrationWindow : public QMainWindow {
   QTableView* pairsTable() const { return table_; }
   ImageView* cameraView() const { return camera_view_; }
   QTabWidget* scanTabs() const { return scan_tabs_; }
-  /// Scan view `i`: 0..3 BA traces (ba_image.h order), 4 range.
+  /// Scan view `i`: 0..3 BA traces (ba_image.h order), 4 range, 5 intensity (its tab is
+  /// hidden while the scan has no intensity).
   ImageView* scanView(int i) const { return scan_views_.at(static_cast<std::size_t>(i)); }
+  static constexpr int kIntensityView = 5;
+  /// Whether the scan views are drawn at true angular aspect / with angle ticks (View menu).
+  void setTrueAspect(bool on);
+  void setAngleTicks(bool on);
+  /// Scan cell (x = col, y = row) <-> pixel of the scan views as drawn now (aspect, then
+  /// orientation).
+  QPointF cellToScanViewPixel(const QPointF& cell) const;
+  QPointF scanViewPixelToCell(const QPointF& px) const;
+  /// What the status bar says about the cell under the mouse ("" before any hover).
+  QString hoverText() const;
+  /// As if the mouse hovered pixel (x, y) of a scan view.
+  void hoverScanPixel(double x, double y);
   QTextEdit* resultView() const { return result_view_; }
   ScanViewOrientation scanOrientation() const { return orientation_; }
   void setScanOrientation(const ScanViewOrientation& o);
@@ -242,6 +262,8 @@ class CalibrationWindow : public QMainWindow {
   void restoreIncompletePair(const QString& path);
   bool writePairsFile(const QString& path);
   void setStatus(const QString& text, int level);
+  /// aspect_ from the action and the scan; a failure turns the action off with a warning.
+  void rebuildAspect();
   /// Whose keys a widget's are: this window's (itself, its children, its docks), a popup of
   /// it (a menu: no host shortcut, but the popup handles its keys), or not ours.
   enum class KeyTarget { kNone, kWindow, kPopup };
@@ -306,7 +328,13 @@ class CalibrationWindow : public QMainWindow {
   QTableView* table_ = nullptr;
   ImageView* camera_view_ = nullptr;
   QTabWidget* scan_tabs_ = nullptr;
-  std::array<ImageView*, 5> scan_views_{};
+  std::array<ImageView*, 6> scan_views_{};
+  cv::Mat intensity_;                // IntensityImage of the scan (empty: none)
+  ScanAngles angles_;                // of the scan's grid
+  std::optional<AspectMap> aspect_;  // set while "True angular aspect" is on
+  QLabel* hover_label_ = nullptr;
+  QAction* act_true_aspect_ = nullptr;
+  QAction* act_ticks_ = nullptr;
   QTextEdit* result_view_ = nullptr;
   QLabel* status_label_ = nullptr;
   QLabel* active_label_ = nullptr;

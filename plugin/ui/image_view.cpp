@@ -233,6 +233,12 @@ void ImageView::mouseMoveEvent(QMouseEvent* event) {
     event->accept();
     return;
   }
+  if (!image_.isNull()) {
+    const QPointF px = widgetToPixel(event->pos());
+    if (px.x() >= -0.5 && px.y() >= -0.5 && px.x() < image_.width() - 0.5 &&
+        px.y() < image_.height() - 0.5)
+      emit pixelHovered(px.x(), px.y());
+  }
   QGraphicsView::mouseMoveEvent(event);
 }
 

@@ -2,7 +2,8 @@
 //
 // Coordinates: pixels in OpenCV's convention ((0,0) is the centre of the top-left
 // pixel, u right, v down). Wheel zooms about the cursor, a drag with the left or
-// middle button pans, a left click without a drag emits pixelClicked(u, v).
+// middle button pans, a left click without a drag emits pixelClicked(u, v); moving the mouse
+// over the image (no button) emits pixelHovered(u, v).
 // Pure Qt (no CloudCompare), so it is unit-tested with QtTest offscreen.
 #pragma once
 
@@ -60,6 +61,8 @@ class ImageView : public QGraphicsView {
 
  signals:
   void pixelClicked(double u, double v);
+  /// The mouse moved over pixel (u, v) of the image without a button pressed.
+  void pixelHovered(double u, double v);
 
  protected:
   void wheelEvent(QWheelEvent* event) override;

@@ -27,7 +27,9 @@
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 
+#include "scancam/ba_image.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/scan_view.h"
 #include "scancam/sim/simulate.h"
 #include "ui/calibration_window.h"
 #include "ui/image_view.h"
@@ -158,6 +160,101 @@ class CalibrationWindowTest : public QObject {
     scancam::ui::ScanViewOrientation t;
     t.transpose = true;
     QCOMPARE(scancam::ui::CellToViewPixel(QPointF(7, 3), 10, 20, t), QPointF(3, 7));
+  }
+
+  // Issue 14 items 2-3: the Intensity tab, true angular aspect (picks stay cells), hover.
+  void intensityTabTrueAspectAndHover() {
+    auto w = MakeWindow(FreshImage("intensity"));
+    QVERIFY(w);
+    const scancam::OrderedScan& s = *Sim().scan;
+    QVERIFY(s.has_intensity());
+    QVERIFY(w->scanTabs()->isTabVisible(CalibrationWindow::kIntensityView));
+    QCOMPARE(w->scanTabs()->tabText(CalibrationWindow::kIntensityView), QString("Intensity"));
+    ImageView* iv = w->scanView(CalibrationWindow::kIntensityView);
+    QCOMPARE(iv->image().size(), QSize(s.cols, s.rows));
+    // The tab shows the intensity view of the core (same greys as `scancam ba`'s PNG).
+    const cv::Mat want =
+        scancam::MakeView(scancam::IntensityImage(s), scancam::IntensityViewOptions());
+    const QPointF cell = ValidCellNear(90, 90);
+    const int r = int(cell.y()), c = int(cell.x());
+    QCOMPARE(qGreen(iv->image().pixel(c, r)), int(want.at<cv::Vec3b>(r, c)[1]));
+
+    // Hover: the status bar names the cell, its range and intensity.
+    w->hoverScanPixel(c, r);
+    const QString text = w->hoverText();
+    QVERIFY2(text.contains(QString("cell row %1, col %2:").arg(r).arg(c)), qPrintable(text));
+    QVERIFY2(text.contains("range ") && text.contains("intensity "), qPrintable(text));
+    // ... also from a real mouse move over the view.
+    w->scanTabs()->setCurrentIndex(0);
+    const QPointF cell2 = ValidCellNear(60, 120);
+    // (A direct event: QTest::mouseMove goes through QCursor::setPos, which the offscreen
+    // platform maps with the window frame's offset.)
+    QMouseEvent move(QEvent::MouseMove, w->scanView(0)->pixelToWidget(cell2), Qt::NoButton,
+                     Qt::NoButton, Qt::NoModifier);
+    QApplication::sendEvent(w->scanView(0)->viewport(), &move);
+    QVERIFY2(w->hoverText().startsWith(
+                 QString("cell row %1, col %2:").arg(int(cell2.y())).arg(int(cell2.x()))),
+             qPrintable(w->hoverText()));
+
+    // True angular aspect: the pictures take the AspectMap's size; a click on a cell's
+    // (stretched) pixel still picks that cell; markers sit on the mapped pixel.
+    w->setTrueAspect(true);
+    const scancam::AspectMap m = scancam::AspectMap::TrueAspect(scancam::ComputeScanAngles(s),
+                                                                cv::Rect(0, 0, s.cols, s.rows));
+    for (int i = 0; i < 6; ++i)
+      QCOMPARE(w->scanView(i)->image().size(), QSize(m.width(), m.height()));
+    QVERIFY(m.width() != s.cols || m.height() != s.rows);
+    for (int i = 0; i < 6; ++i) w->scanView(i)->fitImage();
+    const QPointF px = w->cellToScanViewPixel(cell);
+    const cv::Point2d expect = m.CellToView({cell.x(), cell.y()});
+    QVERIFY(std::abs(px.x() - expect.x) < 1e-9 && std::abs(px.y() - expect.y) < 1e-9);
+    const QPointF back = w->scanViewPixelToCell(px);
+    QVERIFY(std::abs(back.x() - cell.x()) < 1e-9 && std::abs(back.y() - cell.y()) < 1e-9);
+    ClickPixel(w->cameraView(), QPointF(300, 150));
+    ClickPixel(w->scanView(0), px);
+    PairsModel* pm = w->pairsModel();
+    QCOMPARE(pm->size(), 1);
+    QVERIFY(pm->pairs()[0].complete());
+    // The click lands within a widget pixel of px: less than a cell away.
+    QVERIFY(std::abs(pm->pairs()[0].scan_cell->x() - cell.x()) < 0.5);
+    QVERIFY(std::abs(pm->pairs()[0].scan_cell->y() - cell.y()) < 0.5);
+    const QPointF marker = w->scanView(0)->markers()[0].px;
+    const QPointF at = w->cellToScanViewPixel(*pm->pairs()[0].scan_cell);
+    QVERIFY(std::abs(marker.x() - at.x()) < 1e-9 && std::abs(marker.y() - at.y()) < 1e-9);
+    w->hoverScanPixel(px.x(), px.y());
+    QVERIFY2(w->hoverText().startsWith(QString("cell row %1, col %2:").arg(r).arg(c)),
+             qPrintable(w->hoverText()));
+    // The rotating scanner's rows are scan planes, not elevations: no angle ticks.
+    const QImage before = w->scanView(4)->image();
+    w->setAngleTicks(true);
+    QVERIFY(w->scanView(4)->image() == before);
+    w->setAngleTicks(false);
+    w->setTrueAspect(false);
+    QCOMPARE(w->scanView(0)->image().size(), QSize(s.cols, s.rows));
+
+    // A lidar-like grid (rows = rings at constant elevation, columns = azimuth): ticks draw
+    // into the pictures (some pixels change) and go away again.
+    auto lidar = std::make_shared<scancam::OrderedScan>(scancam::OrderedScan::Empty(16, 360));
+    for (int rr = 0; rr < lidar->rows; ++rr)
+      for (int cc = 0; cc < lidar->cols; ++cc) {
+        const double az = (179.5 - cc) * M_PI / 180, el = (10.0 - 2.0 * rr) * M_PI / 180;
+        const Eigen::Vector3f b(float(std::cos(el) * std::cos(az)),
+                                float(std::cos(el) * std::sin(az)), float(std::sin(el)));
+        lidar->set_point(rr, cc, (10.f + float(rr)) * b);
+      }
+    QVERIFY(w->setScan(lidar, "lidar"));
+    const QImage plain = w->scanView(4)->image();
+    w->setAngleTicks(true);
+    QVERIFY(w->scanView(4)->image() != plain);
+    w->setAngleTicks(false);
+    QVERIFY(w->scanView(4)->image() == plain);
+
+    // A scan without intensity: no Intensity tab.
+    auto bare = std::make_shared<scancam::OrderedScan>(s);
+    bare->intensity.clear();
+    QVERIFY(w->setScan(bare, "no intensity"));
+    QVERIFY(!w->scanTabs()->isTabVisible(CalibrationWindow::kIntensityView));
+    QVERIFY(w->scanView(CalibrationWindow::kIntensityView)->image().isNull());
   }
 
   void clicksOnBothViewsMakePairs() {

@@ -68,6 +68,7 @@
 #include <string>
 #include <vector>
 
+#include "scancam/image_io.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
@@ -117,6 +118,20 @@ void ComputeBearingAngleAll(const OrderedScan& scan, std::array<cv::Mat, 4>& out
 
 /// Range image: CV_32FC1, rows x cols, metres along the beam, NaN where invalid.
 cv::Mat RangeImage(const OrderedScan& scan);
+
+/// Intensity image: CV_32FC1, rows x cols, the scan's intensity (reflectance) of each cell
+/// exactly as read (the sensor's own unit), NaN where the cell has no return (not
+/// OrderedScan::valid) or no finite intensity. Empty Mat when the scan has no intensity.
+cv::Mat IntensityImage(const OrderedScan& scan);
+
+/// The 8-bit view options for an intensity image, made for picking: the linear 1-99 %
+/// percentile stretch shown with gamma 0.5 (grey = 255 sqrt(t)), so the few bright
+/// retro-reflective returns (lane markings, crossing stripes, signs, number plates) saturate
+/// white while asphalt, walls and vegetation are lifted from black into readable greys. Chosen
+/// by looking at road-pinhole: histogram equalisation (ViewOptions::equalize) shows more
+/// texture in vegetation but makes asphalt noisy mid-grey, which blurs the marking ends; the
+/// plain linear stretch leaves the far road nearly black. Grey; no-return cells magenta.
+ViewOptions IntensityViewOptions();
 
 /// Sobel gradient magnitude of a float image with NaN holes (paper Fig. 8b on a BA image):
 /// sqrt(Gx^2 + Gy^2) with OpenCV's 3x3 Sobel kernels, in units of the input per cell

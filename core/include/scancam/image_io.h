@@ -89,13 +89,23 @@ struct ViewOptions {
   bool fixed_range = false;       ///< use [low, high] below instead of percentiles
   double low = 0.0;               ///< value mapped to 0 when fixed_range
   double high = 1.0;              ///< value mapped to 255 when fixed_range
+  /// Histogram equalisation instead of the linear stretch: a finite value v maps to
+  /// round(255 (rank(v) - 1) / (n - 1)), rank(v) = the number of finite values <= v among the
+  /// n finite values (equal values share one grey; the largest is 255). Ignores the
+  /// percentiles and fixed range. For skewed data (lidar intensity: most returns dark, a few
+  /// retro-reflectors very bright), where a linear stretch leaves most cells nearly black.
+  bool equalize = false;
+  /// Linear stretch only: the stretched fraction t in [0, 1] is shown as 255 t^gamma
+  /// (gamma < 1 lifts the dark values, e.g. 0.6 for lidar intensity; 1 = linear).
+  double gamma = 1.0;
 };
 
 /// The value range [low, high] a view maps to [0, 255] (percentiles of the finite values,
 /// or the fixed range). NaN, NaN when the image has no finite value.
 cv::Vec2f ViewRange(const cv::Mat& image, const ViewOptions& options = {});
 
-/// An 8-bit BGR view (CV_8UC3) of a CV_32FC1 image, as described at the top of this file.
+/// An 8-bit BGR view (CV_8UC3) of a CV_32FC1 image, as described at the top of this file
+/// (linear stretch, or ViewOptions::equalize).
 /// Throws scancam::Error on a wrong type or bad percentiles.
 cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options = {});
 
