@@ -5,8 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
-#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <opencv2/core.hpp>
@@ -144,7 +144,9 @@ double RotationErrorDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) 
 }
 
 // The simulator: clicks 1.5 px / 1 cell off the true corners; snapping must bring them closer.
-// SCANCAM_SNAP_SEEDS=N runs N seeds and prints the table of README "Snap to the feature".
+// SCANCAM_SNAP_SEEDS=N runs seeds 1..N and also calibrates with the clicked, the snapped and the
+// simulator's own (inset, same noise) picks: the figures of README "Snap to the feature".
+// SCANCAM_SNAP_CAMERA / SCANCAM_SNAP_SCANNER choose the presets (default pinhole, lidar).
 TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
   const char* env = std::getenv("SCANCAM_SNAP_SEEDS");
   const int seeds = env ? std::max(1, std::atoi(env)) : 1;
@@ -152,6 +154,9 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
   const char* scn_env = std::getenv("SCANCAM_SNAP_SCANNER");
   const sim::Scene scene = sim::BuildOfficeScene();
   double sum_ic = 0, sum_is = 0, sum_sc = 0, sum_ss = 0;
+  // Calibration errors (deg, m), squared sums, for clicked / snapped / inset picks; counts.
+  std::array<Vector2d, 3> cal_sq{Vector2d::Zero(), Vector2d::Zero(), Vector2d::Zero()};
+  std::array<int, 3> cal_n{0, 0, 0}, cal_better{0, 0, 0};
   for (int seed = 1; seed <= seeds; ++seed) {
     sim::SimulateOptions so;
     so.camera = cam_env ? cam_env : "pinhole";
@@ -164,13 +169,6 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
     const sim::Simulation s = sim::Simulate(scene, so);
     sim::SnapTrialOptions to;
     to.seed = static_cast<std::uint64_t>(seed);
-    if (const char* w = std::getenv("SNAP_IW")) to.image.window_px = std::atof(w);
-    if (const char* w = std::getenv("SNAP_SW")) to.scan.window_px = std::atof(w);
-    if (const char* w = std::getenv("SNAP_CH")) {
-      to.scan.use_bearing_angle = std::string(w).find('b') != std::string::npos;
-      to.scan.use_log_range = std::string(w).find('r') != std::string::npos;
-      to.scan.use_intensity = std::string(w).find('i') != std::string::npos;
-    }
     const sim::SnapTrial t = sim::RunSnapTrial(s, scene, to);
     ASSERT_GE(t.corners.size(), 6u);
     sum_ic += t.image_rms_click_px * t.image_rms_click_px;
@@ -181,18 +179,6 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
               << t.image_rms_click_px << " -> " << t.image_rms_snapped_px << " px ("
               << t.image_accepted << " snapped); scan RMS " << t.scan_rms_click_cells << " -> "
               << t.scan_rms_snapped_cells << " cells (" << t.scan_accepted << " snapped)\n";
-    if (std::getenv("SNAP_DEBUG"))
-      for (const auto& c : t.corners) {
-        std::cout << c.label << " true " << c.cell_true.transpose() << " click "
-                  << c.cell_click.transpose() << " refined " << c.scan_snap.refined.transpose()
-                  << "\n";
-        const int r0 = int(std::lround(c.cell_true.x())), c0 = int(std::lround(c.cell_true.y()));
-        for (int r = r0 - 3; r <= r0 + 3; ++r) {
-          for (int cc = c0 - 4; cc <= c0 + 4; ++cc)
-            std::printf("%6.2f", s.scan.valid(r, cc) ? s.scan.range_m[s.scan.index(r, cc)] : 0.f);
-          std::printf("\n");
-        }
-      }
     for (const auto& c : t.corners)
       if (env)
         std::cout << "  " << (c.convex ? "convex " : "concave ") << c.label << ": img "
@@ -219,6 +205,17 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
       for (std::size_t k = 0; k < s.pairs.size(); ++k)
         if (!s.pair_truth[k].wrong) sim_pairs.push_back(s.pairs[k]);
       const Vector2d ec = err(t.clicked_pairs), es = err(t.snapped_pairs), ei = err(sim_pairs);
+      const std::array<Vector2d, 3> e{ec, es, ei};
+      for (int k = 0; k < 3; ++k)
+        if (e[k].allFinite()) {
+          cal_sq[k] += e[k].cwiseProduct(e[k]);
+          ++cal_n[k];
+        }
+      if (ec.allFinite() && es.allFinite()) {
+        cal_better[0] += es.x() < ec.x() ? 1 : 0;
+        cal_better[1] += es.y() < ec.y() ? 1 : 0;
+        ++cal_better[2];
+      }
       std::cout << "  calibration: clicks " << ec.x() << " deg " << ec.y() * 100
                 << " cm; snapped " << es.x() << " deg " << es.y() * 100 << " cm; inset picks "
                 << ei.x() << " deg " << ei.y() * 100 << " cm\n";
@@ -228,8 +225,19 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
   std::cout << "all: image RMS " << std::sqrt(sum_ic / n) << " -> " << std::sqrt(sum_is / n)
             << " px; scan RMS " << std::sqrt(sum_sc / n) << " -> " << std::sqrt(sum_ss / n)
             << " cells\n";
-  EXPECT_LT(std::sqrt(sum_is / n), 0.6 * std::sqrt(sum_ic / n));
-  EXPECT_LT(std::sqrt(sum_ss / n), 0.8 * std::sqrt(sum_sc / n));
+  if (env) {
+    const char* names[3] = {"clicked", "snapped", "inset (simulator)"};
+    for (int k = 0; k < 3; ++k)
+      if (cal_n[k] > 0)
+        std::cout << "calibration RMS over " << cal_n[k] << " seeds, " << names[k] << " picks: "
+                  << std::sqrt(cal_sq[k].x() / cal_n[k]) << " deg, "
+                  << 100 * std::sqrt(cal_sq[k].y() / cal_n[k]) << " cm\n";
+    std::cout << "snapped better than clicked: rotation in " << cal_better[0] << ", translation in "
+              << cal_better[1] << " of " << cal_better[2] << " seeds\n";
+  }
+  // Measured (seed 1, pinhole + lidar): image 2.09 -> 0.92 px, scan 1.20 -> 0.75 cells.
+  EXPECT_LT(std::sqrt(sum_is / n), 0.75 * std::sqrt(sum_ic / n));
+  EXPECT_LT(std::sqrt(sum_ss / n), 0.75 * std::sqrt(sum_sc / n));
 }
 
 }  // namespace

@@ -46,10 +46,14 @@ SnapTrial RunSnapTrial(const Simulation& sim, const Scene& scene, const SnapTria
     p.image_v = c.uv_click.y();
     p.scan_row = c.cell_click.x();
     p.scan_col = c.cell_click.y();
-    trial.clicked_pairs.push_back(p);
-    ApplyImageSnap(c.image_snap, p);
-    ApplyScanSnap(c.scan_snap, p);
-    trial.snapped_pairs.push_back(p);
+    PointPair q = p;
+    ApplyImageSnap(c.image_snap, q);
+    ApplyScanSnap(c.scan_snap, q);
+    // A click on a cell without a return gives no pair (a user would click again).
+    if (PairLaserPoint(p, &sim.scan) && PairLaserPoint(q, &sim.scan)) {
+      trial.clicked_pairs.push_back(p);
+      trial.snapped_pairs.push_back(q);
+    }
     trial.corners.push_back(std::move(c));
   }
   const double n = static_cast<double>(trial.corners.size());

@@ -53,7 +53,7 @@ namespace scancam {
 /// Options of a snap on the photo (defaults measured on the simulator, README "Snap to the
 /// feature").
 struct SnapOptions {
-  double window_px = 5.0;  ///< half-width of the window (view pixels: image px or scan cells)
+  double window_px = 3.0;  ///< half-width of the window (view pixels: image px or scan cells)
   /// Smallest accepted strength (smaller eigenvalue of the mean structure tensor; units above).
   double min_corner_strength = 1e-4;
   double max_shift_px = 4.0;  ///< farthest a pick may move (view pixels)
@@ -64,7 +64,7 @@ struct ScanSnapOptions : SnapOptions {
   ScanSnapOptions() {
     window_px = 3.0;
     min_corner_strength = 10.0;
-    max_shift_px = 3.0;
+    max_shift_px = 2.5;
   }
   bool use_bearing_angle = true;  ///< BA along rows and along columns
   bool use_log_range = true;      ///< ln(range_m)

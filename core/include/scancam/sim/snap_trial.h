@@ -10,7 +10,8 @@
 //
 // The pairs are returned too: `clicked_pairs` (image = the click, scan = the clicked cell, as a
 // user without snapping would store them) and `snapped_pairs` (ApplyImageSnap / ApplyScanSnap), so
-// that a caller can calibrate with both and compare with sim.T_cam_scan.
+// that a caller can calibrate with both and compare with sim.T_cam_scan. A corner whose clicked or
+// snapped cell has no laser point (no return there) gives no pair (a user would click again).
 #pragma once
 
 #include <Eigen/Core>
