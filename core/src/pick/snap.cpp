@@ -89,6 +89,24 @@ cv::Mat DivideByNoise(const cv::Mat& f, double floor) {
   return f * (1.0 / sigma);
 }
 
+// Subtracts the median gradient of the crop: a channel that changes smoothly (the range or the BA
+// of a plane seen obliquely) has an almost constant gradient, which is no feature; two such
+// channels with different directions (BA along rows and along columns) would otherwise add up
+// to a tensor of rank 2 on a flat wall. Edges cover few cells of the crop and leave the median
+// to the flat parts.
+void RemoveMedianGradient(Gradient& g) {
+  for (cv::Mat* m : {&g.gx, &g.gy}) {
+    std::vector<float> v;
+    for (int y = 0; y < m->rows; ++y)
+      for (int x = 0; x < m->cols; ++x)
+        if (std::isfinite(m->at<float>(y, x))) v.push_back(m->at<float>(y, x));
+    if (v.empty()) continue;
+    auto mid = v.begin() + static_cast<long>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    *m -= *mid;  // NaN stays NaN
+  }
+}
+
 struct Tensor {
   Eigen::Matrix2d A = Eigen::Matrix2d::Zero();  // sum w |g| n n^T: the lines, for the position
   Eigen::Vector2d b = Eigen::Vector2d::Zero();  // sum w |g| n n^T x
@@ -144,43 +162,63 @@ Tensor Accumulate(const std::vector<Gradient>& grads, const Eigen::Vector2d& p, 
 }
 
 // Foerstner's iteration from `start` (crop coordinates). Fills refined/strength/edge_strength.
-// Returns false (with `why`) when the window has no usable gradients or the system is singular.
+// Returns false (with `why`) when the window has no usable gradients, has no structure in two
+// directions at the start (a flat part or a straight edge: the iteration would slide along it),
+// or the refinement leaves the data.
 bool Refine(const std::vector<Gradient>& grads, const Eigen::Vector2d& start, double window,
-            double max_travel, Eigen::Vector2d* refined, double* strength, double* edge_strength,
-            std::string* why) {
+            double min_strength, double max_travel, Eigen::Vector2d* refined, double* strength,
+            double* edge_strength, std::string* why) {
   Eigen::Vector2d p = start;
+  double start_strength = 0.0, start_edge = 0.0;
+  // When the refinement fails or runs away from a click that has no structure in two directions
+  // (a flat part, or a straight edge along which it slides), the click is "no corner here".
+  auto no_corner_at_start = [&]() {
+    if (start_strength >= min_strength) return false;
+    *refined = start;
+    *strength = start_strength;
+    *edge_strength = start_edge;
+    return true;
+  };
   for (int it = 0; it < 30; ++it) {
     const Tensor t = Accumulate(grads, p, window);
     if (t.wsum <= 0.0) {
-      *why = "no data under the window";
+      if (it > 0 && no_corner_at_start()) return true;
+      *why = it == 0 ? "no data under the window" : "the refinement left the data";
       return false;
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(t.S / t.wsum);
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> ea(t.A);
-    if (!(es.eigenvalues()(0) > 0.0) || !(ea.eigenvalues()(0) > 1e-9 * ea.eigenvalues()(1))) {
+    if (it == 0) {
+      start_strength = std::max(0.0, es.eigenvalues()(0));
+      start_edge = std::max(0.0, es.eigenvalues()(1));
+    }
+    if (!(ea.eigenvalues()(0) > 1e-9 * ea.eigenvalues()(1))) {
+      if (no_corner_at_start()) return true;
       *why = "no corner here (no structure in two directions under the window)";
-      *strength = std::max(0.0, es.eigenvalues()(0));
-      *edge_strength = std::max(0.0, es.eigenvalues()(1));
       return false;
     }
     const Eigen::Vector2d next = t.A.ldlt().solve(t.b);
     if (!next.allFinite()) {
+      if (no_corner_at_start()) return true;
       *why = "no corner here (singular structure tensor)";
       return false;
     }
     const double step = (next - p).norm();
     p = next;
     // Far beyond where it may go: stop early (reported as too far by the caller).
-    if ((p - start).norm() > max_travel + 2.0 * window) break;
+    if ((p - start).norm() > max_travel + window) {
+      if (no_corner_at_start()) return true;
+      break;
+    }
     if (step < 0.01) break;
   }
   const Tensor t = Accumulate(grads, p, window);
+  *refined = p;
   if (t.wsum <= 0.0) {
-    *why = "no data under the window";
-    return false;
+    *strength = *edge_strength = 0.0;
+    return true;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(t.S / t.wsum);
-  *refined = p;
   *strength = std::max(0.0, es.eigenvalues()(0));
   *edge_strength = std::max(0.0, es.eigenvalues()(1));
   return true;
@@ -274,8 +312,8 @@ SnapResult SnapImagePoint(const cv::Mat& image, const Eigen::Vector2d& uv,
   const std::vector<Gradient> grads{Differentiate(grey)};
   const Eigen::Vector2d start(uv.x() - c.x0, uv.y() - c.y0);
   Eigen::Vector2d refined;
-  if (!Refine(grads, start, options.window_px, options.max_shift_px, &refined, &r.strength,
-              &r.edge_strength, &r.why)) {
+  if (!Refine(grads, start, options.window_px, options.min_corner_strength, options.max_shift_px,
+              &refined, &r.strength, &r.edge_strength, &r.why)) {
     r.shift_px = kNaN;
     return r;
   }
@@ -355,10 +393,11 @@ SnapResult SnapScanCell(const OrderedScan& scan, const Eigen::Vector2d& row_col,
       grads.push_back(Differentiate(DivideByNoise(in, 1e-3)));
     }
   }
+  for (Gradient& g : grads) RemoveMedianGradient(g);
   const Eigen::Vector2d start(col - c.x0, row - c.y0);
   Eigen::Vector2d refined;
-  if (!Refine(grads, start, options.window_px, options.max_shift_px, &refined, &r.strength,
-              &r.edge_strength, &r.why)) {
+  if (!Refine(grads, start, options.window_px, options.min_corner_strength, options.max_shift_px,
+              &refined, &r.strength, &r.edge_strength, &r.why)) {
     r.shift_px = kNaN;
     return r;
   }
