@@ -17,6 +17,7 @@
 #include "scancam/sim/simulate.h"
 #include "scancam/sim/snap_trial.h"
 #include "scancam/solve/calibrate.h"
+#include "test_util.h"
 
 namespace scancam {
 namespace {
@@ -238,6 +239,44 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
   // Measured (seed 1, pinhole + lidar): image 2.09 -> 0.92 px, scan 1.20 -> 0.75 cells.
   EXPECT_LT(std::sqrt(sum_is / n), 0.75 * std::sqrt(sum_ic / n));
   EXPECT_LT(std::sqrt(sum_ss / n), 0.75 * std::sqrt(sum_sc / n));
+}
+
+// scancam calibrate --snap: prints a line per pair, writes the snapped pairs only to a new file,
+// leaves the input alone and refuses to write over it.
+TEST(SnapCli, CalibrateSnapWritesANewPairsFile) {
+  const std::string dir = test::TempDir();
+  ASSERT_EQ(test::RunCli(dir, "simulate --out \"" + dir +
+                                  "/sim\" --scanner lidar --camera pinhole --pairs 8 "
+                                  "--pick-sigma-px 1.5 --pick-sigma-cells 1 --supersample 1 --quiet"),
+            0)
+      << test::ReadFile(dir + "/stderr.txt");
+  const std::string sim = dir + "/sim/";
+  const std::string before = test::ReadFile(sim + "pairs.csv");
+  const std::string common = "calibrate --camera \"" + sim + "camera.yaml\" --pairs \"" + sim +
+                             "pairs.csv\" --scan \"" + sim + "scan.pcd\" --image \"" + sim +
+                             "image.png\" --out \"" + dir + "/calib.json\" --snap";
+  ASSERT_EQ(test::RunCli(dir, common + " --snap-out \"" + dir + "/snapped.csv\""), 0)
+      << test::ReadFile(dir + "/stderr.txt");
+  const std::string out = test::ReadFile(dir + "/stdout.txt");
+  EXPECT_NE(out.find("snap pair 1 (line 2"), std::string::npos) << out;
+  EXPECT_NE(out.find("pairs moved"), std::string::npos) << out;
+  EXPECT_EQ(test::ReadFile(sim + "pairs.csv"), before);
+  const std::vector<PointPair> a = ReadPairsCsv(sim + "pairs.csv");
+  const std::vector<PointPair> b = ReadPairsCsv(dir + "/snapped.csv");
+  ASSERT_EQ(a.size(), b.size());
+  int moved = 0;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].label, b[k].label);
+    const double d = std::hypot(a[k].image_u - b[k].image_u, a[k].image_v - b[k].image_v);
+    EXPECT_LE(d, SnapOptions().max_shift_px + 1e-9);
+    moved += d > 0 ? 1 : 0;
+  }
+  EXPECT_GT(moved, 0);
+  // Never over the input.
+  EXPECT_EQ(test::RunCli(dir, common + " --snap-out \"" + sim + "pairs.csv\""), 1);
+  EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("never overwrites an input"),
+            std::string::npos);
+  EXPECT_EQ(test::ReadFile(sim + "pairs.csv"), before);
 }
 
 }  // namespace
