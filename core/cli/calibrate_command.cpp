@@ -55,8 +55,7 @@ std::vector<PointPair> SnapPairs(const std::vector<PointPair>& pairs, const cv::
     if (quiet) continue;
     std::cout << "snap pair " << k + 1 << " (line " << p.line
               << (p.label.empty() ? "" : ", " + p.label) << "): " << (ok ? "moved" : "kept")
-              << "; image " << (ri ? describe(*ri, "px") : "not snapped (no --image)")
-              << "; scan "
+              << "; image " << (ri ? describe(*ri, "px") : "not snapped (no --image)") << "; scan "
               << (rs ? describe(*rs, "cells")
                      : (scan ? "not snapped (no scan cell)" : "not snapped (no --scan)"))
               << "\n";

@@ -903,10 +903,11 @@ void CalibrationWindow::clickWithSnap(bool image, double a, double b) {
         at = camera_view_->pixelToWidget(QPointF(a, b));
         marker = camera_view_->pixelToWidget(p.snapped);
       } else if (scan_) {
-        ImageView* v = scan_views_[static_cast<std::size_t>(std::max(0, scan_tabs_->currentIndex()))];
+        ImageView* v =
+            scan_views_[static_cast<std::size_t>(std::max(0, scan_tabs_->currentIndex()))];
         auto px = [&](const QPointF& rc) {
-          return v->pixelToWidget(CellToViewPixel(QPointF(rc.y(), rc.x()), scan_->rows,
-                                                  scan_->cols, orientation_));
+          return v->pixelToWidget(
+              CellToViewPixel(QPointF(rc.y(), rc.x()), scan_->rows, scan_->cols, orientation_));
         };
         at = px(QPointF(a, b));
         marker = px(p.snapped);

@@ -80,7 +80,7 @@ TEST(SnapImage, KeepsTheClickOnAnEdgeAFlatAreaOrTooFar) {
   EXPECT_LT((far.refined - Vector2d(40.3, 27.65)).norm(), 0.2);
 
   EXPECT_FALSE(SnapImagePoint(img, Vector2d(-5, 3)).accepted);  // outside
-  EXPECT_FALSE(SnapImagePoint(img, Vector2d(0, 0)).accepted);    // corner of the image: flat
+  EXPECT_FALSE(SnapImagePoint(img, Vector2d(0, 0)).accepted);   // corner of the image: flat
   SnapOptions bad;
   bad.window_px = 0.5;
   EXPECT_THROW(SnapImagePoint(img, Vector2d(40, 27), bad), Error);
@@ -119,10 +119,11 @@ TEST(SnapScan, FindsTheCornerOfANearFaceAndItsPoint) {
   ASSERT_TRUE(r.accepted) << r.why;
   // The board edge lies between the last board cell and the first wall cell: the step in the
   // grid is found half-way between them, i.e. within half a cell of the true corner.
-  EXPECT_LT((r.position - cell).norm(), 0.6) << r.position.transpose() << " vs " << cell.transpose();
+  EXPECT_LT((r.position - cell).norm(), 0.6)
+      << r.position.transpose() << " vs " << cell.transpose();
   EXPECT_TRUE(r.on_depth_step);
   ASSERT_TRUE(r.point_m.has_value());
-  EXPECT_NEAR(r.point_m->x(), 4.0, 0.01);  // on the near face, not the wall behind
+  EXPECT_NEAR(r.point_m->x(), 4.0, 0.01);         // on the near face, not the wall behind
   EXPECT_LT((*r.point_m - corner).norm(), 0.04);  // 0.04 m ~ 2 cells at 4 m
 
   // The pair gets the cell and the point (which wins over the cell on reading).
@@ -217,9 +218,9 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
         cal_better[1] += es.y() < ec.y() ? 1 : 0;
         ++cal_better[2];
       }
-      std::cout << "  calibration: clicks " << ec.x() << " deg " << ec.y() * 100
-                << " cm; snapped " << es.x() << " deg " << es.y() * 100 << " cm; inset picks "
-                << ei.x() << " deg " << ei.y() * 100 << " cm\n";
+      std::cout << "  calibration: clicks " << ec.x() << " deg " << ec.y() * 100 << " cm; snapped "
+                << es.x() << " deg " << es.y() * 100 << " cm; inset picks " << ei.x() << " deg "
+                << ei.y() * 100 << " cm\n";
     }
   }
   const double n = seeds;
@@ -230,8 +231,8 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
     const char* names[3] = {"clicked", "snapped", "inset (simulator)"};
     for (int k = 0; k < 3; ++k)
       if (cal_n[k] > 0)
-        std::cout << "calibration RMS over " << cal_n[k] << " seeds, " << names[k] << " picks: "
-                  << std::sqrt(cal_sq[k].x() / cal_n[k]) << " deg, "
+        std::cout << "calibration RMS over " << cal_n[k] << " seeds, " << names[k]
+                  << " picks: " << std::sqrt(cal_sq[k].x() / cal_n[k]) << " deg, "
                   << 100 * std::sqrt(cal_sq[k].y() / cal_n[k]) << " cm\n";
     std::cout << "snapped better than clicked: rotation in " << cal_better[0] << ", translation in "
               << cal_better[1] << " of " << cal_better[2] << " seeds\n";
@@ -245,10 +246,11 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
 // leaves the input alone and refuses to write over it.
 TEST(SnapCli, CalibrateSnapWritesANewPairsFile) {
   const std::string dir = test::TempDir();
-  ASSERT_EQ(test::RunCli(dir, "simulate --out \"" + dir +
-                                  "/sim\" --scanner lidar --camera pinhole --pairs 8 "
-                                  "--pick-sigma-px 1.5 --pick-sigma-cells 1 --supersample 1 --quiet"),
-            0)
+  ASSERT_EQ(
+      test::RunCli(dir, "simulate --out \"" + dir +
+                            "/sim\" --scanner lidar --camera pinhole --pairs 8 "
+                            "--pick-sigma-px 1.5 --pick-sigma-cells 1 --supersample 1 --quiet"),
+      0)
       << test::ReadFile(dir + "/stderr.txt");
   const std::string sim = dir + "/sim/";
   const std::string before = test::ReadFile(sim + "pairs.csv");

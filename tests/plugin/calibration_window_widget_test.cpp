@@ -25,8 +25,8 @@
 #include <QtTest>
 #include <filesystem>
 #include <memory>
-#include <optional>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 
 #include "scancam/io/pairs_csv.h"
 #include "scancam/pick/snap.h"
@@ -656,8 +656,7 @@ class CalibrationWindowTest : public QObject {
     const QPointF received = w->cameraView()->markers()[0].px;
     QCOMPARE(w->cameraView()->markers()[0].text, QString("click"));
     QVERIFY(std::abs(received.x() - click.x()) < 1.0);
-    const auto again =
-        scancam::SnapImagePoint(bgr, Eigen::Vector2d(received.x(), received.y()));
+    const auto again = scancam::SnapImagePoint(bgr, Eigen::Vector2d(received.x(), received.y()));
     QVERIFY(again.accepted);
     QVERIFY(std::abs(shown.px.x() - again.position.x()) < 1e-9);
     QVERIFY(std::abs(shown.px.y() - again.position.y()) < 1e-9);

@@ -368,8 +368,8 @@ SnapResult SnapScanCell(const OrderedScan& scan, const Eigen::Vector2d& row_col,
     cv::Mat lr(sub.rows, sub.cols, CV_32FC1);
     for (int y = 0; y < sub.rows; ++y)
       for (int x = 0; x < sub.cols; ++x)
-        lr.at<float>(y, x) = sub.valid(y, x) ? std::log(sub.range_m[sub.index(y, x)])
-                                             : static_cast<float>(kNaN);
+        lr.at<float>(y, x) =
+            sub.valid(y, x) ? std::log(sub.range_m[sub.index(y, x)]) : static_cast<float>(kNaN);
     grads.push_back(Differentiate(DivideByNoise(lr, 1e-4)));
   }
   if (intensity) {
@@ -388,8 +388,8 @@ SnapResult SnapScanCell(const OrderedScan& scan, const Eigen::Vector2d& row_col,
       cv::Mat in(sub.rows, sub.cols, CV_32FC1);
       for (int y = 0; y < sub.rows; ++y)
         for (int x = 0; x < sub.cols; ++x)
-          in.at<float>(y, x) = sub.valid(y, x) ? sub.intensity[sub.index(y, x)] / scale
-                                               : static_cast<float>(kNaN);
+          in.at<float>(y, x) =
+              sub.valid(y, x) ? sub.intensity[sub.index(y, x)] / scale : static_cast<float>(kNaN);
       grads.push_back(Differentiate(DivideByNoise(in, 1e-3)));
     }
   }
@@ -408,7 +408,8 @@ SnapResult SnapScanCell(const OrderedScan& scan, const Eigen::Vector2d& row_col,
   // The laser point at the snapped cell.
   const double pr = r.position.x(), pc = r.position.y();
   const int r0 = static_cast<int>(std::floor(pr)), c0 = static_cast<int>(std::floor(pc));
-  std::array<std::array<int, 2>, 4> around{{{r0, c0}, {r0 + 1, c0}, {r0, c0 + 1}, {r0 + 1, c0 + 1}}};
+  std::array<std::array<int, 2>, 4> around{
+      {{r0, c0}, {r0 + 1, c0}, {r0, c0 + 1}, {r0 + 1, c0 + 1}}};
   // Seed of the near face: the nearest valid of the (up to) four cells around the position.
   int seed = -1;
   for (const auto& rc : around) {
@@ -478,8 +479,9 @@ SnapResult SnapScanCell(const OrderedScan& scan, const Eigen::Vector2d& row_col,
     const Eigen::Vector3d b = scan.beam_dir[i].cast<double>();
     if (!b.allFinite()) continue;
     const Eigen::Vector3d o =
-        scan.valid(i) ? Eigen::Vector3d(scan.point_m[i].cast<double>() - double(scan.range_m[i]) * b)
-                      : scan.origin_m;
+        scan.valid(i)
+            ? Eigen::Vector3d(scan.point_m[i].cast<double>() - double(scan.range_m[i]) * b)
+            : scan.origin_m;
     dir += weights[k] * b;
     origin += weights[k] * o;
     wsum += weights[k];
@@ -520,7 +522,8 @@ void ApplyScanSnap(const SnapResult& snap, PointPair& pair) {
 }
 
 std::string DescribeSnap(const SnapResult& snap) {
-  if (snap.accepted) return "snapped " + Num(snap.shift_px) + " px (strength " + Num(snap.strength) + ")";
+  if (snap.accepted)
+    return "snapped " + Num(snap.shift_px) + " px (strength " + Num(snap.strength) + ")";
   return "kept: " + snap.why;
 }
 

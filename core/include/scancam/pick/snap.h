@@ -66,9 +66,9 @@ struct ScanSnapOptions : SnapOptions {
     min_corner_strength = 10.0;
     max_shift_px = 2.5;
   }
-  bool use_bearing_angle = true;  ///< BA along rows and along columns
-  bool use_log_range = true;      ///< ln(range_m)
-  bool use_intensity = true;      ///< intensity / its 99th percentile, when the scan has it
+  bool use_bearing_angle = true;       ///< BA along rows and along columns
+  bool use_log_range = true;           ///< ln(range_m)
+  bool use_intensity = true;           ///< intensity / its 99th percentile, when the scan has it
   InterpolationOptions interpolation;  ///< what counts as a depth step (io/pairs_csv.h)
 };
 
@@ -80,10 +80,10 @@ struct SnapResult {
   Eigen::Vector2d click = Eigen::Vector2d::Zero();  ///< the position given
   /// Where the refinement went (also when it was rejected for moving too far; NaN when it failed).
   Eigen::Vector2d refined = Eigen::Vector2d::Constant(PointPair::kNaN);
-  double shift_px = 0.0;         ///< |refined - click| (view pixels; NaN when it failed)
-  double strength = 0.0;         ///< smaller eigenvalue of the mean structure tensor
-  double edge_strength = 0.0;    ///< larger eigenvalue (strong edge, weak corner: an edge)
-  std::string why;               ///< plain words: what was found, or why the click was kept
+  double shift_px = 0.0;       ///< |refined - click| (view pixels; NaN when it failed)
+  double strength = 0.0;       ///< smaller eigenvalue of the mean structure tensor
+  double edge_strength = 0.0;  ///< larger eigenvalue (strong edge, weak corner: an edge)
+  std::string why;             ///< plain words: what was found, or why the click was kept
   /// Scan only: the laser point (scanner frame, metres) at `position` (see the file comment);
   /// nullopt when there is none (invalid cells) or on the photo.
   std::optional<Eigen::Vector3d> point_m;
