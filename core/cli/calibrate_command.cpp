@@ -4,6 +4,7 @@
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <sstream>
 
 #include "command.h"
@@ -14,11 +15,54 @@
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/output_file.h"
+#include "scancam/pick/snap.h"
 #include "scancam/solve/calibrate.h"
 #include "valid_region_options.h"
 
 namespace scancam::cli {
 namespace {
+
+// --snap: each pick moved to the corner under it (pick/snap.h), one line per pair on stdout.
+// A pair moves only when every side that can be snapped found its corner: moving one side alone
+// would pair a corner with a pick that may have been made beside it on purpose (e.g. inside the
+// face of a convex corner on the scan), which is worse than no snapping (measured on the
+// simulator's inset picks).
+std::vector<PointPair> SnapPairs(const std::vector<PointPair>& pairs, const cv::Mat& image,
+                                 const OrderedScan* scan, bool quiet) {
+  std::vector<PointPair> out = pairs;
+  int moved = 0;
+  auto describe = [](const SnapResult& r, const char* unit) {
+    std::ostringstream s;
+    s << std::fixed << std::setprecision(2);
+    if (r.accepted)
+      s << "(" << r.shift().x() << ", " << r.shift().y() << ") = " << r.shift_px << " " << unit
+        << (r.on_depth_step ? ", on a depth step: x,y,z of the near face" : "");
+    else
+      s << "no (" << r.why << ")";
+    return s.str();
+  };
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    PointPair& p = out[k];
+    std::optional<SnapResult> ri, rs;
+    if (!image.empty()) ri = SnapImagePoint(image, {p.image_u, p.image_v});
+    if (scan && p.has_scan_cell()) rs = SnapScanCell(*scan, {p.scan_row, p.scan_col});
+    const bool ok = (ri || rs) && (!ri || ri->accepted) && (!rs || rs->accepted);
+    if (ok) {
+      if (ri) ApplyImageSnap(*ri, p);
+      if (rs) ApplyScanSnap(*rs, p);
+      ++moved;
+    }
+    if (quiet) continue;
+    std::cout << "snap pair " << k + 1 << " (line " << p.line
+              << (p.label.empty() ? "" : ", " + p.label) << "): " << (ok ? "moved" : "kept")
+              << "; image " << (ri ? describe(*ri, "px") : "not snapped (no --image)") << "; scan "
+              << (rs ? describe(*rs, "cells")
+                     : (scan ? "not snapped (no scan cell)" : "not snapped (no --scan)"))
+              << "\n";
+  }
+  if (!quiet) std::cout << "snap: " << moved << " of " << out.size() << " pairs moved\n";
+  return out;
+}
 
 // The photo with every pair: the picked pixel (circle), the calibrated projection of its laser
 // point (cross) joined by the residual, green for inliers and red for flagged pairs, numbered;
@@ -92,6 +136,14 @@ int RunCalibrate(const Args& args) {
   std::vector<NamedPath> outputs = {{"--out", out_path},
                                     {"--valid-region-out", args.get("--valid-region-out")}};
   for (const auto& p : plot_paths) outputs.push_back({"--plot", p});
+  std::vector<std::string> snap_paths;
+  if (args.has("--snap-out")) {
+    for (std::size_t k = 0; k < scenes; ++k) {
+      snap_paths.push_back(scenes == 1 ? args.get("--snap-out")
+                                       : ScenePath(args.get("--snap-out"), k));
+      outputs.push_back({"--snap-out", snap_paths.back()});
+    }
+  }
   std::vector<NamedPath> inputs = {
       {"--camera", camera_path}, {"--mask", args.get("--mask")}, {"--truth", args.get("--truth")}};
   for (const auto& p : pairs_paths) inputs.push_back({"--pairs", p});
@@ -115,6 +167,19 @@ int RunCalibrate(const Args& args) {
     scans[k] = LoadScan(scan_paths[k], ParseScanLoadOptions(args), Progress(StderrProgress(quiet)));
   }
   const bool have_scan = !scans.empty();
+  if (args.has("--snap-out") && !args.has("--snap")) throw Error("--snap-out needs --snap");
+  if (args.has("--snap")) {
+    if (images.empty() && !have_scan) throw Error("--snap needs --image and/or --scan");
+    for (std::size_t k = 0; k < scenes; ++k) {
+      const cv::Mat scene_image = k < images.size() ? images[k] : cv::Mat();
+      scene_pairs[k] =
+          SnapPairs(scene_pairs[k], scene_image, have_scan ? &scans[k] : nullptr, quiet);
+      if (!snap_paths.empty()) {
+        WritePairsCsv(snap_paths[k], scene_pairs[k]);
+        if (!quiet) std::cout << "wrote " << snap_paths[k] << "\n";
+      }
+    }
+  }
 
   CalibrateOptions opt;
   // A mask file wins; else the valid region found from the camera (and the image, if given).
@@ -149,6 +214,7 @@ int RunCalibrate(const Args& args) {
     return scenes == 1 ? nlohmann::json(v[0]) : nlohmann::json(v);
   };
   nlohmann::json json_inputs = {{"camera", camera_path}, {"pairs", names(pairs_paths)}};
+  if (args.has("--snap")) json_inputs["snapped"] = true;
   if (have_scan) json_inputs["scan"] = names(scan_paths);
   if (!image_paths.empty()) json_inputs["image"] = names(image_paths);
   nlohmann::json out = CalibrationToJson(cal, json_inputs);
@@ -302,6 +368,13 @@ Command MakeCalibrateCommand() {
            "Refine the paper's eq. 7 as written (every pair weighs the same) instead of the "
            "maximum-likelihood weighting by the picking noise."},
           {"--seed", "N", "RANSAC random seed (same seed, same result). Default 1."},
+          {"--snap", "",
+           "Before solving, move each pick to the corner under it: sub-pixel on the --image, "
+           "sub-cell on the --scan (README \"Snap to the feature\"). A pair moves only when each "
+           "of its snapped sides found a corner; otherwise it is kept as picked. Prints each "
+           "pair's shifts. The pairs file is not changed."},
+          {"--snap-out", "FILE",
+           "With --snap: write the snapped pairs to this new pairs file (never the input)."},
           {"--truth", "FILE",
            "A JSON with the true T_cam_scan (e.g. the simulator's ground_truth.json): print "
            "and store the error against it."},

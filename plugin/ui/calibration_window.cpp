@@ -45,6 +45,7 @@
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/pick/snap.h"
 #include "scancam/rotation_rpy.h"
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
@@ -304,6 +305,20 @@ void CalibrationWindow::buildUi() {
   act_export_->setShortcut(QKeySequence(tr("Ctrl+E")));
   act_mask_->setShortcut(QKeySequence(tr("Ctrl+M")));
   act_delete_->setShortcuts({QKeySequence(Qt::Key_Delete), QKeySequence(Qt::Key_Backspace)});
+  act_snap_ = new QAction(tr("Snap to corners"), this);
+  act_snap_->setObjectName("snapAction");
+  act_snap_->setCheckable(true);
+  act_snap_->setShortcut(QKeySequence(tr("Ctrl+K")));
+  act_snap_->setToolTip(
+      tr("Refine each click to the corner under it (sub-pixel on the photo, sub-cell on the "
+         "scan), shown before it is kept: Enter keeps it, Esc keeps the click. Shift+click "
+         "inverts this for one click. (Ctrl+K)"));
+  connect(act_snap_, &QAction::toggled, this, [this](bool on) {
+    if (!on && pending_snap_) resolveSnap(false);
+    setStatus(on ? tr("Snap on: clicks are refined to the corner under them")
+                 : tr("Snap off: clicks are kept as clicked"),
+              kInfo);
+  });
   act_pick3d_ = new QAction(tr("Pick in 3D view"), this);
   act_pick3d_->setCheckable(true);
   act_pick3d_->setToolTip(tr("Pick the laser side of pairs on the cloud in the 3D view"));
@@ -377,6 +392,7 @@ void CalibrationWindow::buildUi() {
   tb->addAction(act_save_pairs_);
   tb->addAction(act_delete_);  // Undo / Redo: Pairs menu and Ctrl+Z (the toolbar stays short)
   tb->addAction(act_pick3d_);
+  tb->addAction(act_snap_);
   tb->addSeparator();
   tb->addWidget(method_combo_);
   tb->addAction(act_calibrate_);
@@ -417,6 +433,7 @@ void CalibrationWindow::buildUi() {
   pairs->addSeparator();
   pairs->addAction(act_delete_);
   pairs->addAction(act_pick3d_);
+  pairs->addAction(act_snap_);
   pairs->addAction(tr("Deselect"), this, [this] { table_->clearSelection(); });
   QMenu* calib = menuBar()->addMenu(tr("&Calibration"));
   calib->addAction(act_calibrate_);
@@ -982,12 +999,96 @@ int CalibrationWindow::selectedPair() const {
   return rows.isEmpty() ? -1 : rows.front().row();
 }
 
-void CalibrationWindow::onCameraClicked(double u, double v) { addImagePick(u, v); }
+void CalibrationWindow::onCameraClicked(double u, double v) { clickWithSnap(true, u, v); }
 
 void CalibrationWindow::onScanClicked(double x, double y) {
   if (!scan_) return;
   const QPointF cell = scanViewPixelToCell({x, y});
-  addScanPick(cell.y(), cell.x());
+  clickWithSnap(false, cell.y(), cell.x());
+}
+
+void CalibrationWindow::clickWithSnap(bool image, double a, double b) {
+  // A click on the shown snapped marker keeps it; any other click drops the proposal.
+  if (pending_snap_) {
+    const PendingSnap p = *pending_snap_;
+    pending_snap_.reset();
+    if (p.image == image) {
+      QPoint at, marker;
+      if (image) {
+        at = camera_view_->pixelToWidget(QPointF(a, b));
+        marker = camera_view_->pixelToWidget(p.snapped);
+      } else if (scan_) {
+        ImageView* v =
+            scan_views_[static_cast<std::size_t>(std::max(0, scan_tabs_->currentIndex()))];
+        auto px = [&](const QPointF& rc) {
+          return v->pixelToWidget(cellToScanViewPixel(QPointF(rc.y(), rc.x())));
+        };
+        at = px(QPointF(a, b));
+        marker = px(p.snapped);
+      }
+      if ((at - marker).manhattanLength() <= 3) {
+        pending_snap_ = p;
+        resolveSnap(true);
+        return;
+      }
+    }
+    refreshMarkers();
+  }
+  const bool shift = QApplication::keyboardModifiers() & Qt::ShiftModifier;
+  const bool snap = act_snap_->isChecked() != shift;
+  if (!snap) {
+    if (image)
+      addImagePick(a, b);
+    else
+      addScanPick(a, b);
+    return;
+  }
+  guarded(tr("Snap"), [&] {
+    SnapResult r;
+    if (image) {
+      if (image_bgr_.empty()) {
+        addImagePick(a, b);  // says what is missing
+        return;
+      }
+      r = SnapImagePoint(image_bgr_, Eigen::Vector2d(a, b));
+    } else {
+      r = SnapScanCell(*scan_, Eigen::Vector2d(a, b));
+    }
+    if (!r.accepted) {
+      if (image)
+        addImagePick(a, b);
+      else
+        addScanPick(a, b);
+      setStatus(tr("Snap: %1; the click is kept as clicked").arg(QString::fromStdString(r.why)),
+                kInfo);
+      return;
+    }
+    PendingSnap p;
+    p.image = image;
+    p.click = QPointF(a, b);
+    p.snapped = QPointF(r.position.x(), r.position.y());
+    p.shift = r.shift_px;
+    pending_snap_ = p;
+    refreshMarkers();
+    setStatus(tr("Corner found %1 %2 away (strength %3): Enter or a click on the green marker "
+                 "keeps it, Esc keeps your click")
+                  .arg(r.shift_px, 0, 'f', 2)
+                  .arg(image ? tr("px") : tr("cells"))
+                  .arg(r.strength, 0, 'g', 3),
+              kInfo);
+  });
+}
+
+void CalibrationWindow::resolveSnap(bool snapped) {
+  if (!pending_snap_) return;
+  const PendingSnap p = *pending_snap_;
+  pending_snap_.reset();
+  const QPointF at = snapped ? p.snapped : p.click;
+  if (p.image)
+    addImagePick(at.x(), at.y());
+  else
+    addScanPick(at.x(), at.y());
+  refreshMarkers();
 }
 
 void CalibrationWindow::addImagePick(double u, double v) {
@@ -1086,6 +1187,29 @@ void CalibrationWindow::refreshMarkers() {
         m.px = cellToScanViewPixel(QPointF(g.scan_col, g.scan_row));
         scan_markers.push_back(m);
       }
+    }
+  }
+  // A snapped point waiting to be kept: green "snap", grey "click" where the click was.
+  if (pending_snap_) {
+    Marker snapped, click;
+    snapped.colour = QColor(0, 230, 90);
+    snapped.selected = true;
+    snapped.text = tr("snap %1").arg(pending_snap_->shift, 0, 'f', 1);
+    click.colour = QColor(170, 170, 170);
+    click.text = tr("click");
+    if (pending_snap_->image) {
+      snapped.px = pending_snap_->snapped;
+      click.px = pending_snap_->click;
+      image_markers.push_back(click);
+      image_markers.push_back(snapped);
+    } else if (scan_) {
+      auto view_px = [&](const QPointF& rc) {
+        return cellToScanViewPixel(QPointF(rc.y(), rc.x()));
+      };
+      snapped.px = view_px(pending_snap_->snapped);
+      click.px = view_px(pending_snap_->click);
+      scan_markers.push_back(click);
+      scan_markers.push_back(snapped);
     }
   }
   camera_view_->setMarkers(image_markers);
@@ -1661,6 +1785,11 @@ bool CalibrationWindow::handleKey(QKeyEvent* event) {
   if (key == Qt::Key_unknown || key == Qt::Key_Shift || key == Qt::Key_Control ||
       key == Qt::Key_Alt || key == Qt::Key_Meta)
     return false;
+  if (pending_snap_ && event->modifiers() == Qt::NoModifier &&
+      (key == Qt::Key_Escape || key == Qt::Key_Return || key == Qt::Key_Enter)) {
+    resolveSnap(key != Qt::Key_Escape);
+    return true;
+  }
   if (key == Qt::Key_Escape && event->modifiers() == Qt::NoModifier) {
     table_->clearSelection();
     setStatus(tr("No pair selected: clicks add pairs"), kInfo);

@@ -41,6 +41,16 @@
 // the cell under the mouse (scan_view.h LookUpCell: x,y,z, range, intensity, azimuth,
 // elevation) on the status bar's right.
 //
+// Snap (Pairs menu and toolbar "Snap to corners", Ctrl+K; Shift+click inverts it for one click):
+// a click is refined to the corner under it (pick/snap.h; sub-pixel on the photo, sub-cell on
+// the scan from its BA, range and intensity structure). The snapped point is first SHOWN, not
+// kept: a green marker "snap <shift>" at the corner and a grey "click" marker where the click
+// was, with the shift and strength in the status line. Enter, or a click on the snapped marker
+// (within 3 screen pixels), keeps the snapped point; Esc keeps the click as clicked; any other
+// click discards the proposal and is a new click. Either way the pick is one undoable edit.
+// Where no corner is found ("no corner here", too far), the click is kept at once and the
+// status line says why.
+//
 // Messages: everything the user should read goes to the status line and to logMessage()
 // (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
 // message box. No slot lets an exception escape.
@@ -195,6 +205,10 @@ class CalibrationWindow : public QMainWindow {
   QString statusText() const;
 
   PairsModel* pairsModel() const { return pairs_; }
+  /// The snap toggle (see the file comment).
+  QAction* snapAction() const { return act_snap_; }
+  /// True while a snapped point is shown and waits to be kept (Enter) or refused (Esc).
+  bool snapPending() const { return pending_snap_.has_value(); }
   QTableView* pairsTable() const { return table_; }
   ImageView* cameraView() const { return camera_view_; }
   QTabWidget* scanTabs() const { return scan_tabs_; }
@@ -249,6 +263,11 @@ class CalibrationWindow : public QMainWindow {
   void buildUi();
   void updateActions();
   void refreshMarkers();
+  /// A click on the camera image (image = true: (u, v)) or the scan ((row, col)): snaps it
+  /// when snapping is on (see the file comment), otherwise places it.
+  void clickWithSnap(bool image, double a, double b);
+  /// Keeps the pending snapped point (snapped = true) or the click it came from.
+  void resolveSnap(bool snapped);
   void refreshScanPictures();
   void refreshOverlay();
   /// Recomputes valid_region_ from the camera and the image (both needed, same size).
@@ -356,6 +375,15 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_mask_ = nullptr;
   QAction* act_auto_region_ = nullptr;
   QAction* act_pick3d_ = nullptr;
+  QAction* act_snap_ = nullptr;
+  /// A snapped point shown before it is kept: image side (u, v) or scan side (row, col).
+  struct PendingSnap {
+    bool image = true;
+    QPointF click;    ///< (u, v) or (row, col)
+    QPointF snapped;  ///< same units
+    double shift = 0;
+  };
+  std::optional<PendingSnap> pending_snap_;
   QAction* act_overlay_ = nullptr;
   QAction* act_transpose_ = nullptr;
   QAction* act_flip_h_ = nullptr;

@@ -26,9 +26,11 @@
 #include <filesystem>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 
 #include "scancam/ba_image.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/pick/snap.h"
 #include "scancam/scan_view.h"
 #include "scancam/sim/simulate.h"
 #include "ui/calibration_window.h"
@@ -712,6 +714,122 @@ class CalibrationWindowTest : public QObject {
     QCOMPARE(m->size(), 1);
     QCOMPARE(*m->pairs()[0].image_px, QPointF(320, 170));
     QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(1));
+  }
+
+  // Snap: the snapped point is shown first (markers), Enter keeps it, Esc keeps the click; one
+  // undoable edit either way; a click where there is no corner is kept at once.
+  void snapShowsTheCornerBeforeKeepingIt() {
+    auto w = MakeWindow(FreshImage("snap"));
+    QVERIFY(w);
+    PairsModel* m = w->pairsModel();
+    QUndoStack* undo = w->undoStack();
+    cv::Mat bgr = cv::imread(Sim().image.toStdString(), cv::IMREAD_COLOR);
+    QVERIFY(!bgr.empty());
+    // A click 1.5 px off a simulated corner that the core snaps (what the window must show).
+    std::optional<scancam::SnapResult> expect;
+    QPointF click;
+    for (const auto& t : Sim().sim.pair_truth) {
+      if (t.wrong) continue;
+      click = QPointF(t.uv_true.x() + 1.5, t.uv_true.y() - 1.0);
+      const auto r = scancam::SnapImagePoint(bgr, Eigen::Vector2d(click.x(), click.y()));
+      if (r.accepted && r.shift_px > 0.5) {
+        expect = r;
+        break;
+      }
+    }
+    QVERIFY(expect.has_value());
+    QVERIFY(!w->snapAction()->isChecked());
+    QTest::keyClick(w->cameraView()->viewport(), Qt::Key_K, Qt::ControlModifier);
+    QVERIFY(w->snapAction()->isChecked());
+    ClickPixel(w->cameraView(), click);
+    // Shown, not kept: no pair yet, a "snap" and a "click" marker.
+    QVERIFY(w->snapPending());
+    QCOMPARE(m->size(), 0);
+    QCOMPARE(w->cameraView()->markers().size(), 2);
+    const scancam::ui::Marker shown = w->cameraView()->markers()[1];
+    QVERIFY(shown.text.startsWith("snap"));
+    // The widget click lands on a whole screen pixel: the window snaps the click it received
+    // (the grey "click" marker), which the core must snap to the green marker.
+    const QPointF received = w->cameraView()->markers()[0].px;
+    QCOMPARE(w->cameraView()->markers()[0].text, QString("click"));
+    QVERIFY(std::abs(received.x() - click.x()) < 1.0);
+    const auto again = scancam::SnapImagePoint(bgr, Eigen::Vector2d(received.x(), received.y()));
+    QVERIFY(again.accepted);
+    QVERIFY(std::abs(shown.px.x() - again.position.x()) < 1e-9);
+    QVERIFY(std::abs(shown.px.y() - again.position.y()) < 1e-9);
+    QVERIFY(std::abs(shown.px.x() - expect->position.x()) < 0.5);
+    // Enter keeps the snapped point: one pair, one undo step.
+    const int steps = undo->count();
+    QTest::keyClick(w->cameraView()->viewport(), Qt::Key_Return);
+    QVERIFY(!w->snapPending());
+    QCOMPARE(m->size(), 1);
+    QVERIFY(std::abs(m->pairs()[0].image_px->x() - shown.px.x()) < 1e-9);
+    QVERIFY(std::abs(m->pairs()[0].image_px->y() - shown.px.y()) < 1e-9);
+    QCOMPARE(undo->count(), steps + 1);
+    undo->undo();
+    QCOMPARE(m->size(), 0);
+    // Esc keeps the click as clicked.
+    ClickPixel(w->cameraView(), click);
+    QVERIFY(w->snapPending());
+    const QPointF received2 = w->cameraView()->markers()[0].px;
+    QTest::keyClick(w->cameraView()->viewport(), Qt::Key_Escape);
+    QVERIFY(!w->snapPending());
+    QCOMPARE(m->size(), 1);
+    QCOMPARE(*m->pairs()[0].image_px, received2);
+    undo->undo();
+    // A click on the green marker keeps the snapped point too.
+    ClickPixel(w->cameraView(), click);
+    QVERIFY(w->snapPending());
+    const QPointF green = w->cameraView()->markers()[1].px;
+    ClickPixel(w->cameraView(), green);
+    QVERIFY(!w->snapPending());
+    QCOMPARE(m->size(), 1);
+    QVERIFY(std::abs(m->pairs()[0].image_px->x() - green.x()) < 1e-9);
+    undo->undo();
+    // The scan side: a click near a corner of the scan shows the snapped cell on every scan
+    // view; Enter keeps it (cell stored as (x = col, y = row)).
+    bool scan_snapped = false;
+    for (const auto& t : Sim().sim.pair_truth) {
+      if (t.wrong || scan_snapped) continue;
+      const QPointF view_px(std::round(t.cell_true.y() + 1.0), std::round(t.cell_true.x() - 1.0));
+      const auto r = scancam::SnapScanCell(*Sim().scan, Eigen::Vector2d(view_px.y(), view_px.x()));
+      if (!r.accepted || r.shift_px < 0.3) continue;
+      ClickPixel(w->scanView(0), view_px);
+      QVERIFY(w->snapPending());
+      QCOMPARE(w->scanView(3)->markers().size(), 2);
+      const scancam::ui::Marker green = w->scanView(0)->markers()[1];
+      QVERIFY(green.text.startsWith("snap"));
+      // What the window received (the grey marker) snaps to the green one.
+      const QPointF got = w->scanView(0)->markers()[0].px;
+      QVERIFY(std::abs(got.x() - view_px.x()) < 1.0 && std::abs(got.y() - view_px.y()) < 1.0);
+      const auto r2 = scancam::SnapScanCell(*Sim().scan, Eigen::Vector2d(got.y(), got.x()));
+      QVERIFY(r2.accepted);
+      QVERIFY(std::abs(green.px.x() - r2.position.y()) < 1e-6);  // unrotated: x = col
+      QVERIFY(std::abs(green.px.y() - r2.position.x()) < 1e-6);
+      QTest::keyClick(w->scanView(0)->viewport(), Qt::Key_Enter);
+      QVERIFY(!w->snapPending());
+      QCOMPARE(m->size(), 1);
+      QVERIFY(std::abs(m->pairs()[0].scan_cell->x() - r2.position.y()) < 1e-9);
+      QVERIFY(std::abs(m->pairs()[0].scan_cell->y() - r2.position.x()) < 1e-9);
+      undo->undo();
+      QCOMPARE(m->size(), 0);
+      scan_snapped = true;
+    }
+    QVERIFY(scan_snapped);
+    // No corner (the flat middle of a wall in the scan): kept at once, no proposal.
+    const auto& scan = *Sim().scan;
+    bool kept_at_once = false;
+    for (int r = 20; r < scan.rows - 20 && !kept_at_once; r += 7)
+      for (int c = 20; c < scan.cols - 20 && !kept_at_once; c += 7) {
+        if (!scan.valid(r, c) || !scancam::InterpolatePoint(scan, r, c)) continue;
+        if (scancam::SnapScanCell(scan, Eigen::Vector2d(r, c)).accepted) continue;
+        ClickPixel(w->scanView(0), QPointF(c, r));
+        QVERIFY(!w->snapPending());
+        QCOMPARE(m->size(), 1);
+        QVERIFY(std::abs(m->pairs()[0].scan_cell->x() - c) < 1.0);
+        kept_at_once = true;
+      }
+    QVERIFY(kept_at_once);
   }
 
   void loadingPairsOverPairsAsks() {

@@ -287,8 +287,6 @@ void WritePairsCsv(const std::string& path, const std::vector<PointPair>& pairs)
   WriteFileAtomically(path, FormatPairsCsv(pairs));
 }
 
-namespace {
-
 bool AcrossDiscontinuity(const OrderedScan& scan, std::size_t a, std::size_t b,
                          const InterpolationOptions& options) {
   double ra = scan.range_m[a], rb = scan.range_m[b];
@@ -305,8 +303,6 @@ bool AcrossDiscontinuity(const OrderedScan& scan, std::size_t a, std::size_t b,
                                        std::tan(options.max_incidence_deg * M_PI / 180.0));
   return rb - ra > limit;
 }
-
-}  // namespace
 
 std::optional<Eigen::Vector3d> InterpolatePoint(const OrderedScan& scan, double row, double col,
                                                 const InterpolationOptions& options) {

@@ -85,6 +85,11 @@ struct InterpolationOptions {
   double max_incidence_deg = 80.0;
 };
 
+/// True when cells a and b (indices, both valid) are across a depth discontinuity in the sense
+/// above.
+bool AcrossDiscontinuity(const OrderedScan& scan, std::size_t a, std::size_t b,
+                         const InterpolationOptions& options = {});
+
 /// The laser point (scanner frame, metres) at fractional cell (row, col) of `scan`.
 ///
 /// Bilinear interpolation of point_m over the cells around (row, col): rows floor(row) and
