@@ -391,10 +391,10 @@ void CameraModel::Init() {
       if (ang > model_max_angle_rad_) all = false;
       a_img = std::max(a_img, ang);
     };
-    // At most about 2048 border points (each an iterative unprojection): every step-th pixel
+    // At most about 512 border points (each an iterative unprojection): every step-th pixel
     // edge and the four corners, so a large image does not cost seconds here.
     const double u1 = width_ - 0.5, v1 = height_ - 0.5;
-    const int step = std::max(1, (width_ + height_) / 1024);
+    const int step = std::max(1, (width_ + height_) / 256);
     for (int i = 0; i <= width_ && all; i = (i < width_ && i + step > width_) ? width_ : i + step) {
       visit(-0.5 + i, -0.5);
       visit(-0.5 + i, v1);
