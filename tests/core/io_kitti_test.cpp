@@ -28,21 +28,9 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
+using test::Elevation;
 using test::ExpectError;
-
-double Elevation(const Eigen::Vector3f& d) {
-  return std::atan2(double(d.z()), std::hypot(double(d.x()), double(d.y())));
-}
-
-// Median elevation of a row's valid cells.
-double RowElevation(const OrderedScan& s, int r) {
-  std::vector<double> e;
-  for (int c = 0; c < s.cols; ++c) {
-    if (s.valid(r, c)) e.push_back(Elevation(s.point_m[s.index(r, c)]));
-  }
-  std::sort(e.begin(), e.end());
-  return e.empty() ? std::nan("") : e[e.size() / 2];
-}
+using test::RowElevation;
 
 std::string KittiBytes(const std::vector<std::array<float, 4>>& records) {
   std::string bin;
