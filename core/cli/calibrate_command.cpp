@@ -9,6 +9,7 @@
 #include "command.h"
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/colour/colourise.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
@@ -68,7 +69,7 @@ int RunCalibrate(const Args& args) {
                 {"--mask", args.get("--mask")},
                 {"--truth", args.get("--truth")}});
 
-  const CameraModel camera = LoadCamera(camera_path);
+  const CameraModel camera = LoadCameraForImage(camera_path, args.get("--image"));
   cv::Mat image;
   if (args.has("--image")) {
     const std::string image_path = args.get("--image");
@@ -114,7 +115,7 @@ int RunCalibrate(const Args& args) {
   nlohmann::json out = CalibrationToJson(cal, inputs);
   if (args.has("--truth")) {
     // Compare with a known answer (the simulator's ground_truth.json).
-    const Eigen::Isometry3d T_true = ReadCalibrationPose(args.get("--truth"));
+    const Eigen::Isometry3d T_true = colour::LoadExtrinsic(args.get("--truth"));
     const double rot_deg =
         Eigen::AngleAxisd(T_true.linear().transpose() * cal.T_cam_scan.linear()).angle() * 180.0 /
         M_PI;
@@ -191,7 +192,8 @@ Command MakeCalibrateCommand() {
       {
           {"--camera", "FILE",
            "Camera file: OCamCalib calib_results.txt, OpenCV YAML/JSON, Kalibr camchain, ROS "
-           "camera_info, OpenCalib JSON. Required."},
+           "camera_info, OpenCalib JSON, KITTI calib.txt (camera 2; its image size from --image). "
+           "Required."},
           {"--pairs", "FILE", "Pairs CSV. Required."},
           {"--scan", "FILE",
            "The scan the pairs' scan_row/scan_col refer to (needed unless every pair has "
@@ -231,8 +233,9 @@ Command MakeCalibrateCommand() {
            "maximum-likelihood weighting by the picking noise."},
           {"--seed", "N", "RANSAC random seed (same seed, same result). Default 1."},
           {"--truth", "FILE",
-           "A JSON with the true T_cam_scan (e.g. the simulator's ground_truth.json): print "
-           "and store the error against it."},
+           "The true T_cam_scan: a JSON with \"T_cam_scan\" (e.g. the simulator's "
+           "ground_truth.json), an OpenCalib extrinsic or a KITTI calib.txt: print and store the "
+           "error against it."},
           {"--quiet", "", "Print nothing but errors."},
       },
       Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));
