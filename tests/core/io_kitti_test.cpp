@@ -284,6 +284,14 @@ TEST(Kitti, HostileFilesNameFileOffsetAndProblem) {
   std::string huge = good + KittiBytes({{3e30f, 1.f, 1.f, 0.f}});
   ExpectError([&] { LoadScan(write("huge.bin", huge)); },
               {"huge.bin", "byte 32", "record 2", "beyond 100 km"});
+  // nuScenes' .pcd.bin (x y z intensity ring, 20 bytes a point) read 16 bytes at a time.
+  std::string nuscenes;
+  for (int i = 0; i < 4; ++i) {
+    const float rec[5] = {-3.f - float(i), 2.f, -1.5f, 17.f, 5.f};
+    nuscenes.append(reinterpret_cast<const char*>(rec), sizeof rec);
+  }
+  ExpectError([&] { LoadScan(write("nuscenes.pcd.bin", nuscenes)); },
+              {"nuscenes.pcd.bin", "byte 28", "record 1", "reflectance is -1.5", "negative"});
   ExpectError(
       [&] {
         LoadScan(write("origin.bin", KittiBytes({{0.f, 0.f, 0.f, 1.f}})));

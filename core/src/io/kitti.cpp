@@ -63,16 +63,22 @@ KittiCloud ReadKittiBin(const std::string& path, const Progress& progress) {
       float v[4];
       for (int a = 0; a < 4; ++a) v[a] = LittleEndianFloat(&buf[k * kRecord + 4 * a]);
       for (int a = 0; a < 4; ++a) {
-        const bool bad = !std::isfinite(v[a]) || (a < 3 && std::abs(v[a]) > kMaxCoordinate_m);
-        if (!bad) continue;
+        const char* problem = nullptr;
+        if (!std::isfinite(v[a])) {
+          problem = ", not a finite number";
+        } else if (a < 3 && std::abs(v[a]) > kMaxCoordinate_m) {
+          problem = " m, beyond 100 km: not a lidar return";
+        } else if (a == 3 && v[a] < 0.f) {
+          problem = ", negative (records of another layout, e.g. nuScenes' 5 values per point?)";
+        } else {
+          continue;
+        }
         char value[32];
         std::snprintf(value, sizeof value, "%g", static_cast<double>(v[a]));
-        throw FileError(
-            path, io_detail::ByteWhere(record * kRecord + 4 * static_cast<std::size_t>(a)),
-            std::string("record ") + std::to_string(record) + ": " + kName[a] + " is " + value +
-                (std::isfinite(v[a]) ? " m, beyond 100 km: not a lidar return"
-                                     : ", not a finite number") +
-                " (not a KITTI .bin, or a damaged one)");
+        throw FileError(path,
+                        io_detail::ByteWhere(record * kRecord + 4 * static_cast<std::size_t>(a)),
+                        std::string("record ") + std::to_string(record) + ": " + kName[a] + " is " +
+                            value + problem + " (not a KITTI .bin, or a damaged one)");
       }
       cloud.points_m.emplace_back(v[0], v[1], v[2]);
       cloud.reflectance.push_back(v[3]);

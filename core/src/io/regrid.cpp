@@ -571,11 +571,15 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
   };
   Layout chosen = lay_out(candidates[0]);
   if (candidates.size() > 1) {
-    Layout finer = lay_out(candidates[1]);
-    // Clearly more points placed (more than 0.5 % of them): the finer grid.
-    if (static_cast<double>(chosen.shared) - static_cast<double>(finer.shared) >
-        0.005 * static_cast<double>(p.az.size())) {
-      chosen = std::move(finer);
+    try {
+      Layout finer = lay_out(candidates[1]);
+      // Clearly more points placed (more than 0.5 % of them): the finer grid.
+      if (static_cast<double>(chosen.shared) - static_cast<double>(finer.shared) >
+          0.005 * static_cast<double>(p.az.size())) {
+        chosen = std::move(finer);
+      }
+    } catch (const Error&) {
+      // the finer grid would break the CheckCells limits: keep the median's
     }
   }
   progress(0.3, "ordering rings");
@@ -650,6 +654,7 @@ bool RingsByElevation(const Polar& p, std::vector<int>& laser_of, int& count, st
   }
   std::sort(cuts.begin(), cuts.end(),
             [](const auto& a, const auto& b) { return a.first > b.first; });
+  if (cuts.size() > 16) cuts.resize(16);  // the steepest drops: each try costs O(points)
   for (const auto& [ratio, k] : cuts) {
     std::vector<std::size_t> at(k);
     for (std::size_t j = 0; j < k; ++j) at[j] = gaps[j].second;

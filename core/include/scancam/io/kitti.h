@@ -8,7 +8,9 @@
 // Bad files are refused with scancam::FileError naming the file, the byte offset / record and
 // the problem: an empty file, a size that is not a whole number of records, a coordinate or
 // reflectance that is not finite, a coordinate beyond 100 km (float garbage, not a lidar
-// return). Memory stays proportional to the file's size (read in chunks of whole records).
+// return), a negative reflectance (records of another layout read 16 bytes at a time, e.g. a
+// nuScenes .pcd.bin with 5 floats per point). Memory stays proportional to the file's size
+// (read in chunks of whole records).
 #pragma once
 
 #include <Eigen/Core>
