@@ -15,12 +15,16 @@
 //   - SOURCE_DIR/share/cameras/* by detected format;
 //   - from DATASETS_DIR (when given and present, e.g. ../shared/datasets): the OpenCalib
 //     intrinsics and extrinsics, the small MRPT rawlogs (<= 70 kB), the PCDs decimated to a few
-//     hundred points (in all three PCD encodings), the photos shrunk to 64 px wide.
+//     hundred points (in all three PCD encodings), the photos shrunk to 64 px wide, the KITTI
+//     scan's first records (whole lasers' turns are too large) and every 300th record;
+//   - a synthetic KITTI .bin: 8 lasers, 60 firings each, one laser's turn after another.
 // Seeds are kept small (mostly < 20 kB): libFuzzer's speed falls with the input size.
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
 
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -229,6 +233,33 @@ void FromSimulation(const std::string& scanner, const std::string& camera) {
   WriteFloatTiff(Seed("fuzz_float_tiff", stem + "_range.tif"), RangeImage(s.scan));
 }
 
+std::string ReadBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+// A small synthetic KITTI .bin (io/kitti.h): 8 lasers 2 deg apart, 60 firings per turn, one
+// laser's turn after another, as KITTI stores them (float32 little-endian x y z reflectance).
+void SyntheticKitti() {
+  std::string bin;
+  auto put = [&bin](float v) {
+    unsigned char b[4];
+    std::memcpy(b, &v, 4);
+    bin.append(reinterpret_cast<const char*>(b), 4);
+  };
+  for (int laser = 0; laser < 8; ++laser) {
+    const double el = (2.0 - 2.0 * laser) * 3.14159265358979 / 180.0;
+    for (int f = 0; f < 60; ++f) {
+      const double az = f * 6.0 * 3.14159265358979 / 180.0, r = 5.0 + 0.1 * ((f * 7 + laser) % 30);
+      put(static_cast<float>(r * std::cos(el) * std::cos(az)));
+      put(static_cast<float>(r * std::cos(el) * std::sin(az)));
+      put(static_cast<float>(r * std::sin(el)));
+      put(static_cast<float>(0.01 * f));
+    }
+  }
+  WriteText("fuzz_kitti", "synthetic_8_lasers.bin", bin);
+}
+
 void FromDatasets(const fs::path& data) {
   for (const char* scene : {"road-pinhole", "road2-pinhole"}) {
     const fs::path d = data / scene;
@@ -255,6 +286,15 @@ void FromDatasets(const fs::path& data) {
         Copy(e.path(), "fuzz_rawlog", e.path().filename().string());
     }
   }
+  const fs::path velodyne = data / "kitti-000000" / "velodyne.bin";
+  if (fs::exists(velodyne)) {
+    const std::string bin = ReadBytes(velodyne);
+    WriteText("fuzz_kitti", "kitti_head.bin",
+              bin.substr(0, std::min<std::size_t>(bin.size(), 16 * 600)));
+    std::string decimated;
+    for (std::size_t r = 0; r + 16 <= bin.size(); r += 16 * 300) decimated += bin.substr(r, 16);
+    WriteText("fuzz_kitti", "kitti_decimated.bin", decimated);
+  }
   const fs::path kitti = data / "kitti-000000" / "image_2.png";
   if (fs::exists(kitti)) {
     const cv::Mat image = cv::imread(kitti.string(), cv::IMREAD_COLOR);
@@ -275,6 +315,7 @@ int main(int argc, char** argv) {
     fs::create_directories(g_out);
     FromSimulation("rotating", "omni");
     FromSimulation("lidar", "pinhole");
+    SyntheticKitti();
     for (const char* preset : {"fisheye", "equirect"})
       SaveCameraEverywhere(sim::PresetCamera(preset), preset);
     SaveCameraEverywhere(CameraModel::Pinhole(610.5, 612.25, 319.5, 239.75,

@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +14,7 @@
 #include <vector>
 
 #include "scancam/error.h"
+#include "scancam/ordered_scan.h"
 
 namespace scancam::test {
 
@@ -25,6 +29,21 @@ inline bool HaveShared() { return std::filesystem::exists(SharedDataset("README.
       GTEST_SKIP() << "../shared/datasets not found beside the project: real-data test " \
                       "skipped (CI always has it)";                                      \
   } while (0)
+
+/// Elevation of a direction in the scanner frame (x forward, y left, z up), radians.
+inline double Elevation(const Eigen::Vector3f& d) {
+  return std::atan2(double(d.z()), std::hypot(double(d.x()), double(d.y())));
+}
+
+/// Median elevation (radians) of the beams of row r's valid cells; NaN when it has none.
+inline double RowElevation(const OrderedScan& s, int r) {
+  std::vector<double> e;
+  for (int c = 0; c < s.cols; ++c) {
+    if (s.valid(r, c)) e.push_back(Elevation(s.beam_dir[s.index(r, c)]));
+  }
+  std::sort(e.begin(), e.end());
+  return e.empty() ? std::nan("") : e[e.size() / 2];
+}
 
 /// A fresh temporary directory for one test: <build>/tests/tmp/<suite>.<name>.
 inline std::string TempDir() {

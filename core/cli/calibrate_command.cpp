@@ -10,6 +10,7 @@
 #include "command.h"
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/colour/colourise.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
@@ -151,7 +152,8 @@ int RunCalibrate(const Args& args) {
   for (const auto& p : image_paths) inputs.push_back({"--image", p});
   CheckOutputs(outputs, inputs);
 
-  const CameraModel camera = LoadCamera(camera_path);
+  const CameraModel camera =
+      LoadCameraForImage(camera_path, image_paths.empty() ? std::string() : image_paths[0]);
   std::vector<cv::Mat> images;
   for (const std::string& image_path : image_paths) {
     images.push_back(ReadImage(image_path, cv::IMREAD_COLOR, "image",
@@ -220,7 +222,7 @@ int RunCalibrate(const Args& args) {
   nlohmann::json out = CalibrationToJson(cal, json_inputs);
   if (args.has("--truth")) {
     // Compare with a known answer (the simulator's ground_truth.json).
-    const Eigen::Isometry3d T_true = ReadCalibrationPose(args.get("--truth"));
+    const Eigen::Isometry3d T_true = colour::LoadExtrinsic(args.get("--truth"));
     const double rot_deg =
         Eigen::AngleAxisd(T_true.linear().transpose() * cal.T_cam_scan.linear()).angle() * 180.0 /
         M_PI;
@@ -318,7 +320,8 @@ Command MakeCalibrateCommand() {
       {
           {"--camera", "FILE",
            "Camera file: OCamCalib calib_results.txt, OpenCV YAML/JSON, Kalibr camchain, ROS "
-           "camera_info, OpenCalib JSON. Required."},
+           "camera_info, OpenCalib JSON, KITTI calib.txt (camera 2; its image size from --image). "
+           "Required."},
           {"--pairs", "FILE",
            "Pairs CSV. Required. Repeat for several scenes of one rig (the k-th --pairs, "
            "--scan and --image are scene k).",
@@ -376,8 +379,9 @@ Command MakeCalibrateCommand() {
           {"--snap-out", "FILE",
            "With --snap: write the snapped pairs to this new pairs file (never the input)."},
           {"--truth", "FILE",
-           "A JSON with the true T_cam_scan (e.g. the simulator's ground_truth.json): print "
-           "and store the error against it."},
+           "The true T_cam_scan: a JSON with \"T_cam_scan\" (e.g. the simulator's "
+           "ground_truth.json), an OpenCalib extrinsic or a KITTI calib.txt: print and store the "
+           "error against it."},
           {"--quiet", "", "Print nothing but errors."},
       },
       Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));

@@ -231,7 +231,7 @@ int RunColorize(const Args& args) {
   for (std::size_t k = 0; k < n; ++k) {
     ColourView& v = views[k];
     v.name = images[k];
-    v.camera = LoadCamera(cameras[k]);
+    v.camera = LoadCameraForImage(cameras[k], images[k]);
     v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
                         [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
     v.T_cam_scan = LoadExtrinsic(calibs[k]);
@@ -394,11 +394,13 @@ Command MakeColorizeCommand() {
           {"--scan", "SCAN", "The scan (.txt/.rot rotating, .ptx, .pcd, .rawlog). Required."},
           {"--image", "IMG", "A camera image (8-bit; read as BGR). Required; repeatable.", true},
           {"--camera", "CAM",
-           "Camera file (OpenCV YAML/JSON, OCamCalib calib_results.txt, Kalibr, ROS, OpenCalib). "
+           "Camera file (OpenCV YAML/JSON, OCamCalib calib_results.txt, Kalibr, ROS, OpenCalib, "
+           "KITTI calib.txt: camera 2, its size from the image). "
            "Once for all images or once per --image.",
            true},
           {"--calib", "CALIB",
-           "Pose file: calib.json, JSON with \"T_cam_scan\", or OpenCalib extrinsic. Once for all "
+           "Pose file: calib.json, JSON with \"T_cam_scan\", OpenCalib extrinsic, or KITTI "
+           "calib.txt. Once for all "
            "images or once per --image.",
            true},
           {"--mask", "MASK",

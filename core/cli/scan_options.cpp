@@ -5,8 +5,8 @@ namespace scancam::cli {
 std::vector<OptionSpec> ScanLoadOptionSpecs() {
   return {
       {"--format", "FMT",
-       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog), rotating, "
-       "ptx, pcd or rawlog. Default auto."},
+       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog, .bin KITTI), "
+       "rotating, ptx, pcd, rawlog or kitti. Default auto."},
       {"--dx-m", "M",
        "Rotating 2D scanner: offset d_x of the rotation axis from the mirror centre, metres "
        "(eq. 3). Overrides the log's header; giving only one of --dx-m/--dz-m sets the other "
@@ -17,13 +17,16 @@ std::vector<OptionSpec> ScanLoadOptionSpecs() {
        "PTX: apply the header's scanner pose (points in the registered frame) instead of "
        "keeping the scanner's own frame."},
       {"--pcd-mode", "MODE",
-       "PCD: auto | organised (the file's own HEIGHT x WIDTH grid) | ring (spinning lidar: one "
-       "row per ring, columns by azimuth) | spherical (re-grid an unordered cloud on an "
-       "azimuth/elevation grid). Default auto: organised if HEIGHT > 1, else ring if there is "
-       "a ring field, else spherical."},
+       "PCD and KITTI: auto | organised (the file's own HEIGHT x WIDTH grid) | ring (spinning "
+       "lidar: one row per ring field value, columns by azimuth) | recover-rings (spinning lidar "
+       "without a ring field: lasers recovered from the elevation clusters or the firing order, "
+       "one row per laser) | spherical (re-grid an unordered cloud on an azimuth/elevation "
+       "grid). Default auto: organised if HEIGHT > 1, else ring if there is a ring field, else "
+       "recover-rings if the cloud looks like a spinning lidar (a note on stderr says so), else "
+       "spherical. KITTI takes auto, recover-rings or spherical."},
       {"--grid-step-deg", "DEG",
-       "PCD ring/spherical: angular cell size in degrees; 0 = estimate from the data. "
-       "Default 0."},
+       "PCD/KITTI ring, recover-rings and spherical: azimuth cell size in degrees; 0 = estimate "
+       "from the data. Default 0."},
       {"--rawlog-index", "N",
        "MRPT rawlog: which scan-like observation, 0-based; -1 = the first. Default -1."},
   };

@@ -135,40 +135,34 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
   return cs;
 }
 
-CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
-                           const Eigen::Vector3d& origin_scan, double step_deg,
-                           double elevation_step_deg, const scancam::Progress& progress) {
+namespace {
+
+// The cloud's points in the scan frame and its intensities (empty without an intensity field).
+struct ScanFramePoints {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<float> intensity;
+};
+
+ScanFramePoints PointsInScanFrame(const ccPointCloud& cloud,
+                                  const Eigen::Isometry3d& T_cloud_scan) {
   const unsigned size = cloud.size();
   if (size == 0) throw scancam::Error(CloudName(cloud) + ": the cloud is empty");
   const Eigen::Isometry3d T_scan_cloud = T_cloud_scan.inverse();
-  std::vector<Eigen::Vector3f> points(size);
-  std::vector<float> intensity;
+  ScanFramePoints out;
+  out.points.resize(size);
   const ScalarField* sf = IntensityField(cloud);
-  if (sf) intensity.resize(size);
+  if (sf) out.intensity.resize(size);
   for (unsigned i = 0; i < size; ++i) {
     const CCVector3* P = cloud.getPoint(i);
-    points[i] = (T_scan_cloud * Eigen::Vector3d(P->x, P->y, P->z)).cast<float>();
-    if (sf) intensity[i] = sf->getValue(i);
+    out.points[i] = (T_scan_cloud * Eigen::Vector3d(P->x, P->y, P->z)).cast<float>();
+    if (sf) out.intensity[i] = sf->getValue(i);
   }
-  scancam::RegridOptions opt;
-  opt.step_deg = step_deg;
-  opt.elevation_step_deg = elevation_step_deg;
-  if (step_deg == 0.0 && elevation_step_deg == 0.0) {
-    // Estimate both: an anisotropic scan (e.g. 1 x 0.5 deg) on one step leaves cells empty.
-    const scancam::AngularSteps est = scancam::EstimateAngularStepsDeg(points, origin_scan);
-    opt.step_deg = est.azimuth_deg;
-    opt.elevation_step_deg = est.elevation_deg;
-  }
-  opt.source = CloudName(cloud);
-  CloudScan cs;
-  cs.scan = std::make_shared<scancam::OrderedScan>(
-      scancam::RegridSpherical(points, sf ? &intensity : nullptr, origin_scan, opt,
-                               scancam::Progress([&](double f, const std::string& s) {
-                                 progress(0.8 * f, s);
-                                 return true;
-                               })));
-  progress(0.8, "matching points to cells");
-  // A filled cell holds an exact copy of one input point: find it by its bits.
+  return out;
+}
+
+// cell_to_point / point_to_cell of a re-gridded scan: a filled cell holds an exact copy of one
+// input point, found by its bits.
+void MapCellsToPoints(CloudScan& cs, const std::vector<Eigen::Vector3f>& points) {
   struct Key {
     std::uint32_t x, y, z;
     bool operator==(const Key& o) const { return x == o.x && y == o.y && z == o.z; }
@@ -187,13 +181,14 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
     std::memcpy(&k.z, &p.z(), 4);
     return k;
   };
+  const std::size_t size = points.size();
   std::unordered_map<Key, int, KeyHash> index_of;
   index_of.reserve(size);
-  for (unsigned i = 0; i < size; ++i) index_of.emplace(key_of(points[i]), static_cast<int>(i));
+  for (std::size_t i = 0; i < size; ++i) index_of.emplace(key_of(points[i]), static_cast<int>(i));
   const scancam::OrderedScan& scan = *cs.scan;
   cs.cell_to_point.assign(scan.size(), -1);
   cs.point_to_cell.assign(size, -1);
-  cs.point_count = size;
+  cs.point_count = static_cast<unsigned>(size);
   for (std::size_t k = 0; k < scan.size(); ++k) {
     if (!scan.valid(k)) continue;
     const auto it = index_of.find(key_of(scan.point_m[k]));
@@ -201,13 +196,63 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
     cs.cell_to_point[k] = it->second;
     cs.point_to_cell[static_cast<std::size_t>(it->second)] = static_cast<int>(k);
   }
-  for (unsigned i = 0; i < size; ++i) cs.points_not_in_grid += cs.point_to_cell[i] < 0 ? 1 : 0;
+  for (std::size_t i = 0; i < size; ++i) cs.points_not_in_grid += cs.point_to_cell[i] < 0 ? 1 : 0;
+}
+
+scancam::Progress Scaled(const scancam::Progress& progress, double fraction) {
+  return scancam::Progress([&progress, fraction](double f, const std::string& s) {
+    progress(fraction * f, s);
+    return true;
+  });
+}
+
+}  // namespace
+
+CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
+                           const Eigen::Vector3d& origin_scan, double step_deg,
+                           double elevation_step_deg, const scancam::Progress& progress) {
+  const ScanFramePoints in = PointsInScanFrame(cloud, T_cloud_scan);
+  const bool has_intensity = !in.intensity.empty();
+  scancam::RegridOptions opt;
+  opt.step_deg = step_deg;
+  opt.elevation_step_deg = elevation_step_deg;
+  if (step_deg == 0.0 && elevation_step_deg == 0.0) {
+    // Estimate both: an anisotropic scan (e.g. 1 x 0.5 deg) on one step leaves cells empty.
+    const scancam::AngularSteps est = scancam::EstimateAngularStepsDeg(in.points, origin_scan);
+    opt.step_deg = est.azimuth_deg;
+    opt.elevation_step_deg = est.elevation_deg;
+  }
+  opt.source = CloudName(cloud);
+  CloudScan cs;
+  cs.scan = std::make_shared<scancam::OrderedScan>(scancam::RegridSpherical(
+      in.points, has_intensity ? &in.intensity : nullptr, origin_scan, opt, Scaled(progress, 0.8)));
+  progress(0.8, "matching points to cells");
+  MapCellsToPoints(cs, in.points);
+  const scancam::OrderedScan& scan = *cs.scan;
   cs.description =
       QString("re-gridded %1 x %2 cells (azimuth step %3 deg, elevation %4 deg)")
           .arg(scan.rows)
           .arg(scan.cols)
           .arg(opt.step_deg, 0, 'g', 4)
           .arg(opt.elevation_step_deg > 0 ? opt.elevation_step_deg : opt.step_deg, 0, 'g', 4);
+  progress(1.0, "done");
+  return cs;
+}
+
+CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
+                             const Eigen::Vector3d& origin_scan,
+                             const scancam::Progress& progress) {
+  const ScanFramePoints in = PointsInScanFrame(cloud, T_cloud_scan);
+  scancam::RegridOptions opt;
+  opt.source = CloudName(cloud);
+  std::string note;
+  CloudScan cs;
+  cs.scan = std::make_shared<scancam::OrderedScan>(scancam::RegridUnordered(
+      in.points, in.intensity.empty() ? nullptr : &in.intensity, origin_scan,
+      scancam::UnorderedGrid::kRecoverRings, opt, Scaled(progress, 0.8), &note));
+  progress(0.8, "matching points to cells");
+  MapCellsToPoints(cs, in.points);
+  cs.description = QString::fromStdString(note);
   progress(1.0, "done");
   return cs;
 }

@@ -8,7 +8,8 @@
 //     and with the command-line tool on the same PTX file are interchangeable;
 //   - a cloud without a grid but with a ccGBLSensor child: the sensor's frame
 //     (p_scan = sensor^-1 * p_cloud), re-gridded (io/regrid.h RegridSpherical) about its origin;
-//   - otherwise: the cloud's own frame, re-gridded about an origin the user chooses.
+//   - otherwise: the cloud's own frame, re-gridded about an origin the user chooses, or, for a
+//     spinning lidar without a ring field, ordered by its recovered lasers (ScanByRingRecovery).
 // Cells and points: cell_to_point / point_to_cell map grid cells and cloud point indexes both
 // ways (-1: none). A re-gridded cell holds the point nearest to the origin among those in it;
 // the other points of that cell have no cell (points_not_in_grid counts them).
@@ -72,6 +73,15 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
                            const Eigen::Vector3d& origin_scan, double step_deg,
                            double elevation_step_deg, const scancam::Progress& progress = {});
+
+/// A spinning lidar without a ring field (e.g. a KITTI or driver PCD opened in CloudCompare):
+/// the lasers recovered from the points seen from `origin_scan` (io/regrid.h RecoverRings),
+/// one row per laser by elevation, columns by azimuth (RegridUnordered, recover-rings; the
+/// same function `scancam` uses). `description` is its note (lasers found, points placed).
+/// Throws scancam::Error when the cloud does not look like a spinning lidar.
+CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
+                             const Eigen::Vector3d& origin_scan,
+                             const scancam::Progress& progress = {});
 
 /// The sensor pose (scan frame in the cloud) of a ccGBLSensor.
 Eigen::Isometry3d SensorPose(const ccGBLSensor& sensor);

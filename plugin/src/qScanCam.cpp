@@ -181,8 +181,10 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
   }
   const scancam::AngularSteps estimated =
       scancam::EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
+  // A spinning lidar without a ring field (KITTI, many drivers' PCDs): offer its lasers.
+  const scancam::RecoveredRings rings = scancam::RecoverRings(pts, Eigen::Vector3d::Zero());
   scancam::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg, estimated.elevation_deg,
-                                parent);
+                                parent, QString::fromStdString(rings.summary), rings.count > 0);
   if (dlg.exec() != QDialog::Accepted) return false;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   if (dlg.useBoxCentre()) {
@@ -190,10 +192,13 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
     origin = Eigen::Vector3d(c.x, c.y, c.z);
   }
   const double az_step = dlg.azimuthStepDeg(), el_step = dlg.elevationStepDeg();
+  const bool recover = dlg.recoverRings();
   scancam_cc::RunWithCcProgress(
       parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
-        *out = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(), origin, az_step,
-                                            el_step, p);
+        *out = recover ? scancam_cc::ScanByRingRecovery(*cloud, Eigen::Isometry3d::Identity(),
+                                                        origin, p)
+                       : scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(), origin,
+                                                      az_step, el_step, p);
       });
   return true;
 }

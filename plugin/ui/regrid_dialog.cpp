@@ -10,15 +10,17 @@
 namespace scancam::ui {
 
 RegridDialog::RegridDialog(const QString& cloud_name, double estimated_azimuth_step_deg,
-                           double estimated_elevation_step_deg, QWidget* parent)
+                           double estimated_elevation_step_deg, QWidget* parent,
+                           const QString& rings_summary, bool rings_recognised)
     : QDialog(parent) {
   setWindowTitle(tr("ScanCam: scan grid"));
   auto* layout = new QVBoxLayout(this);
   auto* info = new QLabel(
-      tr("<b>%1</b> has no scan grid and no sensor. ScanCam orders its points on a spherical "
-         "grid as seen from the scanner's position; choose that position and the angular "
-         "size of a grid cell, across (azimuth) and up (elevation): about the scanner's angular "
-         "resolution.")
+      tr("<b>%1</b> has no scan grid and no sensor. ScanCam orders its points as seen from the "
+         "scanner's position: for a spinning lidar one row per laser (the lasers recovered from "
+         "the points' elevations or their order), otherwise on a spherical grid "
+         "whose angular cell size, across (azimuth) and up (elevation), is about the scanner's "
+         "angular resolution.")
           .arg(cloud_name.toHtmlEscaped()),
       this);
   info->setWordWrap(true);
@@ -31,6 +33,20 @@ RegridDialog::RegridDialog(const QString& cloud_name, double estimated_azimuth_s
   origin_box->addWidget(zero_);
   origin_box->addWidget(centre_);
   form->addRow(tr("Scanner position:"), origin_box);
+  rings_ = new QRadioButton(tr("spinning lidar: recover rings (one row per laser)"), this);
+  rings_->setObjectName("recoverRingsRadio");
+  spherical_ = new QRadioButton(tr("spherical grid (the steps below)"), this);
+  spherical_->setObjectName("sphericalRadio");
+  rings_->setEnabled(rings_recognised);
+  (rings_recognised ? rings_ : spherical_)->setChecked(true);
+  auto* grid_box = new QVBoxLayout;
+  grid_box->addWidget(rings_);
+  auto* rings_label = new QLabel(rings_summary.toHtmlEscaped(), this);
+  rings_label->setObjectName("ringsLabel");
+  rings_label->setWordWrap(true);
+  grid_box->addWidget(rings_label);
+  grid_box->addWidget(spherical_);
+  form->addRow(tr("Grid:"), grid_box);
   auto make_step = [this](const char* name, double estimated) {
     auto* spin = new QDoubleSpinBox(this);
     spin->setObjectName(name);
@@ -45,6 +61,12 @@ RegridDialog::RegridDialog(const QString& cloud_name, double estimated_azimuth_s
   elevation_step_ = make_step("elevationStepSpin", estimated_elevation_step_deg);
   form->addRow(tr("Azimuth step (columns):"), azimuth_step_);
   form->addRow(tr("Elevation step (rows):"), elevation_step_);
+  auto steps_on = [this] {
+    azimuth_step_->setEnabled(spherical_->isChecked());
+    elevation_step_->setEnabled(spherical_->isChecked());
+  };
+  connect(spherical_, &QRadioButton::toggled, this, steps_on);
+  steps_on();
   layout->addLayout(form);
   auto* est = new QLabel(this);
   est->setObjectName("estimateLabel");
@@ -66,6 +88,8 @@ RegridDialog::RegridDialog(const QString& cloud_name, double estimated_azimuth_s
 }
 
 bool RegridDialog::useBoxCentre() const { return centre_->isChecked(); }
+
+bool RegridDialog::recoverRings() const { return rings_->isChecked(); }
 
 double RegridDialog::azimuthStepDeg() const { return azimuth_step_->value(); }
 

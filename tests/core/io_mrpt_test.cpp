@@ -19,11 +19,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
+using test::Elevation;
 using test::ExpectError;
-
-double Elevation(const Eigen::Vector3f& d) {
-  return std::atan2(double(d.z()), std::hypot(double(d.x()), double(d.y())));
-}
 
 std::vector<Eigen::Vector3f> ValidPoints(const OrderedScan& s) {
   std::vector<Eigen::Vector3f> out;

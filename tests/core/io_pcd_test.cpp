@@ -26,19 +26,8 @@ constexpr double kDeg = kPi / 180.0;
 using test::ExpectError;
 
 double Azimuth(const Eigen::Vector3f& d) { return std::atan2(double(d.y()), double(d.x())); }
-double Elevation(const Eigen::Vector3f& d) {
-  return std::atan2(double(d.z()), std::hypot(double(d.x()), double(d.y())));
-}
-
-// Median elevation of a row's valid cells.
-double RowElevation(const OrderedScan& s, int r) {
-  std::vector<double> e;
-  for (int c = 0; c < s.cols; ++c) {
-    if (s.valid(r, c)) e.push_back(Elevation(s.beam_dir[s.index(r, c)]));
-  }
-  std::sort(e.begin(), e.end());
-  return e.empty() ? std::nan("") : e[e.size() / 2];
-}
+using test::Elevation;
+using test::RowElevation;
 
 TEST(PcdRoad, OrdersInto64RingsBy1800AzimuthColumns) {
   SCANCAM_REQUIRE_SHARED();

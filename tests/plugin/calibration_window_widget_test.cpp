@@ -15,6 +15,7 @@
 #include <QMenuBar>
 #include <QMessageBox>
 #include <QPushButton>
+#include <QRadioButton>
 #include <QSettings>
 #include <QSignalSpy>
 #include <QTabWidget>
@@ -1095,6 +1096,21 @@ class CalibrationWindowTest : public QObject {
     d.findChild<QDoubleSpinBox*>("elevationStepSpin")->setValue(0.25);
     QCOMPARE(d.elevationStepDeg(), 0.25);
     QCOMPARE(d.azimuthStepDeg(), 1.0);
+    // Not recognised as a spinning lidar: the spherical grid, ring recovery not offered.
+    QVERIFY(!d.recoverRings());
+    QVERIFY(!d.findChild<QRadioButton*>("recoverRingsRadio")->isEnabled());
+  }
+
+  void regridDialogOffersRingRecoveryForASpinningLidar() {
+    scancam::ui::RegridDialog d("kitti", 0.18, 0.4, nullptr,
+                                "64 lasers from the firing order (...)", true);
+    QVERIFY(d.recoverRings());
+    QVERIFY(d.findChild<QLabel*>("ringsLabel")->text().contains("64 lasers"));
+    auto* az = d.findChild<QDoubleSpinBox*>("azimuthStepSpin");
+    QVERIFY(!az->isEnabled());  // the steps belong to the spherical grid
+    d.findChild<QRadioButton*>("sphericalRadio")->setChecked(true);
+    QVERIFY(!d.recoverRings());
+    QVERIFY(az->isEnabled());
   }
 };
 

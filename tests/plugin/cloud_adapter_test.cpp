@@ -8,6 +8,7 @@
 #include <ccScalarField.h>
 
 #include <QtTest>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 
@@ -165,6 +166,48 @@ class CloudAdapterTest : public QObject {
     }
     QCOMPARE(mapped + cs.points_not_in_grid, std::size_t(cloud->size()));
     QVERIFY(mapped > cloud->size() / 2);
+  }
+
+  void spinningLidarWithoutRingFieldGetsOneRowPerLaser() {
+    // 12 lasers at an uneven elevation table, 360 firings each, shuffled (no ring field, no
+    // order), moved into the cloud frame by a translation: the lasers are seen from the origin.
+    const double table[12] = {10, 6, 3, 2, 1.5, 1, 0.5, 0, -1, -3, -7, -15};
+    std::vector<Eigen::Vector3f> pts;
+    for (int k = 0; k < 12; ++k) {
+      for (int f = 0; f < 360; ++f) {
+        const double az = (f + 0.3 + 0.05 * k) * M_PI / 180, el = table[k] * M_PI / 180;
+        const double r = 4.0 + (f * 37 + k * 11) % 50;
+        pts.emplace_back(float(r * std::cos(el) * std::cos(az)),
+                         float(r * std::cos(el) * std::sin(az)), float(r * std::sin(el)));
+      }
+    }
+    for (std::size_t i = pts.size() - 1; i > 0; --i) std::swap(pts[i], pts[(i * 7919) % (i + 1)]);
+    ccPointCloud cloud("lidar");
+    cloud.reserve(static_cast<unsigned>(pts.size()));
+    for (const auto& p : pts) cloud.addPoint(CCVector3(p.x(), p.y() + 5.f, p.z()));
+    const CloudScan cs = scancam_cc::ScanByRingRecovery(cloud, Eigen::Isometry3d::Identity(),
+                                                        Eigen::Vector3d(0, 5, 0));
+    const scancam::OrderedScan& s = *cs.scan;
+    QCOMPARE(s.rows, 12);
+    QCOMPARE(s.cols, 360);
+    QCOMPARE(cs.points_not_in_grid, std::size_t(0));
+    QVERIFY(cs.description.contains("12 lasers from the elevation clusters"));
+    for (int r = 0; r < s.rows; ++r) {
+      for (int c = 0; c < s.cols; ++c) {
+        const std::size_t k = s.index(r, c);
+        QVERIFY(s.valid(k));
+        const CCVector3* P = cloud.getPoint(static_cast<unsigned>(cs.cell_to_point[k]));
+        const double el = std::atan2(double(P->z), std::hypot(double(P->x), double(P->y) - 5.0));
+        QVERIFY(std::abs(el * 180 / M_PI - table[r]) < 1e-3);  // row r = r-th highest laser
+      }
+    }
+    // Not a spinning lidar (a PTX-like grid seen from the wrong place): an error, not a grid.
+    auto ptx_cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
+    ptx_cloud->removeGrids();
+    QVERIFY_EXCEPTION_THROWN(
+        scancam_cc::ScanByRingRecovery(*ptx_cloud, Eigen::Isometry3d::Identity(),
+                                       Eigen::Vector3d(0.3, 0.2, 0.1)),
+        scancam::Error);
   }
 
   void restoreGivesBackTheOriginalColoursExactly() {

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <tuple>
 
+#include "scancam/camera/kitti_calib.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
@@ -1279,6 +1280,10 @@ Detected Detect(const std::string& path) {
     d.format = CameraFileFormat::kOpenCv;
     return d;
   }
+  if (LooksLikeKittiCalib(t)) {
+    d.format = CameraFileFormat::kKittiCalib;
+    return d;
+  }
   if (LooksLikeOCam(t)) {
     d.format = CameraFileFormat::kOCamCalib;
     return d;
@@ -1293,7 +1298,8 @@ Detected Detect(const std::string& path) {
   } else {
     throw FileError(path, "",
                     "unrecognised camera file (expected OpenCV YAML/JSON, OCamCalib "
-                    "calib_results.txt, Kalibr camchain, ROS camera_info or OpenCalib JSON)");
+                    "calib_results.txt, Kalibr camchain, ROS camera_info, OpenCalib JSON or "
+                    "KITTI calib.txt)");
   }
   return d;
 }
@@ -1314,6 +1320,8 @@ const char* CameraFileFormatName(CameraFileFormat f) {
       return "ros";
     case CameraFileFormat::kOpenCalib:
       return "opencalib";
+    case CameraFileFormat::kKittiCalib:
+      return "kitti";
   }
   return "?";
 }
@@ -1355,6 +1363,16 @@ CameraModel LoadCameraUnwrapped(const std::string& path, const LoadCameraOptions
       cam = LoadOpenCalib(path, ParseJsonText(t, path));
       break;
     }
+    case CameraFileFormat::kKittiCalib: {
+      const KittiCalib calib = ParseKittiCalib(path, t);
+      if (options.image_width <= 0 || options.image_height <= 0) {
+        throw FileError(path, "P2",
+                        "a KITTI calib.txt holds no image size: give the image taken with it "
+                        "(its size is read from the image)");
+      }
+      cam = KittiCamera2(calib, options.image_width, options.image_height, path);
+      break;
+    }
     case CameraFileFormat::kAuto:
       throw FileError(path, "", "could not detect the camera file format");
   }
@@ -1375,8 +1393,27 @@ CameraModel LoadCamera(const std::string& path, const LoadCameraOptions& options
   }
 }
 
+CameraModel LoadCameraForImage(const std::string& path, const std::string& image_path) {
+  LoadCameraOptions options;
+  if (!image_path.empty() && DetectCameraFileFormat(path) == CameraFileFormat::kKittiCalib) {
+    const ImageFileInfo info = ReadImageHeader(image_path);
+    if (info.format.empty()) {
+      throw FileError(image_path, "",
+                      "cannot read the image size from its header (PNG, JPEG, TIFF, BMP, WebP or "
+                      "PNM), which the KITTI camera " +
+                          path + " needs");
+    }
+    options.image_width = info.width;
+    options.image_height = info.height;
+  }
+  return LoadCamera(path, options);
+}
+
 void SaveCamera(const CameraModel& camera, const std::string& path, CameraFileFormat format) {
   if (!camera.valid()) throw FileError(path, "", "cannot save an empty camera");
+  if (format == CameraFileFormat::kKittiCalib) {
+    throw FileError(path, "", "KITTI calib.txt files are read, not written");
+  }
   if (format == CameraFileFormat::kOpenCv || format == CameraFileFormat::kAuto) {
     SaveOpenCv(camera, path);
     return;

@@ -37,6 +37,7 @@
 #include <type_traits>
 
 #include "scancam/camera/camera_io.h"
+#include "scancam/camera/kitti_calib.h"
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
 #include "scancam/solve/calibrate.h"
@@ -2030,6 +2031,7 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
 }
 
 Eigen::Isometry3d LoadExtrinsic(const std::string& path) {
+  if (IsKittiCalibFile(path)) return KittiVeloToCam2(ReadKittiCalib(path), path);
   const nlohmann::json j = ReadJsonFile(path);
   if (!j.is_object()) throw FileError(path, "", "expected a JSON object at the top level");
   if (j.contains("T_cam_scan")) return ReadCalibrationPose(path);

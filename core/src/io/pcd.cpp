@@ -474,9 +474,10 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options,
                     const Progress& progress) {
   const std::string& mode = options.mode;
   if (mode != "auto" && mode != "organised" && mode != "organized" && mode != "ring" &&
-      mode != "spherical") {
-    throw FileError(path, "",
-                    "unknown PCD mode '" + mode + "' (auto, organised, ring or spherical)");
+      mode != "recover-rings" && mode != "spherical") {
+    throw FileError(
+        path, "",
+        "unknown PCD mode '" + mode + "' (auto, organised, ring, recover-rings or spherical)");
   }
   std::size_t file_size = 0;
   {
@@ -538,7 +539,7 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options,
   const pcl::PCLPointField* fr = FindField(cloud, {"ring", "laser_id"});
 
   std::string use = mode == "organized" ? "organised" : mode;
-  if (use == "auto") use = cloud.height > 1 ? "organised" : (fr ? "ring" : "spherical");
+  if (use == "auto" && (cloud.height > 1 || fr)) use = cloud.height > 1 ? "organised" : "ring";
 
   const Eigen::Vector3d origin = header.origin;
   OrderedScan scan;
@@ -592,7 +593,9 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options,
       }
       scan = RegridRings(points, rings, ip, origin, ro, progress);
     } else {
-      scan = RegridSpherical(points, ip, origin, ro, progress);
+      UnorderedGrid how = UnorderedGrid::kAuto;
+      ParseUnorderedGrid(use, how);  // auto, recover-rings or spherical, checked above
+      scan = RegridUnordered(points, ip, origin, how, ro, progress, options.note);
     }
   }
   scan.source = path;

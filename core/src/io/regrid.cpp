@@ -479,9 +479,15 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
   std::vector<int> row_of_slot(nr);
   for (std::size_t r = 0; r < nr; ++r) row_of_slot[static_cast<std::size_t>(order[r])] = int(r);
 
-  // Azimuth step: given, or the median spacing of sorted azimuths within each ring.
-  double step = o.step_deg * kDeg;
-  if (step == 0.0) {
+  // Azimuth step: given, or estimated from the gaps between sorted azimuths within each ring:
+  // the median gap, or the mean of the gaps shorter than 1.5 median gaps (missed returns left
+  // out) when that places clearly more points. Firings can be irregular (KITTI's HDL-64E:
+  // mostly 0.18 deg, every few shots 0.09 deg): the median then gives too few cells for a
+  // ring's firings (64 x 2006 cells keep 93.7 % of kitti-000000, 64 x 2159 keep 99.4 %).
+  std::vector<double> candidates;
+  if (o.step_deg > 0.0) {
+    candidates.push_back(o.step_deg * kDeg);
+  } else {
     std::vector<double> gaps;
     for (auto& az : ring_az) {
       std::vector<double> a = az;
@@ -496,30 +502,90 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
                   ": cannot estimate the azimuth step (no ring has two distinct "
                   "azimuths); give one");
     }
-    step = MedianOf(gaps);
+    const double median_gap = MedianOf(gaps);
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (double g : gaps) {
+      if (g < 1.5 * median_gap) {
+        sum += g;
+        ++count;
+      }
+    }
+    candidates.push_back(median_gap);
+    const double mean_gap = sum / static_cast<double>(count);  // count >= 1 (the median)
+    // Only a moderately finer grid: many duplicate points must not explode the grid.
+    if (mean_gap > median_gap / 1.5) candidates.push_back(mean_gap);
   }
-  const long long n_full = std::max(1LL, std::llround(2.0 * kPi / step));
-  step = 2.0 * kPi / static_cast<double>(n_full);
-  CheckCells(static_cast<double>(nr), static_cast<double>(n_full), p.az.size(), o, step / kDeg);
-  progress(0.3, "ordering rings");
 
   // Per-ring phase; the grid phase is the mean over all points; each ring is shifted by less
-  // than half a step onto it.
-  PhaseAccumulator all(step);
-  std::vector<PhaseAccumulator> per_ring(nr, PhaseAccumulator(step));
-  for (std::size_t i = 0; i < p.az.size(); ++i) {
-    all.Add(p.az[i]);
-    per_ring[static_cast<std::size_t>(slot_of[i])].Add(p.az[i]);
+  // than half a step onto it. Cells along each ring in azimuth order: a point whose cell the
+  // previous point of its ring already holds takes the next cell when that cell's centre is
+  // within one step of it; otherwise the two share the cell and the nearer one wins.
+  struct Layout {
+    AzimuthLayout azimuth;
+    std::vector<double> shift;
+    std::vector<long long> cells;
+    std::size_t shared = 0;  // points sharing a cell with another of their ring
+  };
+  auto lay_out = [&](double step_rad) {
+    Layout l;
+    const long long n_full = std::max(1LL, std::llround(2.0 * kPi / step_rad));
+    const double step = 2.0 * kPi / static_cast<double>(n_full);
+    CheckCells(static_cast<double>(nr), static_cast<double>(n_full), p.az.size(), o, step / kDeg);
+    PhaseAccumulator all(step);
+    std::vector<PhaseAccumulator> per_ring(nr, PhaseAccumulator(step));
+    for (std::size_t i = 0; i < p.az.size(); ++i) {
+      all.Add(p.az[i]);
+      per_ring[static_cast<std::size_t>(slot_of[i])].Add(p.az[i]);
+    }
+    l.azimuth = MakeAzimuthLayout(step, all.Phase());
+    l.shift.assign(nr, 0.0);
+    for (std::size_t s = 0; s < nr; ++s) {
+      if (!ring_az[s].empty()) {
+        l.shift[s] = WrapHalf(l.azimuth.phase - per_ring[s].Phase(), l.azimuth.step);
+      }
+    }
+    l.cells.resize(p.az.size());
+    std::vector<std::vector<std::pair<double, std::uint32_t>>> along(nr);
+    for (std::size_t i = 0; i < p.az.size(); ++i) {
+      const std::size_t s = static_cast<std::size_t>(slot_of[i]);
+      along[s].emplace_back((p.az[i] + l.shift[s] - l.azimuth.phase) / l.azimuth.step,
+                            static_cast<std::uint32_t>(i));
+    }
+    std::vector<long long> wrapped;
+    for (auto& ring_points : along) {
+      std::sort(ring_points.begin(), ring_points.end());
+      long long last = std::numeric_limits<long long>::min();
+      wrapped.clear();
+      for (const auto& [x, i] : ring_points) {
+        long long k = std::llround(x);
+        if (k <= last && static_cast<double>(last + 1) - x <= 1.0) k = last + 1;
+        l.cells[i] = k;
+        last = std::max(last, k);
+        wrapped.push_back(FloorMod(k, l.azimuth.n_full));
+      }
+      std::sort(wrapped.begin(), wrapped.end());
+      for (std::size_t j = 1; j < wrapped.size(); ++j) l.shared += wrapped[j] == wrapped[j - 1];
+    }
+    return l;
+  };
+  Layout chosen = lay_out(candidates[0]);
+  if (candidates.size() > 1) {
+    try {
+      Layout finer = lay_out(candidates[1]);
+      // Clearly more points placed (more than 0.5 % of them): the finer grid.
+      if (static_cast<double>(chosen.shared) - static_cast<double>(finer.shared) >
+          0.005 * static_cast<double>(p.az.size())) {
+        chosen = std::move(finer);
+      }
+    } catch (const Error&) {
+      // the finer grid would break the CheckCells limits: keep the median's
+    }
   }
-  AzimuthLayout layout = MakeAzimuthLayout(step, all.Phase());
-  std::vector<double> shift(nr, 0.0);
-  for (std::size_t s = 0; s < nr; ++s) {
-    if (!ring_az[s].empty()) shift[s] = WrapHalf(layout.phase - per_ring[s].Phase(), step);
-  }
-  std::vector<long long> cells(p.az.size());
-  for (std::size_t i = 0; i < p.az.size(); ++i) {
-    cells[i] = layout.Cell(p.az[i] + shift[static_cast<std::size_t>(slot_of[i])]);
-  }
+  progress(0.3, "ordering rings");
+  AzimuthLayout& layout = chosen.azimuth;
+  const std::vector<double>& shift = chosen.shift;
+  std::vector<long long>& cells = chosen.cells;
   ChooseColumns(layout, cells);
 
   OrderedScan scan = OrderedScan::Empty(static_cast<int>(nr), layout.ncols);
@@ -546,6 +612,279 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
   progress(0.6, "ordering rings");
   FillWinners(scan, points, intensity, p, cell_of);
   progress(1.0, "ordering rings");
+  return scan;
+}
+
+}  // namespace scancam
+
+namespace scancam {
+
+namespace {
+
+constexpr int kMaxLasers = 256;
+constexpr double kMinPointsPerLaser = 16.0;
+
+std::string Fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+// Elevation clusters (regrid.h RecoverRings). laser_of: per Polar entry, -1 for noise.
+bool RingsByElevation(const Polar& p, std::vector<int>& laser_of, int& count, std::string& why) {
+  const std::size_t n = p.el.size();
+  std::vector<std::pair<double, std::uint32_t>> sorted(n);
+  for (std::size_t i = 0; i < n; ++i) sorted[i] = {p.el[i], static_cast<std::uint32_t>(i)};
+  std::sort(sorted.begin(), sorted.end());
+  // The largest gaps between consecutive sorted elevations, largest first.
+  std::vector<std::pair<double, std::size_t>> gaps(n - 1);
+  for (std::size_t i = 0; i + 1 < n; ++i) gaps[i] = {sorted[i + 1].first - sorted[i].first, i};
+  const std::size_t top = std::min<std::size_t>(gaps.size(), 2 * kMaxLasers + 2);
+  std::partial_sort(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(top), gaps.end(),
+                    [](const auto& a, const auto& b) { return a.first > b.first; });
+  // Candidate cuts: after the k largest gaps, where the next gap is at least 4x smaller;
+  // steepest drop first.
+  constexpr double kTiny = 1e-9;                     // radians; float coordinates resolve far less
+  std::vector<std::pair<double, std::size_t>> cuts;  // (drop ratio, k)
+  double best_ratio = 0.0;
+  for (std::size_t k = 1; k + 1 <= top && k <= static_cast<std::size_t>(2 * kMaxLasers); ++k) {
+    const double ratio = gaps[k - 1].first / std::max(gaps[k].first, kTiny);
+    best_ratio = std::max(best_ratio, ratio);
+    if (ratio >= 4.0) cuts.emplace_back(ratio, k);
+  }
+  std::sort(cuts.begin(), cuts.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
+  if (cuts.size() > 16) cuts.resize(16);  // the steepest drops: each try costs O(points)
+  for (const auto& [ratio, k] : cuts) {
+    std::vector<std::size_t> at(k);
+    for (std::size_t j = 0; j < k; ++j) at[j] = gaps[j].second;
+    std::sort(at.begin(), at.end());
+    // Clusters [begin, end) of `sorted`, lowest elevation first.
+    std::vector<std::pair<std::size_t, std::size_t>> clusters;
+    std::size_t begin = 0;
+    for (std::size_t a : at) {
+      clusters.emplace_back(begin, a + 1);
+      begin = a + 1;
+    }
+    clusters.emplace_back(begin, n);
+    std::vector<double> sizes;
+    for (const auto& c : clusters) sizes.push_back(static_cast<double>(c.second - c.first));
+    const double noise_below = std::max(3.0, 0.02 * MedianOf(sizes));
+    std::vector<std::pair<std::size_t, std::size_t>> lasers;
+    std::size_t assigned = 0;
+    for (const auto& c : clusters) {
+      if (static_cast<double>(c.second - c.first) < noise_below) continue;
+      lasers.push_back(c);
+      assigned += c.second - c.first;
+    }
+    const int nl = static_cast<int>(lasers.size());
+    if (nl < 2 || nl > kMaxLasers || static_cast<double>(assigned) < kMinPointsPerLaser * nl ||
+        static_cast<double>(assigned) < 0.9 * static_cast<double>(n)) {
+      continue;
+    }
+    laser_of.assign(n, -1);
+    double widest = 0.0, closest = std::numeric_limits<double>::infinity();
+    for (int l = 0; l < nl; ++l) {
+      const auto& c = lasers[static_cast<std::size_t>(l)];
+      for (std::size_t i = c.first; i < c.second; ++i) laser_of[sorted[i].second] = nl - 1 - l;
+      widest = std::max(widest, sorted[c.second - 1].first - sorted[c.first].first);
+      if (l > 0) {
+        const auto& below = lasers[static_cast<std::size_t>(l - 1)];
+        closest = std::min(closest, sorted[c.first].first - sorted[below.second - 1].first);
+      }
+    }
+    count = nl;
+    why = std::to_string(nl) + " lasers from the elevation clusters (nearest lasers " +
+          Fixed(closest / kDeg, 3) + " deg apart, the widest spans " + Fixed(widest / kDeg, 3) +
+          " deg; " + std::to_string(n - assigned) + " isolated points left out)";
+    return true;
+  }
+  why = "the elevations form no separate clusters (steepest drop between consecutive gaps x" +
+        Fixed(best_ratio, 1) + ", needs x4 and 2-256 lasers)";
+  return false;
+}
+
+// Laser after laser in the file (regrid.h RecoverRings). laser_of: per Polar entry.
+bool RingsByFiringOrder(const Polar& p, std::vector<int>& laser_of, int& count, std::string& why) {
+  const std::size_t n = p.az.size();
+  auto wrap = [](double a) { return a - 2.0 * kPi * std::round(a / (2.0 * kPi)); };
+  std::size_t forward = 0, backward = 0;
+  std::vector<double> steps;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double d = wrap(p.az[i] - p.az[i - 1]);
+    forward += d > 0.0 ? 1 : 0;
+    backward += d < 0.0 ? 1 : 0;
+  }
+  const double s = forward >= backward ? 1.0 : -1.0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double d = s * wrap(p.az[i] - p.az[i - 1]);
+    if (d > 0.0 && d < 5.0 * kDeg) steps.push_back(d);
+  }
+  if (steps.empty()) {
+    why = "the azimuth does not turn steadily from one point to the next";
+    return false;
+  }
+  // A laser's turn starts at the first point's azimuth, less half a step (the next lasers'
+  // first firings scatter around it).
+  const double a0 = p.az[0] - s * 0.5 * MedianOf(steps);
+  auto position = [&](double az) {
+    double q = std::fmod(s * (az - a0), 2.0 * kPi);
+    return q < 0.0 ? q + 2.0 * kPi : q;
+  };
+  std::vector<int> turn(n, 0);
+  std::size_t disorder = 0;
+  int t = 0;
+  double prev = position(p.az[0]);
+  for (std::size_t i = 1; i < n; ++i) {
+    const double q = position(p.az[i]);
+    if (q < prev - 5.0 * kDeg) {
+      if (++t >= kMaxLasers) {
+        why = "the points are not laser after laser (the azimuth goes back more than " +
+              std::to_string(kMaxLasers) + " times)";
+        return false;
+      }
+    } else if (q < prev - 0.5 * kDeg) {
+      ++disorder;
+    }
+    turn[i] = t;
+    prev = q;
+  }
+  const int nt = t + 1;
+  if (nt < 2) {
+    why = "the points make a single turn of the azimuth, not one turn per laser";
+    return false;
+  }
+  if (static_cast<double>(disorder) > 0.02 * static_cast<double>(n)) {
+    why = "the azimuth goes back in " + Fixed(100.0 * double(disorder) / double(n), 1) +
+          " % of the steps (not laser after laser)";
+    return false;
+  }
+  if (static_cast<double>(n) < kMinPointsPerLaser * nt) {
+    why = "too few points for " + std::to_string(nt) + " turns of the azimuth";
+    return false;
+  }
+  // Each turn's elevation spread (10-90 %) must be narrow compared to the cloud's.
+  std::vector<std::vector<double>> el(static_cast<std::size_t>(nt));
+  for (std::size_t i = 0; i < n; ++i) el[static_cast<std::size_t>(turn[i])].push_back(p.el[i]);
+  auto spread = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() * 9 / 10] - v[v.size() / 10];
+  };
+  std::vector<double> spreads, median(static_cast<std::size_t>(nt));
+  for (std::size_t k = 0; k < el.size(); ++k) {
+    spreads.push_back(spread(el[k]));
+    median[k] = MedianOf(el[k]);
+  }
+  const double turn_spread = MedianOf(spreads), cloud_spread = spread(p.el);
+  if (!(turn_spread < 0.25 * cloud_spread)) {
+    why = "the azimuth's " + std::to_string(nt) + " turns are not one laser each (a turn's " +
+          "elevations spread " + Fixed(turn_spread / kDeg, 2) + " deg, the cloud's " +
+          Fixed(cloud_spread / kDeg, 2) + " deg)";
+    return false;
+  }
+  // Lasers by median elevation, highest first.
+  std::vector<int> order(static_cast<std::size_t>(nt));
+  for (int k = 0; k < nt; ++k) order[static_cast<std::size_t>(k)] = k;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return median[static_cast<std::size_t>(a)] > median[static_cast<std::size_t>(b)];
+  });
+  std::vector<int> laser_of_turn(static_cast<std::size_t>(nt));
+  for (int r = 0; r < nt; ++r) laser_of_turn[static_cast<std::size_t>(order[r])] = r;
+  laser_of.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+    laser_of[i] = laser_of_turn[static_cast<std::size_t>(turn[i])];
+  count = nt;
+  why = std::to_string(nt) + " lasers from the firing order (one full turn of the azimuth per " +
+        "laser; a turn's elevations spread " + Fixed(turn_spread / kDeg, 2) + " deg, the " +
+        "cloud's " + Fixed(cloud_spread / kDeg, 2) + " deg)";
+  return true;
+}
+
+}  // namespace
+
+RecoveredRings RecoverRings(const std::vector<Eigen::Vector3f>& points,
+                            const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation) {
+  RecoveredRings out;
+  out.ring.assign(points.size(), -1);
+  const Polar p = ToPolar(points, origin, orientation);
+  if (static_cast<double>(p.az.size()) < 2.0 * kMinPointsPerLaser) {
+    out.summary = "not recognised as a spinning lidar: only " + std::to_string(p.az.size()) +
+                  " usable points";
+    return out;
+  }
+  std::vector<int> laser_of;
+  std::string by_elevation, by_order;
+  int count = 0;
+  if (RingsByElevation(p, laser_of, count, by_elevation)) {
+    out.method = "elevation clusters";
+    out.summary = by_elevation;
+  } else if (RingsByFiringOrder(p, laser_of, count, by_order)) {
+    out.method = "firing order";
+    out.summary = by_order;
+  } else {
+    out.summary = "not recognised as a spinning lidar: " + by_elevation + ", and " + by_order;
+    return out;
+  }
+  out.count = count;
+  for (std::size_t i = 0; i < laser_of.size(); ++i) out.ring[p.index[i]] = laser_of[i];
+  return out;
+}
+
+bool ParseUnorderedGrid(const std::string& text, UnorderedGrid& out) {
+  if (text == "auto") {
+    out = UnorderedGrid::kAuto;
+  } else if (text == "recover-rings") {
+    out = UnorderedGrid::kRecoverRings;
+  } else if (text == "spherical") {
+    out = UnorderedGrid::kSpherical;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+OrderedScan RegridUnordered(const std::vector<Eigen::Vector3f>& points,
+                            const std::vector<float>* intensity, const Eigen::Vector3d& origin,
+                            UnorderedGrid how, RegridOptions o, const Progress& progress,
+                            std::string* note) {
+  CheckInputs(points, intensity, o);
+  std::size_t usable = 0;
+  for (const Eigen::Vector3f& q : points) {
+    usable += q.allFinite() && (q.cast<double>() - origin).norm() > 0.0 ? 1 : 0;
+  }
+  auto placed = [&](const OrderedScan& scan) {
+    const std::size_t v = scan.valid_count();
+    return std::to_string(v) + " of the " + std::to_string(usable) + " usable points placed (" +
+           Fixed(usable ? 100.0 * double(v) / double(usable) : 0.0, 2) + " %) on " +
+           std::to_string(scan.rows) + " x " + std::to_string(scan.cols) + " cells";
+  };
+  std::string why_not;
+  if (how != UnorderedGrid::kSpherical) {
+    const RecoveredRings rr = RecoverRings(points, origin, o.orientation);
+    if (rr.count > 0) {
+      std::vector<Eigen::Vector3f> kept;
+      std::vector<int> ring;
+      std::vector<float> kept_intensity;
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        if (rr.ring[i] < 0) continue;
+        kept.push_back(points[i]);
+        ring.push_back(rr.ring[i]);
+        if (intensity) kept_intensity.push_back((*intensity)[i]);
+      }
+      OrderedScan scan =
+          RegridRings(kept, ring, intensity ? &kept_intensity : nullptr, origin, o, progress);
+      scan.row_axis =
+          "laser (recovered from the " + rr.method + "), sorted by elevation, highest first";
+      if (note) {
+        *note = "spinning lidar without a ring field: " + rr.summary + "; " + placed(scan);
+      }
+      return scan;
+    }
+    if (how == UnorderedGrid::kRecoverRings) throw Error(o.source + ": " + rr.summary);
+    why_not = rr.summary + "; ";
+  }
+  OrderedScan scan = RegridSpherical(points, intensity, origin, o, progress);
+  if (note) *note = why_not + "spherical re-grid: " + placed(scan);
   return scan;
 }
 

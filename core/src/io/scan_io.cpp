@@ -4,8 +4,10 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <iostream>
 
 #include "scancam/error.h"
+#include "scancam/io/kitti.h"
 #include "scancam/io/mrpt_rawlog.h"
 #include "scancam/io/pcd.h"
 #include "scancam/io/ptx.h"
@@ -21,16 +23,18 @@ std::string DetectScanFormat(const std::string& path) {
   if (ext == ".ptx") return "ptx";
   if (ext == ".pcd") return "pcd";
   if (ext == ".rawlog") return "rawlog";
+  if (ext == ".bin") return "kitti";
   throw FileError(path, "",
                   "unknown scan format (extension '" + ext +
-                      "'); expected .txt/.rot (rotating), .ptx, .pcd or .rawlog, or give the "
-                      "format explicitly");
+                      "'); expected .txt/.rot (rotating), .ptx, .pcd, .rawlog or .bin (KITTI), "
+                      "or give the format explicitly");
 }
 
 OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
                      const Progress& progress) {
   const std::string format = options.format == "auto" ? DetectScanFormat(path) : options.format;
   OrderedScan scan;
+  std::string note;
   if (format == "rotating") {
     RotatingScanData data = ReadRotatingLog(path, progress);
     if (options.has_offsets) {
@@ -44,14 +48,24 @@ OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
     PcdLoadOptions pcd;
     pcd.mode = options.pcd_mode;
     pcd.grid_step_deg = options.grid_step_deg;
+    pcd.note = &note;
     scan = LoadPcd(path, pcd, progress);
   } else if (format == "rawlog") {
     scan = LoadMrptRawlog(path, options.rawlog_index, progress);
+  } else if (format == "kitti") {
+    scan = LoadKittiBin(path, options.pcd_mode, options.grid_step_deg, progress, &note);
   } else {
     throw FileError(path, "",
                     "unknown scan format '" + format +
-                        "' (expected auto, rotating, ptx, pcd or "
-                        "rawlog)");
+                        "' (expected auto, rotating, ptx, pcd, rawlog or kitti)");
+  }
+  if (!note.empty()) {
+    note = path + ": " + note;
+    if (options.notes) {
+      options.notes->push_back(note);
+    } else {
+      std::cerr << "note: " << PrintableText(note) << "\n";
+    }
   }
   scan.source = path;
   CheckScan(scan, path);

@@ -19,6 +19,9 @@
 //   - OpenCalib JSON (e.g. shared/datasets/road-pinhole/camera-intrinsic.json): one top-level
 //     object whose "param" has img_dist_w, img_dist_h, cam_K.data (3x3), cam_dist.data
 //     (k1 k2 p1 p2 [k3]).
+//   - KITTI calib.txt (shared/datasets/kitti-000000/calib.txt): camera 2, K = P2[:, :3], no
+//     distortion (camera/kitti_calib.h). The file has no image size: LoadCameraOptions gives it
+//     (LoadCameraForImage reads it from the image's header).
 // Every error throws scancam::Error naming the file, the field (or line) and what is wrong.
 // Strict where the format's own tools are: a deleted distortion key (OpenCV / Kalibr /
 // OpenCalib / ROS distortion_coefficients) is an error, not "no distortion"; ROS files without
@@ -44,9 +47,10 @@ enum class CameraFileFormat {
   kKalibr,         ///< Kalibr camchain YAML
   kRosCameraInfo,  ///< ROS camera_info YAML
   kOpenCalib,      ///< OpenCalib intrinsic JSON
+  kKittiCalib,     ///< KITTI calib.txt, camera 2 (loading only)
 };
 
-/// "auto", "opencv", "ocamcalib", "kalibr", "ros", "opencalib".
+/// "auto", "opencv", "ocamcalib", "kalibr", "ros", "opencalib", "kitti".
 const char* CameraFileFormatName(CameraFileFormat f);
 
 struct LoadCameraOptions {
@@ -55,12 +59,20 @@ struct LoadCameraOptions {
   /// Where warnings go ("FILE: what", e.g. a ROS file without distortion_model, read as
   /// plumb_bob as ROS does). nullptr: printed to std::cerr as "warning: ...".
   std::vector<std::string>* warnings = nullptr;
+  /// The image size, px, for files that have none (KITTI calib.txt); 0 = unknown (an error for
+  /// such files, ignored for the others).
+  int image_width = 0;
+  int image_height = 0;
 };
 
 /// Reads a camera file (format auto-detected unless options say otherwise). The returned
 /// camera's source() is `path`; its name() is the file's camera name when it has one, else the
 /// file name. Throws scancam::Error ("FILE:FIELD: what") on any problem.
 CameraModel LoadCamera(const std::string& path, const LoadCameraOptions& options = {});
+
+/// LoadCamera for the camera that took `image_path` (empty: none): a camera file without an
+/// image size (KITTI calib.txt) takes the image's, read from its header.
+CameraModel LoadCameraForImage(const std::string& path, const std::string& image_path);
 
 /// Which format LoadCamera would use for this file (throws when none fits).
 CameraFileFormat DetectCameraFileFormat(const std::string& path);

@@ -23,8 +23,14 @@
 //              computed from x y z; a timestamp or azimuth field is not needed (with per-laser
 //              azimuth offsets, as on road-pinhole/'s 64-beam lidar, firing order is not
 //              direction). NaN points are dropped (their cells stay empty).
-//   spherical  any other cloud: RegridSpherical (io/regrid.h) at grid_step_deg (0 = estimated).
-//   auto       organised if HEIGHT > 1, else ring if there is a ring field, else spherical.
+//   recover-rings  no ring field (PCDs of many drivers, road2-pinhole/): the lasers are
+//              recovered from the elevation clusters or the firing order (RecoverRings,
+//              io/regrid.h), then ordered as in ring mode; an error when the cloud does not
+//              look like a spinning multi-beam lidar.
+//   spherical  RegridSpherical (io/regrid.h) at grid_step_deg (0 = estimated).
+//   auto       organised if HEIGHT > 1, else ring if there is a ring field, else
+//              recover-rings when the cloud looks like a spinning lidar, else spherical
+//              (RegridUnordered; PcdLoadOptions::note says which and how many points got a cell).
 // The sensor origin and axes are the header's VIEWPOINT (translation and quaternion); angles
 // are measured in the sensor's axes, points stay in the cloud's frame, origin_m = VIEWPOINT
 // translation.
@@ -38,8 +44,9 @@
 namespace scancam {
 
 struct PcdLoadOptions {
-  std::string mode = "auto";   ///< auto | organised | ring | spherical
-  double grid_step_deg = 0.0;  ///< ring / spherical cell size; 0 = estimate
+  std::string mode = "auto";    ///< auto | organised | ring | recover-rings | spherical
+  double grid_step_deg = 0.0;   ///< ring / spherical cell size; 0 = estimate
+  std::string* note = nullptr;  ///< when set, how an unordered cloud was ordered (one line)
 };
 
 /// Reads a PCD file as an OrderedScan (modes above). Throws scancam::Error naming the file.

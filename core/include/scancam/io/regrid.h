@@ -39,9 +39,10 @@
 namespace scancam {
 
 struct RegridOptions {
-  /// Azimuth cell size in degrees; 0 = estimate (EstimateAngularStepDeg for RegridSpherical,
-  /// the median azimuth spacing along each ring for RegridRings). The value actually used is
-  /// adjusted so that a whole number of cells makes 360 deg.
+  /// Azimuth cell size in degrees; 0 = estimate (EstimateAngularStepDeg for RegridSpherical;
+  /// for RegridRings the mean azimuth spacing along each ring over the gaps shorter than 1.5
+  /// median gaps, so that missed returns do not count and irregular firings still get a cell
+  /// each). The value actually used is adjusted so that a whole number of cells makes 360 deg.
   double step_deg = 0.0;
   /// Elevation cell size in degrees for RegridSpherical; 0 = same as the azimuth step.
   double elevation_step_deg = 0.0;
@@ -66,13 +67,67 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
 /// highest first; columns by azimuth as above. Each ring's azimuths are shifted by less than
 /// half a step so that its regular firings land on cell centres (rings of lidars with
 /// per-laser azimuth offsets, like road-pinhole/'s 64-beam lidar, then never collide with
-/// themselves); the columns of different rings agree to within half a step. Rows are the distinct
+/// themselves); the columns of different rings agree to within half a step. Along a ring, in
+/// azimuth order, a point whose cell the previous point already holds takes the next cell when
+/// that cell's centre is within one step of it (firings are not always one step apart: KITTI's
+/// HDL-64E every few shots fires after half a step), so such points are off their column by up
+/// to one step; otherwise the nearer point wins the cell. Rows are the distinct
 /// ring values present (any integers, also those of non-finite points); a ring without a single
 /// finite point cannot be placed by elevation and goes last, with NaN beam directions. Throws
 /// scancam::Error when there is no usable point or `ring` is not one value per point.
 OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::vector<int>& ring,
                         const std::vector<float>* intensity, const Eigen::Vector3d& origin,
                         RegridOptions options = {}, const Progress& progress = {});
+
+/// The lasers of a spinning multi-beam lidar recovered for a cloud without a ring field
+/// (KITTI `.bin`, PCDs of many drivers). Two ways, tried in this order:
+///   - elevation clusters: each laser sees the world at its own elevation (seen from `origin`
+///     in the sensor axes), so the sorted elevations form one tight cluster per laser, the
+///     clusters separated by the elevation table's spacing (not uniform: an HDL-64E has two
+///     blocks; a Pandar64 has rings 14.9, 11.0, 8.1, 5.1, 3.0, 2.0 deg then 0.17 deg apart).
+///     The gaps between consecutive sorted elevations are cut where they drop most steeply
+///     (the table's spacing above, the spread within a laser below, a drop of at least 4x);
+///     clusters with few points (fewer than 2 % of the median cluster and fewer than 16) are
+///     noise, not lasers, and their points stay unassigned. Needs no point order.
+///   - firing order, laser after laser: when the lasers' elevations seen from `origin` overlap
+///     (an HDL-64E whose lasers start several cm from the sensor origin, as in KITTI, where a
+///     laser's elevation varies by 1-2 deg with range), but the points come one laser's full
+///     turn after another (KITTI's order), a new laser starts where the azimuth, turning
+///     steadily one way, passes again the azimuth where the first point was. Accepted when
+///     the sequence turns steadily (>= 98 % of the steps forward) and each laser's elevation
+///     spread is narrow compared to the cloud's.
+/// Both need 2 to 256 lasers and at least 16 points per laser on average; otherwise the cloud
+/// is not recognised as a spinning lidar (count = 0, `summary` says why).
+struct RecoveredRings {
+  std::vector<int> ring;  ///< per input point: laser 0..count-1 (0 = highest elevation), or -1
+                          ///< (not finite, at the origin, noise, or nothing recognised)
+  int count = 0;          ///< lasers found; 0 = not a spinning lidar
+  std::string method;     ///< "elevation clusters" or "firing order" (empty when count = 0)
+  std::string summary;    ///< one line: what was found, or why nothing was
+};
+
+RecoveredRings RecoverRings(const std::vector<Eigen::Vector3f>& points,
+                            const Eigen::Vector3d& origin,
+                            const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
+
+/// How a cloud with neither a grid nor a ring field is ordered.
+enum class UnorderedGrid {
+  kAuto,          ///< recover rings when RecoverRings recognises a spinning lidar, else spherical
+  kRecoverRings,  ///< RecoverRings then RegridRings; throws when it recognises no lidar
+  kSpherical,     ///< RegridSpherical
+};
+
+/// Orders an unordered cloud as `how` says: RecoverRings + RegridRings (only the points given a
+/// laser; rows = lasers by elevation, each row at its laser's median elevation) or
+/// RegridSpherical. `note`, when not null, receives one line saying which was used, why, and
+/// how many of the usable points got a cell. Throws scancam::Error as those functions do.
+OrderedScan RegridUnordered(const std::vector<Eigen::Vector3f>& points,
+                            const std::vector<float>* intensity, const Eigen::Vector3d& origin,
+                            UnorderedGrid how, RegridOptions options = {},
+                            const Progress& progress = {}, std::string* note = nullptr);
+
+/// Parses "auto" | "recover-rings" | "spherical"; false for anything else.
+bool ParseUnorderedGrid(const std::string& text, UnorderedGrid& out);
 
 /// Median nearest-neighbour spacing, in degrees, of the points' (azimuth, elevation) as seen
 /// from `origin` (measured on samples of the cloud, so O(N)). For a terrestrial scanner's

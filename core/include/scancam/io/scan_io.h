@@ -6,11 +6,13 @@
 //   ptx       .ptx       Leica PTX, gridded, several scans per file (io/ptx.h);
 //   pcd       .pcd       PCD through PCL: organised, spinning lidar with `ring`,
 //                        or unordered (re-gridded) (io/pcd.h);
-//   rawlog    .rawlog    MRPT rawlogs through MRPT (io/mrpt_rawlog.h).
+//   rawlog    .rawlog    MRPT rawlogs through MRPT (io/mrpt_rawlog.h);
+//   kitti     .bin       KITTI Velodyne scans, lasers recovered (io/kitti.h).
 // Every reader throws scancam::Error naming the file and the place on bad input.
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
@@ -18,7 +20,7 @@
 namespace scancam {
 
 struct ScanLoadOptions {
-  std::string format = "auto";  ///< auto | rotating | ptx | pcd | rawlog
+  std::string format = "auto";  ///< auto | rotating | ptx | pcd | rawlog | kitti
 
   // rotating 2D scanner (overrides the file's header when set)
   bool has_offsets = false;
@@ -30,12 +32,18 @@ struct ScanLoadOptions {
   bool ptx_apply_pose = false;  ///< apply the header's scanner pose (points in the
                                 ///< registered/world frame) instead of the scanner frame
 
-  // PCD / unordered clouds
-  std::string pcd_mode = "auto";  ///< auto | organised | ring | spherical
+  // PCD / KITTI / unordered clouds
+  std::string pcd_mode = "auto";  ///< auto | organised | ring | recover-rings | spherical
+                                  ///< (KITTI: auto | recover-rings | spherical)
   double grid_step_deg = 0.0;     ///< angular cell size for spherical re-gridding; 0 = estimate
 
   // MRPT
   int rawlog_index = -1;  ///< which scan-like observation in the rawlog (-1: the first)
+
+  /// Where notes about the loading go ("FILE: spinning lidar without a ring field: 64 lasers
+  /// ..." for an unordered cloud: which grid, how many points placed). Null: printed on stderr
+  /// as "note: ...".
+  std::vector<std::string>* notes = nullptr;
 };
 
 /// Loads `path` as an OrderedScan. Throws scancam::Error on bad input.
