@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "scancam/error.h"
+#include "scancam/io/e57.h"
 #include "scancam/io/mrpt_rawlog.h"
 #include "scancam/io/pcd.h"
 #include "scancam/io/ptx.h"
@@ -21,9 +22,10 @@ std::string DetectScanFormat(const std::string& path) {
   if (ext == ".ptx") return "ptx";
   if (ext == ".pcd") return "pcd";
   if (ext == ".rawlog") return "rawlog";
+  if (ext == ".e57") return "e57";
   throw FileError(path, "",
                   "unknown scan format (extension '" + ext +
-                      "'); expected .txt/.rot (rotating), .ptx, .pcd or .rawlog, or give the "
+                      "'); expected .txt/.rot (rotating), .ptx, .pcd, .rawlog or .e57, or give the "
                       "format explicitly");
 }
 
@@ -47,11 +49,17 @@ OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
     scan = LoadPcd(path, pcd, progress);
   } else if (format == "rawlog") {
     scan = LoadMrptRawlog(path, options.rawlog_index, progress);
+  } else if (format == "e57") {
+    E57LoadOptions e57;
+    e57.scan_index = options.e57_scan_index;
+    e57.apply_pose = options.e57_apply_pose;
+    e57.grid_step_deg = options.grid_step_deg;
+    scan = LoadE57(path, e57, progress);
   } else {
     throw FileError(path, "",
                     "unknown scan format '" + format +
-                        "' (expected auto, rotating, ptx, pcd or "
-                        "rawlog)");
+                        "' (expected auto, rotating, ptx, pcd, "
+                        "rawlog or e57)");
   }
   scan.source = path;
   CheckScan(scan, path);
