@@ -15,7 +15,8 @@
 //   - SOURCE_DIR/share/cameras/* by detected format;
 //   - from DATASETS_DIR (when given and present, e.g. ../shared/datasets): the OpenCalib
 //     intrinsics and extrinsics, the small MRPT rawlogs (<= 70 kB), the PCDs decimated to a few
-//     hundred points (in all three PCD encodings), the photos shrunk to 64 px wide.
+//     hundred points (in all three PCD encodings), the photos shrunk to 64 px wide, the E57
+//     test files up to 64 kB.
 // Seeds are kept small (mostly < 20 kB): libFuzzer's speed falls with the input size.
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
@@ -253,6 +254,13 @@ void FromDatasets(const fs::path& data) {
     for (const auto& e : fs::directory_iterator(mrpt)) {
       if (e.path().extension() == ".rawlog" && e.file_size() <= 70 * 1024)
         Copy(e.path(), "fuzz_rawlog", e.path().filename().string());
+    }
+  }
+  const fs::path e57 = data / "e57";
+  if (fs::is_directory(e57)) {  // the small test files, broken ones included
+    for (const auto& e : fs::directory_iterator(e57)) {
+      if (e.path().extension() == ".e57" && e.file_size() <= 64 * 1024)
+        Copy(e.path(), "fuzz_e57", e.path().filename().string());
     }
   }
   const fs::path kitti = data / "kitti-000000" / "image_2.png";

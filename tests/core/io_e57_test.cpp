@@ -453,5 +453,82 @@ TEST(E57, HostileFilesEndInClearErrorsQuickly) {
   EXPECT_LT(s, 2.0);
 }
 
+// ---------------------------------------------------------------- writer
+
+TEST(E57, WriterRoundTrip) {
+  // A 5 x 7 grid with holes, intensities in [0, 1] (one NaN), colours on some cells only.
+  OrderedScan s = OrderedScan::Empty(5, 7);
+  s.intensity.assign(s.size(), OrderedScan::kNaN);
+  std::vector<std::array<std::uint8_t, 3>> rgb(s.size());
+  std::vector<std::uint8_t> coloured(s.size(), 0);
+  for (int r = 0; r < 5; ++r) {
+    for (int c = 0; c < 7; ++c) {
+      if ((r * 7 + c) % 6 == 2) continue;  // no return
+      const double az = 0.1 * c, el = 0.05 * r;
+      const float rho = 2.f + 0.37f * float(r) + 0.11f * float(c);
+      s.set_point(
+          r, c,
+          Eigen::Vector3f(float(rho * std::cos(el) * std::cos(az)),
+                          float(rho * std::cos(el) * std::sin(az)), float(rho * std::sin(el))),
+          (r == 1 && c == 1) ? OrderedScan::kNaN : float(r * 7 + c) / 34.f);
+      const std::size_t k = s.index(r, c);
+      rgb[k] = {std::uint8_t(10 * r), std::uint8_t(20 * c), std::uint8_t(255 - r - c)};
+      coloured[k] = (r + c) % 3 != 0;
+    }
+  }
+  const std::string dir = test::TempDir();
+  const std::string path = dir + "/out.e57";
+  WriteE57(path, s, &rgb, &coloured);
+  const std::string bytes = test::ReadFile(path);
+  ASSERT_EQ(bytes.size() % 1024, 0u);
+  for (std::size_t p = 0; p < bytes.size(); p += 1024) {  // every page's CRC, checked here
+    const std::uint32_t crc = Crc32cBitwise(bytes, p, 1020);
+    for (int i = 0; i < 4; ++i)
+      ASSERT_EQ(static_cast<std::uint8_t>(bytes[p + 1020 + i]), (crc >> (24 - 8 * i)) & 0xff);
+  }
+  const OrderedScan back = LoadScan(path);
+  ASSERT_EQ(back.rows, 5);
+  ASSERT_EQ(back.cols, 7);
+  ASSERT_EQ(back.valid_count(), s.valid_count());
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    ASSERT_EQ(back.valid(k), s.valid(k)) << k;
+    if (!s.valid(k)) continue;
+    EXPECT_EQ(back.point_m[k], s.point_m[k]) << k;
+    if (std::isnan(s.intensity[k])) {
+      EXPECT_TRUE(std::isnan(back.intensity[k])) << k;
+    } else {
+      EXPECT_FLOAT_EQ(back.intensity[k], s.intensity[k]) << k;
+    }
+  }
+  const E57Cloud cloud = ReadE57Cloud(path);
+  ASSERT_EQ(cloud.points.size(), s.valid_count());
+  for (const E57Point& p : cloud.points) {
+    const std::size_t k = s.index(int(p.row), int(p.column));
+    EXPECT_EQ(p.colour_valid, coloured[k] != 0) << k;
+    if (coloured[k]) {
+      EXPECT_EQ(p.rgb, rgb[k]) << k;
+    }
+  }
+  // A bigger grid (several packets, 13-bit indices): the same points come back.
+  OrderedScan big = OrderedScan::Empty(90, 5000);
+  for (int r = 0; r < big.rows; ++r)
+    for (int c = 0; c < big.cols; c += 1 + (r % 3))
+      big.set_point(r, c, Eigen::Vector3f(1.f + 0.001f * c, 0.01f * r, -0.5f));
+  WriteE57(dir + "/big.e57", big);
+  const OrderedScan big_back = LoadScan(dir + "/big.e57");
+  ASSERT_EQ(big_back.rows, 90);
+  ASSERT_EQ(big_back.cols, 5000);
+  ASSERT_EQ(big_back.valid_count(), big.valid_count());
+  for (std::size_t k = 0; k < big.size(); ++k) {
+    if (big.valid(k)) {
+      ASSERT_EQ(big_back.point_m[k], big.point_m[k]) << k;
+    }
+  }
+  // The input is never the output's temporary: a failed write leaves no file.
+  ExpectError([&] { WriteE57(dir + "/none.e57", OrderedScan::Empty(2, 2)); },
+              {"none.e57", "no valid point"});
+  EXPECT_FALSE(std::filesystem::exists(dir + "/none.e57"));
+}
+
 }  // namespace
 }  // namespace scancam

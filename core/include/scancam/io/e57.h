@@ -144,4 +144,21 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options = {},
 /// (scancam/output_file.h), page CRCs checked. Returns the blob type ("jpeg" or "png").
 std::string ExtractE57Image(const std::string& path, int image_index, const std::string& out_path);
 
+/// Writes `scan` as an E57 file with one data3D scan (streamed page by page, CRC per page,
+/// atomically: scancam/output_file.h). One record per valid cell, in row-major order:
+/// cartesianX/Y/Z (single floats, the frame of point_m; identity pose), rowIndex/columnIndex
+/// with indexBounds 0..rows-1 x 0..cols-1 (the grid comes back as it was), intensity (single
+/// float, when the scan has it; isIntensityInvalid where it is NaN; intensityLimits 0..1 when
+/// every value lies in [0, 1], else the values' range) and, when `rgb` is given (rows*cols
+/// colours), colorRed/Green/Blue with isColorInvalid = 1 where `coloured` (rows*cols, may be
+/// null: all coloured) is 0: a point no camera saw keeps no colour. LoadE57 gives back the same
+/// grid, points and intensities; ReadE57Cloud the colours. Throws scancam::Error naming the file.
+void WriteE57(const std::string& path, const OrderedScan& scan,
+              const std::vector<std::array<std::uint8_t, 3>>* rgb = nullptr,
+              const std::vector<std::uint8_t>* coloured = nullptr, const Progress& progress = {});
+
+/// CRC-32C (Castagnoli), the checksum of E57 pages: each page's last 4 bytes hold
+/// E57Crc32c(page, 1020), big-endian.
+std::uint32_t E57Crc32c(const std::uint8_t* data, std::size_t n);
+
 }  // namespace scancam
