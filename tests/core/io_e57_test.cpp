@@ -530,5 +530,44 @@ TEST(E57, WriterRoundTrip) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/none.e57"));
 }
 
+TEST(E57, ColorizeWritesE57AndReadsItBack) {
+  // The simulator's rotating scan coloured from its pinhole image into E57 (and PLY): the E57
+  // holds the grid (rows x cols as the scan), colour exactly where colorize coloured, and is
+  // itself a scan colorize and ba accept.
+  const std::string dir = test::TempDir();
+  ASSERT_EQ(test::RunCli(dir, "simulate --out \"" + dir +
+                                  "/sim\" --camera pinhole --supersample 1 "
+                                  "--planes 90 --phi-step-deg 4 --beams 121 --theta-step-deg 1.5 "
+                                  "--quiet"),
+            0)
+      << test::ReadFile(dir + "/stderr.txt");
+  const std::string sim = dir + "/sim";
+  const std::string base = "colorize --camera " + sim + "/camera.yaml --image " + sim +
+                           "/image.png --calib " + sim + "/ground_truth.json --quiet ";
+  ASSERT_EQ(test::RunCli(dir, base + "--scan " + sim + "/scan.txt --e57 " + dir + "/c.e57"), 0)
+      << test::ReadFile(dir + "/stderr.txt");
+  const OrderedScan scan = LoadScan(sim + "/scan.txt");
+  const OrderedScan e57 = LoadScan(dir + "/c.e57");
+  ASSERT_EQ(e57.rows, scan.rows);
+  ASSERT_EQ(e57.cols, scan.cols);
+  ASSERT_EQ(e57.valid_count(), scan.valid_count());
+  for (std::size_t k = 0; k < scan.size(); ++k) {
+    if (scan.valid(k)) {
+      ASSERT_EQ(e57.point_m[k], scan.point_m[k]) << k;
+    }
+  }
+  const E57Cloud cloud = ReadE57Cloud(dir + "/c.e57");
+  std::size_t with_colour = 0;
+  for (const E57Point& p : cloud.points) with_colour += p.colour_valid;
+  EXPECT_GT(with_colour, 100u);
+  EXPECT_LT(with_colour, cloud.points.size());  // the camera sees only part of the scan
+  // The E57 as colorize's input, and an output that is an input is refused.
+  ASSERT_EQ(test::RunCli(dir, base + "--scan " + dir + "/c.e57 --e57 " + dir + "/d.e57"), 0)
+      << test::ReadFile(dir + "/stderr.txt");
+  EXPECT_EQ(ReadE57Cloud(dir + "/d.e57").points.size(), cloud.points.size());
+  EXPECT_EQ(test::RunCli(dir, base + "--scan " + dir + "/c.e57 --e57 " + dir + "/c.e57"), 1);
+  EXPECT_EQ(test::RunCli(dir, base + "--scan " + dir + "/c.e57 --e57 " + dir + "/c.ply"), 1);
+}
+
 }  // namespace
 }  // namespace scancam
