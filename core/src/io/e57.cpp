@@ -27,6 +27,27 @@ constexpr std::uint64_t kMaxXmlBytes = 256ull << 20;
 // Grids larger than this are refused (same bound as the re-gridding of unordered clouds).
 constexpr std::uint64_t kMaxCells = 200ull * 1000 * 1000;
 
+// Coordinates beyond this are no measurement (and would not fit a float): such points are
+// treated as invalid.
+constexpr double kMaxCoordinate_m = 1e9;
+
+// double -> float without undefined behaviour for values beyond float's range (+-inf).
+float ToFloat(double v) {
+  if (std::isnan(v)) return std::numeric_limits<float>::quiet_NaN();
+  if (std::abs(v) > double(std::numeric_limits<float>::max()))
+    return v > 0 ? std::numeric_limits<float>::infinity() : -std::numeric_limits<float>::infinity();
+  return static_cast<float>(v);
+}
+
+// A decoded index (row, column, return) as an integer; NaN and huge values (a Float field
+// named rowIndex) become far out of any grid, so the bounds checks reject them.
+long long ToIndex(double v) {
+  constexpr double kFar = double(1LL << 62);
+  if (!(v > -kFar)) return -(1LL << 62);
+  if (!(v < kFar)) return 1LL << 62;
+  return static_cast<long long>(v);
+}
+
 using io_detail::ByteWhere;
 using io_detail::Quote;
 
@@ -357,7 +378,9 @@ class Xml {
     if (pugi::xml_node t = p.child("translation")) {
       pose.translation = Eigen::Vector3d(ChildNumber(t, "x", 0.0), ChildNumber(t, "y", 0.0),
                                          ChildNumber(t, "z", 0.0));
-      if (!pose.translation.allFinite()) Fail(t, "the translation is not finite");
+      if (!pose.translation.allFinite() ||
+          pose.translation.cwiseAbs().maxCoeff() > kMaxCoordinate_m)
+        Fail(t, "the translation is not finite or beyond 1e9 m");
     }
     return pose;
   }
@@ -512,10 +535,10 @@ ParsedFile Parse(PagedFile& file) {
     si.has_grid_index = Has(fl, "rowIndex") && Has(fl, "columnIndex");
     if (pugi::xml_node b = s.child("indexBounds")) {
       si.has_index_bounds = true;
-      si.row_min = static_cast<long long>(xml.ChildNumber(b, "rowMinimum", 0));
-      si.row_max = static_cast<long long>(xml.ChildNumber(b, "rowMaximum", 0));
-      si.column_min = static_cast<long long>(xml.ChildNumber(b, "columnMinimum", 0));
-      si.column_max = static_cast<long long>(xml.ChildNumber(b, "columnMaximum", 0));
+      si.row_min = ToIndex(xml.ChildNumber(b, "rowMinimum", 0));
+      si.row_max = ToIndex(xml.ChildNumber(b, "rowMaximum", 0));
+      si.column_min = ToIndex(xml.ChildNumber(b, "columnMinimum", 0));
+      si.column_max = ToIndex(xml.ChildNumber(b, "columnMaximum", 0));
     }
     if (pugi::xml_node l = s.child("intensityLimits")) {
       si.has_intensity_limits = true;
@@ -557,8 +580,8 @@ ParsedFile Parse(PagedFile& file) {
       im.blob_offset = static_cast<std::uint64_t>(off);
       im.blob_length = static_cast<std::uint64_t>(len);
       im.has_mask = static_cast<bool>(r.child("imageMask"));
-      im.width_px = static_cast<long long>(xml.ChildNumber(r, "imageWidth", 0));
-      im.height_px = static_cast<long long>(xml.ChildNumber(r, "imageHeight", 0));
+      im.width_px = ToIndex(xml.ChildNumber(r, "imageWidth", 0));
+      im.height_px = ToIndex(xml.ChildNumber(r, "imageHeight", 0));
       im.pixel_width_m = xml.ChildNumber(r, "pixelWidth", 0.0);
       im.pixel_height_m = xml.ChildNumber(r, "pixelHeight", 0.0);
       im.focal_length_m = xml.ChildNumber(r, "focalLength", 0.0);
@@ -840,8 +863,10 @@ class PointReader {
 
   void Assign(Role role, const std::vector<double>& v, std::vector<E57Point>& out) const {
     const std::size_t n = out.size();
-    auto u8 = [](double x) {
-      return static_cast<std::uint8_t>(std::clamp(std::lround(x), 0L, 255L));
+    auto u8 = [](double x) -> std::uint8_t {
+      if (!(x > 0.0)) return 0;
+      if (x >= 255.0) return 255;
+      return static_cast<std::uint8_t>(std::lround(x));
     };
     switch (role) {
       case kX:
@@ -884,13 +909,13 @@ class PointReader {
           if (v[i] != 0.0) out[i].colour_valid = false;
         break;
       case kRow:
-        for (std::size_t i = 0; i < n; ++i) out[i].row = static_cast<long long>(v[i]);
+        for (std::size_t i = 0; i < n; ++i) out[i].row = ToIndex(v[i]);
         break;
       case kColumn:
-        for (std::size_t i = 0; i < n; ++i) out[i].column = static_cast<long long>(v[i]);
+        for (std::size_t i = 0; i < n; ++i) out[i].column = ToIndex(v[i]);
         break;
       case kReturn:
-        for (std::size_t i = 0; i < n; ++i) out[i].return_index = static_cast<long long>(v[i]);
+        for (std::size_t i = 0; i < n; ++i) out[i].return_index = ToIndex(v[i]);
         break;
       case kNone:
         break;
@@ -983,7 +1008,7 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options,
   const bool scale_intensity = IntensityRange(d, ilo, ihi);
   auto intensity_of = [&](double v) -> float {
     if (std::isnan(v)) return OrderedScan::kNaN;
-    return static_cast<float>(scale_intensity ? (v - ilo) / (ihi - ilo) : v);
+    return ToFloat(scale_intensity ? (v - ilo) / (ihi - ilo) : v);
   };
   const Eigen::Matrix3d rot = info.pose.rotation.toRotationMatrix();
   const Eigen::Vector3d trans = info.pose.translation;
@@ -1003,7 +1028,7 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options,
           for (std::size_t i = 0; i < n; ++i) {
             if (p[i].state != 0) continue;
             const Eigen::Vector3d x = to_frame(p[i].xyz);
-            if (!x.allFinite()) continue;
+            if (!x.allFinite() || x.cwiseAbs().maxCoeff() > kMaxCoordinate_m) continue;
             pts.push_back(x.cast<float>());
             if (info.has_intensity) inten.push_back(intensity_of(p[i].intensity));
           }
@@ -1077,12 +1102,13 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options,
     if (state == 1) {  // direction only
       Eigen::Vector3d dir(xyz[0], xyz[1], xyz[2]);
       if (options.apply_pose) dir = rot * dir;
-      if (!scan.valid(k) && dir.allFinite() && dir.norm() > 0)
-        scan.beam_dir[k] = dir.normalized().cast<float>();
+      const double norm = dir.norm();
+      if (!scan.valid(k) && std::isfinite(norm) && norm > 0)
+        scan.beam_dir[k] = (dir / norm).cast<float>();
       return;
     }
     const Eigen::Vector3d x = to_frame(xyz);
-    if (!x.allFinite()) return;
+    if (!x.allFinite() || x.cwiseAbs().maxCoeff() > kMaxCoordinate_m) return;
     const double range = (x - origin).norm();
     if (!(range > 0)) {
       ++at_origin;
@@ -1104,7 +1130,7 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options,
           if (info.has_index_bounds) {
             place(q.xyz, q.state, inten, q.row, q.column, q.return_index == 0, record);
           } else {
-            kept.push_back({{float(q.xyz[0]), float(q.xyz[1]), float(q.xyz[2])},
+            kept.push_back({{ToFloat(q.xyz[0]), ToFloat(q.xyz[1]), ToFloat(q.xyz[2])},
                             inten,
                             q.row,
                             q.column,
