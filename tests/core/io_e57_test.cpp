@@ -374,6 +374,7 @@ TEST(E57, CliInfoAndScanIndex) {
   EXPECT_EQ(test::ReadFile(dir + "/s.png").size(), 1073u);
   EXPECT_EQ(test::RunCli(dir, "e57-info \"" + E57("bad-crc.e57") + "\""), 1);
   EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("CRC mismatch"), std::string::npos);
+  EXPECT_EQ(DetectScanFormat("dir/Scan.E57"), "e57");
   ScanLoadOptions o;
   o.e57_scan_index = 1;
   ExpectError([&] { LoadScan(E57("bunnyFloat.e57"), o); },

@@ -288,25 +288,22 @@ class Xml {
 
   std::string Type(const pugi::xml_node& n) const { return n.attribute("type").value(); }
 
-  static bool ParseLL(const char* s, long long& v) {
+  // An element's or attribute's number; empty text is 0 (E57 writes defaults that way).
+  static std::string_view Trimmed(const char* s) {
     std::string_view t(s);
     while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
     while (!t.empty() && std::isspace(static_cast<unsigned char>(t.back()))) t.remove_suffix(1);
-    if (t.empty()) {
-      v = 0;
-      return true;
-    }
-    return io_detail::ParseInt64(t, v);
+    return t;
+  }
+  static bool ParseLL(const char* s, long long& v) {
+    const std::string_view t = Trimmed(s);
+    v = 0;
+    return t.empty() || io_detail::ParseInt64(t, v);
   }
   static bool ParseD(const char* s, double& v) {
-    std::string_view t(s);
-    while (!t.empty() && std::isspace(static_cast<unsigned char>(t.front()))) t.remove_prefix(1);
-    while (!t.empty() && std::isspace(static_cast<unsigned char>(t.back()))) t.remove_suffix(1);
-    if (t.empty()) {
-      v = 0;
-      return true;
-    }
-    return io_detail::ParseDouble(t, v);
+    const std::string_view t = Trimmed(s);
+    v = 0;
+    return t.empty() || io_detail::ParseDouble(t, v);
   }
 
   long long AttrInt(const pugi::xml_node& n, const char* name, long long fallback) const {
