@@ -8,10 +8,10 @@
 //   - from the simulator (small scans: 12 x 13 rotating, 8 x 24 lidar, one pixel per ray):
 //     the files `scancam simulate` writes (OUT_DIR/sim-*/), a PTX of each scan (and one with
 //     two scans), the rotating log, organised binary PCD and its ascii / binary_compressed /
-//     unordered variants, an MRPT rawlog of the rotating scan, pairs CSV (cells; cells and
-//     x,y,z), every preset camera saved in every format that can hold it, ground_truth.json and
-//     a calibrate output, the image shrunk to 40 x 30 as PNG / JPEG / TIFF / BMP, the mask,
-//     float TIFFs of a BA and a range image;
+//     unordered variants, an E57 (grid, colours), an MRPT rawlog of the rotating scan, pairs CSV
+//     (cells; cells and x,y,z), every preset camera saved in every format that can hold it,
+//     ground_truth.json and a calibrate output, the image shrunk to 40 x 30 as PNG / JPEG / TIFF /
+//     BMP, the mask, float TIFFs of a BA and a range image;
 //   - SOURCE_DIR/share/cameras/* by detected format;
 //   - from DATASETS_DIR (when given and present, e.g. ../shared/datasets): the OpenCalib
 //     intrinsics and extrinsics, the small MRPT rawlogs (<= 70 kB), the PCDs decimated to a few
@@ -33,6 +33,7 @@
 #include "scancam/camera/camera_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
+#include "scancam/io/e57.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/mrpt_rawlog.h"
 #include "scancam/io/pairs_csv.h"
@@ -195,6 +196,15 @@ void FromSimulation(const std::string& scanner, const std::string& camera) {
   moved(0, 3) = 1.5;
   moved(2, 3) = -0.25;
   WritePtx(Seed("fuzz_ptx", stem + "_two_scans.ptx"), {ptx, PtxFromOrderedScan(s.scan, moved)});
+  {  // E57 with row/column indices, intensity and colour on every other cell
+    std::vector<std::array<std::uint8_t, 3>> rgb(s.scan.size());
+    std::vector<std::uint8_t> coloured(s.scan.size());
+    for (std::size_t k = 0; k < rgb.size(); ++k) {
+      rgb[k] = {std::uint8_t(k), std::uint8_t(3 * k), std::uint8_t(7 * k)};
+      coloured[k] = k % 2;
+    }
+    WriteE57(Seed("fuzz_e57", stem + ".e57"), s.scan, &rgb, &coloured);
+  }
   if (s.rotating) {
     WriteRotatingLog(Seed("fuzz_rotating_log", stem + ".txt"), *s.rotating);
     WriteMrpt2DScanRawlog(Seed("fuzz_rawlog", stem + "_2d_scans.rawlog"), *s.rotating);
