@@ -538,7 +538,7 @@ TEST(E57, ColorizeWritesE57AndReadsItBack) {
   const std::string dir = test::TempDir();
   ASSERT_EQ(test::RunCli(dir, "simulate --out \"" + dir +
                                   "/sim\" --camera pinhole --supersample 1 "
-                                  "--planes 90 --phi-step-deg 4 --beams 121 --theta-step-deg 1.5 "
+                                  "--planes 60 --phi-step-deg 6 --beams 81 --theta-step-deg 2 "
                                   "--quiet"),
             0)
       << test::ReadFile(dir + "/stderr.txt");
