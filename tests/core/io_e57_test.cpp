@@ -125,7 +125,8 @@ struct GridFile {
   std::vector<long long> row, col, state, ret, inten;
 };
 
-GridFile MakeGridFile(const std::string& record_count = "", const std::string& extra_xml = "") {
+GridFile MakeGridFile(const std::string& record_count = "", const std::string& extra_xml = "",
+                      const std::string& row_max = "12") {
   GridFile g;
   for (int r = 10; r <= 12; ++r) {
     for (int c = 0; c < 4; ++c) {
@@ -163,7 +164,9 @@ GridFile MakeGridFile(const std::string& record_count = "", const std::string& e
       "</rotation><translation type=\"Structure\"><x type=\"Float\">1</x><y type=\"Float\">2</y>"
       "<z type=\"Float\">3</z></translation></pose>\n"
       "<indexBounds type=\"Structure\"><rowMinimum type=\"Integer\">10</rowMinimum>"
-      "<rowMaximum type=\"Integer\">12</rowMaximum><columnMinimum type=\"Integer\"/>"
+      "<rowMaximum type=\"Integer\">" +
+      row_max +
+      "</rowMaximum><columnMinimum type=\"Integer\"/>"
       "<columnMaximum type=\"Integer\">3</columnMaximum></indexBounds>\n"
       "<intensityLimits type=\"Structure\"><intensityMinimum type=\"Integer\"/>"
       "<intensityMaximum type=\"Integer\">200</intensityMaximum></intensityLimits>\n"
@@ -444,6 +447,9 @@ TEST(E57, HostileFilesEndInClearErrorsQuickly) {
   // More records than the data holds (but within what the section could hold).
   ExpectError([&] { LoadScan(write("more.e57", MakeGridFile("13").bytes)); },
               {"more.e57", "truncated", "12 of 13 records"});
+  // Index bounds far too wide for the points: refused before a 20 M-cell grid is allocated.
+  ExpectError([&] { LoadScan(write("wide.e57", MakeGridFile("", "", "5000009").bytes)); },
+              {"wide.e57", "a grid of 5000000 x 4 cells for 12 points", "far too wide"});
   // Bad XML.
   ExpectError([&] { LoadScan(write("xml.e57", MakeGridFile("", "<unclosed>").bytes)); },
               {"xml.e57:XML byte", "not well-formed"});
