@@ -415,6 +415,46 @@ TEST(E57, RowColumnIndicesGiveTheGrid) {
   EXPECT_NEAR((p.origin_m - Eigen::Vector3d(1, 2, 3)).norm(), 0.0, 1e-12);
 }
 
+TEST(E57, SeveralScansPerFile) {
+  // Two scans: 2 and 3 points, single and double floats; scan 1 chosen by index.
+  Builder b;
+  const std::uint64_t a = b.AddPoints({Floats({1.f, 2.f}), Floats({0.f, 0.f}), Floats({0.f, 1.f})});
+  std::string xd, yd, zd;
+  for (double v : {5.0, 6.0, 7.0}) xd.append(reinterpret_cast<const char*>(&v), 8);
+  for (double v : {-3.0, 0.5, 4.0}) yd.append(reinterpret_cast<const char*>(&v), 8);
+  for (double v : {0.125, 0.0, 3.0}) zd.append(reinterpret_cast<const char*>(&v), 8);
+  const std::uint64_t c = b.AddPoints({xd, yd, zd});
+  auto scan = [](std::uint64_t off, int n, const char* precision) {
+    std::string f;
+    for (const char* axis : {"X", "Y", "Z"})
+      f += std::string("<cartesian") + axis + " type=\"Float\"" + precision + "/>";
+    return "<vectorChild type=\"Structure\"><points type=\"CompressedVector\" fileOffset=\"" +
+           std::to_string(off) + "\" recordCount=\"" + std::to_string(n) +
+           "\"><prototype type=\"Structure\">" + f +
+           "</prototype><codecs type=\"Vector\"/></points></vectorChild>";
+  };
+  const std::string dir = test::TempDir();
+  test::WriteFile(dir + "/two.e57", b.Finish(std::string(kXmlHead) + "<data3D type=\"Vector\">" +
+                                             scan(a, 2, " precision=\"single\"") + scan(c, 3, "") +
+                                             "</data3D></e57Root>"));
+  const E57FileInfo info = ReadE57Info(dir + "/two.e57");
+  ASSERT_EQ(info.scans.size(), 2u);
+  EXPECT_EQ(info.scans[1].record_count, 3u);
+  EXPECT_EQ(ReadE57Cloud(dir + "/two.e57", 0).points.size(), 2u);
+  const E57Cloud one = ReadE57Cloud(dir + "/two.e57", 1);
+  ASSERT_EQ(one.points.size(), 3u);
+  EXPECT_EQ(one.points[2].xyz[0], 7.0);
+  EXPECT_EQ(one.points[0].xyz[1], -3.0);
+  EXPECT_EQ(one.points[0].xyz[2], 0.125);
+  ScanLoadOptions o;
+  o.e57_scan_index = 1;
+  o.grid_step_deg = 5.0;
+  EXPECT_EQ(LoadScan(dir + "/two.e57", o).valid_count(), 3u);
+  o.e57_scan_index = 2;
+  ExpectError([&] { LoadScan(dir + "/two.e57", o); },
+              {"two.e57", "E57 scan 2 asked for", "has 2 scans (0..1)"});
+}
+
 TEST(E57, HostileFilesEndInClearErrorsQuickly) {
   const std::string dir = test::TempDir();
   const auto t0 = std::chrono::steady_clock::now();
