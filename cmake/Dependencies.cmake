@@ -5,6 +5,7 @@ find_package(Ceres REQUIRED)
 find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d ccalib)
 find_package(OpenMP REQUIRED COMPONENTS CXX)
 find_package(nlohmann_json 3 REQUIRED)
+find_package(pugixml REQUIRED)  # the XML section of E57 files
 find_package(opengv REQUIRED)
 find_package(mrpt-obs REQUIRED)
 find_package(mrpt-io REQUIRED)

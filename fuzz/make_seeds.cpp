@@ -8,15 +8,16 @@
 //   - from the simulator (small scans: 12 x 13 rotating, 8 x 24 lidar, one pixel per ray):
 //     the files `scancam simulate` writes (OUT_DIR/sim-*/), a PTX of each scan (and one with
 //     two scans), the rotating log, organised binary PCD and its ascii / binary_compressed /
-//     unordered variants, an MRPT rawlog of the rotating scan, pairs CSV (cells; cells and
-//     x,y,z), every preset camera saved in every format that can hold it, ground_truth.json and
-//     a calibrate output, the image shrunk to 40 x 30 as PNG / JPEG / TIFF / BMP, the mask,
-//     float TIFFs of a BA and a range image;
+//     unordered variants, an E57 (grid, colours), an MRPT rawlog of the rotating scan, pairs CSV
+//     (cells; cells and x,y,z), every preset camera saved in every format that can hold it,
+//     ground_truth.json and a calibrate output, the image shrunk to 40 x 30 as PNG / JPEG / TIFF /
+//     BMP, the mask, float TIFFs of a BA and a range image;
 //   - SOURCE_DIR/share/cameras/* by detected format;
 //   - from DATASETS_DIR (when given and present, e.g. ../shared/datasets): the OpenCalib
 //     intrinsics and extrinsics, the small MRPT rawlogs (<= 70 kB), the PCDs decimated to a few
 //     hundred points (in all three PCD encodings), the photos shrunk to 64 px wide, the KITTI
-//     scan's first records (whole lasers' turns are too large) and every 300th record;
+//     scan's first records (whole lasers' turns are too large) and every 300th record, the E57
+//     test files up to 64 kB;
 //   - a synthetic KITTI .bin: 8 lasers, 60 firings each, one laser's turn after another.
 // Seeds are kept small (mostly < 20 kB): libFuzzer's speed falls with the input size.
 #include <pcl/PCLPointCloud2.h>
@@ -36,6 +37,7 @@
 #include "scancam/camera/camera_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
+#include "scancam/io/e57.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/mrpt_rawlog.h"
 #include "scancam/io/pairs_csv.h"
@@ -198,6 +200,15 @@ void FromSimulation(const std::string& scanner, const std::string& camera) {
   moved(0, 3) = 1.5;
   moved(2, 3) = -0.25;
   WritePtx(Seed("fuzz_ptx", stem + "_two_scans.ptx"), {ptx, PtxFromOrderedScan(s.scan, moved)});
+  {  // E57 with row/column indices, intensity and colour on every other cell
+    std::vector<std::array<std::uint8_t, 3>> rgb(s.scan.size());
+    std::vector<std::uint8_t> coloured(s.scan.size());
+    for (std::size_t k = 0; k < rgb.size(); ++k) {
+      rgb[k] = {std::uint8_t(k), std::uint8_t(3 * k), std::uint8_t(7 * k)};
+      coloured[k] = k % 2;
+    }
+    WriteE57(Seed("fuzz_e57", stem + ".e57"), s.scan, &rgb, &coloured);
+  }
   if (s.rotating) {
     WriteRotatingLog(Seed("fuzz_rotating_log", stem + ".txt"), *s.rotating);
     WriteMrpt2DScanRawlog(Seed("fuzz_rawlog", stem + "_2d_scans.rawlog"), *s.rotating);
@@ -294,6 +305,13 @@ void FromDatasets(const fs::path& data) {
     std::string decimated;
     for (std::size_t r = 0; r + 16 <= bin.size(); r += 16 * 300) decimated += bin.substr(r, 16);
     WriteText("fuzz_kitti", "kitti_decimated.bin", decimated);
+  }
+  const fs::path e57 = data / "e57";
+  if (fs::is_directory(e57)) {  // the small test files, broken ones included
+    for (const auto& e : fs::directory_iterator(e57)) {
+      if (e.path().extension() == ".e57" && e.file_size() <= 64 * 1024)
+        Copy(e.path(), "fuzz_e57", e.path().filename().string());
+    }
   }
   const fs::path kitti = data / "kitti-000000" / "image_2.png";
   if (fs::exists(kitti)) {

@@ -263,8 +263,8 @@ Command MakeBaCommand() {
   c.summary = "Bearing-Angle images of a scan (TIFF + PNG), for picking correspondences";
   c.usage = "scancam ba SCAN --out DIR [options]";
   c.description =
-      "Loads SCAN (rotating 2D scanner log .txt/.rot, Leica .ptx, .pcd or MRPT .rawlog) as an\n"
-      "ordered grid and writes its Bearing-Angle (BA) images (paper eq. 4, corrected):\n"
+      "Loads SCAN (rotating 2D scanner log .txt/.rot, Leica .ptx, .pcd, MRPT .rawlog or .e57)\n"
+      "as an ordered grid and writes its Bearing-Angle (BA) images (paper eq. 4, corrected):\n"
       "  BA_i = arccos((rho_i - rho_{i-1} cos dphi) /\n"
       "                sqrt(rho_i^2 + rho_{i-1}^2 - 2 rho_i rho_{i-1} cos dphi)),\n"
       "the angle at the point P_i between the beam back to the sensor and the segment to the\n"

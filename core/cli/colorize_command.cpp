@@ -16,6 +16,7 @@
 #include "scancam/colour/overlay.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
+#include "scancam/io/e57.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
 #include "valid_region_options.h"
@@ -140,20 +141,23 @@ int RunColorize(const Args& args) {
 
   const std::string out_ply = args.get("--out");
   const std::string out_pcd = args.get("--pcd");
+  const std::string out_e57 = args.get("--e57");
   const std::vector<std::string> meshes = args.all("--mesh");
   const std::string overlay = args.get("--overlay");
   const std::string edge_overlay = args.get("--edge-overlay");
   const std::string grid_image = args.get("--grid-image");
   const std::string region_out = args.get("--valid-region-out");
-  if (out_ply.empty() && out_pcd.empty() && meshes.empty() && overlay.empty() &&
+  if (out_ply.empty() && out_pcd.empty() && out_e57.empty() && meshes.empty() && overlay.empty() &&
       edge_overlay.empty() && grid_image.empty() && region_out.empty())
     throw Error(
-        "nothing to write: give --out, --pcd, --mesh, --overlay, --edge-overlay, "
+        "nothing to write: give --out, --pcd, --e57, --mesh, --overlay, --edge-overlay, "
         "--grid-image or --valid-region-out (see --help)");
   if (!out_ply.empty() && Ext(out_ply) != ".ply")
     throw Error("option --out: '" + out_ply + "' must end in .ply (use --pcd for PCD)");
   if (!out_pcd.empty() && Ext(out_pcd) != ".pcd")
     throw Error("option --pcd: '" + out_pcd + "' must end in .pcd");
+  if (!out_e57.empty() && Ext(out_e57) != ".e57")
+    throw Error("option --e57: '" + out_e57 + "' must end in .e57");
   for (const auto& m : meshes)
     if (Ext(m) != ".glb" && Ext(m) != ".obj")
       throw Error("option --mesh: '" + m + "' must end in .glb or .obj");
@@ -162,7 +166,7 @@ int RunColorize(const Args& args) {
   // input or another output.
   {
     std::vector<NamedPath> outs = {
-        {"--out", out_ply}, {"--pcd", out_pcd}, {"--grid-image", grid_image}};
+        {"--out", out_ply}, {"--pcd", out_pcd}, {"--e57", out_e57}, {"--grid-image", grid_image}};
     const int jpeg = args.get_int("--jpeg-quality", 0);
     for (const auto& m : meshes) {
       outs.push_back({"--mesh", m});
@@ -260,6 +264,16 @@ int RunColorize(const Args& args) {
   if (!out_pcd.empty()) {
     WriteColouredPcd(out_pcd, scan, coloured, eo);
     written.push_back(out_pcd);
+  }
+  if (!out_e57.empty()) {  // colour only where an image saw the point (isColorInvalid elsewhere)
+    std::vector<std::array<std::uint8_t, 3>> rgb(coloured.size());
+    std::vector<std::uint8_t> has(coloured.size());
+    for (std::size_t i = 0; i < coloured.size(); ++i) {
+      rgb[i] = {coloured.rgb[i].r, coloured.rgb[i].g, coloured.rgb[i].b};
+      has[i] = coloured.state[i] == PointState::kColoured;
+    }
+    WriteE57(out_e57, scan, &rgb, &has, progress);
+    written.push_back(out_e57);
   }
   std::size_t mesh_faces = 0, mesh_textured = 0;
   if (!meshes.empty()) {
@@ -373,6 +387,8 @@ Command MakeColorizeCommand() {
       "                      view, 2 occluded, 3 coloured), scalar_quality (image px per metre\n"
       "                      of surface); CloudCompare loads both as scalar fields\n"
       "  --pcd X.pcd         organised PCD (PointXYZRGB, scan rows x cols, NaN = no return)\n"
+      "  --e57 X.e57         E57: valid points with their row/column indices, intensity and\n"
+      "                      colour (isColorInvalid where no image saw the point)\n"
       "  --mesh X.glb|X.obj  textured mesh of the scan grid (no triangle across a depth jump);\n"
       "                      OBJ writes X.mtl and X_tex<k>.png beside it\n"
       "  --overlay X.png     every seen point on the image, coloured by distance (jet)\n"
@@ -391,7 +407,7 @@ Command MakeColorizeCommand() {
       "probably inverted or wrong). Exit 0 on success, 1 on an error.";
   c.options = Concat(
       {
-          {"--scan", "SCAN", "The scan (.txt/.rot rotating, .ptx, .pcd, .rawlog). Required."},
+          {"--scan", "SCAN", "The scan (.txt/.rot rotating, .ptx, .pcd, .rawlog, .e57). Required."},
           {"--image", "IMG", "A camera image (8-bit; read as BGR). Required; repeatable.", true},
           {"--camera", "CAM",
            "Camera file (OpenCV YAML/JSON, OCamCalib calib_results.txt, Kalibr, ROS, OpenCalib, "
@@ -409,6 +425,7 @@ Command MakeColorizeCommand() {
            true},
           {"--out", "X.ply", "Coloured cloud, binary PLY."},
           {"--pcd", "X.pcd", "Coloured organised cloud, PCD (pcl::PointXYZRGB)."},
+          {"--e57", "X.e57", "Coloured scan, ASTM E57 (grid indices kept)."},
           {"--mesh", "X.glb|X.obj", "Textured mesh; repeatable (e.g. both formats).", true},
           {"--overlay", "X.png", "Depth-coloured overlay of the points on the image."},
           {"--edge-overlay", "X.png", "BA Sobel edges projected on the image (paper Fig. 8)."},

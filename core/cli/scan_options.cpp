@@ -5,8 +5,8 @@ namespace scancam::cli {
 std::vector<OptionSpec> ScanLoadOptionSpecs() {
   return {
       {"--format", "FMT",
-       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog, .bin KITTI), "
-       "rotating, ptx, pcd, rawlog or kitti. Default auto."},
+       "Scan format: auto (by extension: .txt/.rot rotating, .ptx, .pcd, .rawlog, .bin KITTI, "
+       ".e57), rotating, ptx, pcd, rawlog, kitti or e57. Default auto."},
       {"--dx-m", "M",
        "Rotating 2D scanner: offset d_x of the rotation axis from the mirror centre, metres "
        "(eq. 3). Overrides the log's header; giving only one of --dx-m/--dz-m sets the other "
@@ -16,6 +16,10 @@ std::vector<OptionSpec> ScanLoadOptionSpecs() {
       {"--ptx-apply-pose", "",
        "PTX: apply the header's scanner pose (points in the registered frame) instead of "
        "keeping the scanner's own frame."},
+      {"--e57-scan", "N", "E57: which data3D scan of the file, 0-based. Default 0."},
+      {"--e57-apply-pose", "",
+       "E57: apply the scan's pose (points in the file's frame) instead of keeping the "
+       "scanner's own frame."},
       {"--pcd-mode", "MODE",
        "PCD and KITTI: auto | organised (the file's own HEIGHT x WIDTH grid) | ring (spinning "
        "lidar: one row per ring field value, columns by azimuth) | recover-rings (spinning lidar "
@@ -25,8 +29,8 @@ std::vector<OptionSpec> ScanLoadOptionSpecs() {
        "recover-rings if the cloud looks like a spinning lidar (a note on stderr says so), else "
        "spherical. KITTI takes auto, recover-rings or spherical."},
       {"--grid-step-deg", "DEG",
-       "PCD/KITTI ring, recover-rings and spherical: azimuth cell size in degrees; 0 = estimate "
-       "from the data. Default 0."},
+       "PCD/KITTI ring, recover-rings and spherical, and E57 scans without row/column indices: "
+       "angular cell size in degrees; 0 = estimate from the data. Default 0."},
       {"--rawlog-index", "N",
        "MRPT rawlog: which scan-like observation, 0-based; -1 = the first. Default -1."},
   };
@@ -42,6 +46,8 @@ ScanLoadOptions ParseScanLoadOptions(const Args& args) {
   }
   load.ptx_scan_index = args.get_int("--ptx-scan", load.ptx_scan_index);
   load.ptx_apply_pose = args.has("--ptx-apply-pose");
+  load.e57_scan_index = args.get_int("--e57-scan", load.e57_scan_index);
+  load.e57_apply_pose = args.has("--e57-apply-pose");
   load.pcd_mode = args.get("--pcd-mode", load.pcd_mode);
   load.grid_step_deg = args.get_double("--grid-step-deg", load.grid_step_deg);
   load.rawlog_index = args.get_int("--rawlog-index", load.rawlog_index);

@@ -9,7 +9,8 @@
 
 namespace scancam::cli {
 
-/// --format, --dx-m, --dz-m, --ptx-scan, --ptx-apply-pose, --pcd-mode,
+/// --format, --dx-m, --dz-m, --ptx-scan, --ptx-apply-pose, --e57-scan, --e57-apply-pose,
+/// --pcd-mode,
 /// --grid-step-deg, --rawlog-index.
 std::vector<OptionSpec> ScanLoadOptionSpecs();
 

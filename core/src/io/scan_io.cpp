@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "scancam/error.h"
+#include "scancam/io/e57.h"
 #include "scancam/io/kitti.h"
 #include "scancam/io/mrpt_rawlog.h"
 #include "scancam/io/pcd.h"
@@ -24,10 +25,11 @@ std::string DetectScanFormat(const std::string& path) {
   if (ext == ".pcd") return "pcd";
   if (ext == ".rawlog") return "rawlog";
   if (ext == ".bin") return "kitti";
+  if (ext == ".e57") return "e57";
   throw FileError(path, "",
                   "unknown scan format (extension '" + ext +
-                      "'); expected .txt/.rot (rotating), .ptx, .pcd, .rawlog or .bin (KITTI), "
-                      "or give the format explicitly");
+                      "'); expected .txt/.rot (rotating), .ptx, .pcd, .rawlog, .bin (KITTI) or "
+                      ".e57, or give the format explicitly");
 }
 
 OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
@@ -54,10 +56,16 @@ OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
     scan = LoadMrptRawlog(path, options.rawlog_index, progress);
   } else if (format == "kitti") {
     scan = LoadKittiBin(path, options.pcd_mode, options.grid_step_deg, progress, &note);
+  } else if (format == "e57") {
+    E57LoadOptions e57;
+    e57.scan_index = options.e57_scan_index;
+    e57.apply_pose = options.e57_apply_pose;
+    e57.grid_step_deg = options.grid_step_deg;
+    scan = LoadE57(path, e57, progress);
   } else {
     throw FileError(path, "",
                     "unknown scan format '" + format +
-                        "' (expected auto, rotating, ptx, pcd, rawlog or kitti)");
+                        "' (expected auto, rotating, ptx, pcd, rawlog, kitti or e57)");
   }
   if (!note.empty()) {
     note = path + ": " + note;

@@ -8,6 +8,8 @@
 //                        or unordered (re-gridded) (io/pcd.h);
 //   rawlog    .rawlog    MRPT rawlogs through MRPT (io/mrpt_rawlog.h);
 //   kitti     .bin       KITTI Velodyne scans, lasers recovered (io/kitti.h).
+//   e57       .e57       ASTM E57, several scans per file; a scan with row/column indices
+//                        as its own grid, else re-gridded (io/e57.h).
 // Every reader throws scancam::Error naming the file and the place on bad input.
 #pragma once
 
@@ -20,7 +22,7 @@
 namespace scancam {
 
 struct ScanLoadOptions {
-  std::string format = "auto";  ///< auto | rotating | ptx | pcd | rawlog | kitti
+  std::string format = "auto";  ///< auto | rotating | ptx | pcd | rawlog | kitti | e57
 
   // rotating 2D scanner (overrides the file's header when set)
   bool has_offsets = false;
@@ -32,7 +34,11 @@ struct ScanLoadOptions {
   bool ptx_apply_pose = false;  ///< apply the header's scanner pose (points in the
                                 ///< registered/world frame) instead of the scanner frame
 
-  // PCD / KITTI / unordered clouds
+  // E57
+  int e57_scan_index = 0;       ///< which data3D scan (0-based)
+  bool e57_apply_pose = false;  ///< apply the scan's pose (points in the file's frame)
+
+  // PCD / KITTI / unordered clouds (also E57 scans without row/column indices)
   std::string pcd_mode = "auto";  ///< auto | organised | ring | recover-rings | spherical
                                   ///< (KITTI: auto | recover-rings | spherical)
   double grid_step_deg = 0.0;     ///< angular cell size for spherical re-gridding; 0 = estimate
