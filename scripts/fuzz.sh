@@ -51,7 +51,7 @@ done
 all=(fuzz_ptx fuzz_rotating_log fuzz_pcd fuzz_pcd_organised fuzz_rawlog fuzz_pairs_csv
      fuzz_camera_opencv_yaml fuzz_camera_opencv_json fuzz_camera_ocamcalib fuzz_camera_kalibr
      fuzz_camera_ros fuzz_camera_opencalib fuzz_calibration_json fuzz_image fuzz_float_tiff
-     fuzz_e57)
+     fuzz_kitti fuzz_e57)
 [ ${#harnesses[@]} -gt 0 ] || harnesses=("${all[@]}")
 
 if [ "$do_build" = 1 ]; then
