@@ -1355,10 +1355,12 @@ void CalibrationWindow::showResult() {
   html += tr("<b>roll / pitch / yaw</b> %1 %2 %3 deg")
               .arg(num(c.rotation_rpy_deg.x(), 3), num(c.rotation_rpy_deg.y(), 3),
                    num(c.rotation_rpy_deg.z(), 3));
+  // The rotation's uncertainty as small angles about the camera's axes: roll/pitch/yaw std is
+  // meaningless near +-90 deg pitch (a lidar-to-camera rig), see solve/calibrate.h.
   if (c.has_covariance)
-    html +=
-        tr(" &nbsp;(std %1 %2 %3)")
-            .arg(num(c.std_rpy_deg.x(), 3), num(c.std_rpy_deg.y(), 3), num(c.std_rpy_deg.z(), 3));
+    html += tr("<br><b>rotation std</b> about the camera's x / y / z: %1 %2 %3 deg")
+                .arg(num(c.std_rot_cam_deg.x(), 3), num(c.std_rot_cam_deg.y(), 3),
+                     num(c.std_rot_cam_deg.z(), 3));
   html += tr("<br><b>t</b> %1 %2 %3 m")
               .arg(num(c.T_cam_scan.translation().x(), 4), num(c.T_cam_scan.translation().y(), 4),
                    num(c.T_cam_scan.translation().z(), 4));
@@ -1384,11 +1386,14 @@ void CalibrationWindow::showResult() {
     html += tr("<br><b>To tighten the result</b>, pick next a feature near the magenta marks:");
     for (std::size_t k = 0; k < c.suggestions.size(); ++k) {
       const PickSuggestion& g = c.suggestions[k];
-      html += tr("<br>&nbsp; next %1: pixel (%2, %3) &rarr; predicted std %4 %5 %6 deg")
-                  .arg(k + 1)
-                  .arg(num(g.image_px.x(), 0), num(g.image_px.y(), 0),
-                       num(g.predicted_std_rpy_deg.x(), 3), num(g.predicted_std_rpy_deg.y(), 3),
-                       num(g.predicted_std_rpy_deg.z(), 3));
+      html +=
+          tr("<br>&nbsp; next %1: pixel (%2, %3) &rarr; rotation std about the camera's "
+             "x / y / z %4 %5 %6 deg; %7")
+              .arg(k + 1)
+              .arg(num(g.image_px.x(), 0), num(g.image_px.y(), 0),
+                   num(g.predicted_std_rot_cam_deg.x(), 3), num(g.predicted_std_rot_cam_deg.y(), 3),
+                   num(g.predicted_std_rot_cam_deg.z(), 3),
+                   QString::fromStdString(g.reason).toHtmlEscaped());
     }
   }
   for (const std::string& w : c.warnings)

@@ -440,6 +440,8 @@ class CalibrationWindowTest : public QObject {
     // The result is shown, the laser edges are drawn over the photo, colouring is possible.
     QVERIFY(w->resultView()->toPlainText().contains("T_cam_scan"));
     QVERIFY(w->resultView()->toPlainText().contains("Flagged"));
+    // The rotation's std about the camera's axes (issue 14), not roll/pitch/yaw std.
+    QVERIFY(w->resultView()->toPlainText().contains("rotation std about the camera's x / y / z"));
     QVERIFY(w->cameraView()->overlayPointCount() > 1000);
     QVERIFY(w->colouringProblem().isEmpty());
     // Apply colours reaches the host through the signal.

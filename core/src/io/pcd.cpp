@@ -530,7 +530,8 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options,
   for (std::size_t i = 0; i < n; ++i) {
     points[i] = Eigen::Vector3d(xs[i], ys[i], zs[i]).cast<float>();
   }
-  const pcl::PCLPointField* fi = FindField(cloud, {"intensity", "i", "reflectivity"});
+  const pcl::PCLPointField* fi =
+      FindField(cloud, {"intensity", "i", "reflectivity", "reflectance"});
   std::vector<float> intensity;
   if (fi) {
     const std::vector<double> v = Column(cloud, *fi);
