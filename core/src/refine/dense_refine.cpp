@@ -242,23 +242,8 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       return uv && uv->x() > -mu && uv->x() < cam.width() + mu && uv->y() > -mv &&
              uv->y() < cam.height() + mv;
     };
-    AlignmentData near = d;
-    near.all_points.clear();
-    near.all_tile.clear();
-    near.intensity_bin.clear();
-    near.edge_points.clear();
-    near.edge_tile.clear();
-    for (std::size_t i = 0; i < d.all_points.size(); ++i) {
-      if (!reachable(d.all_points[i])) continue;
-      near.all_points.push_back(d.all_points[i]);
-      near.all_tile.push_back(d.all_tile[i]);
-      if (!d.intensity_bin.empty()) near.intensity_bin.push_back(d.intensity_bin[i]);
-    }
-    for (std::size_t i = 0; i < d.edge_points.size(); ++i) {
-      if (!reachable(d.edge_points[i])) continue;
-      near.edge_points.push_back(d.edge_points[i]);
-      near.edge_tile.push_back(d.edge_tile[i]);
-    }
+    AlignmentData near =
+        SubsetAlignment(d, [&](std::uint32_t, const Eigen::Vector3f& p) { return reachable(p); });
     if (near.all_points.empty()) {
       throw Error("dense refinement: no point of scene " + std::to_string(k + 1) +
                   " projects near the image from the start pose (is the start T_cam_scan "
@@ -282,10 +267,10 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     L.min_step_deg = o.level_min_step_deg;
     return L;
   };
-  const Levels train_levels =
-      subset([&](std::uint32_t t) { return (Mix(t ^ split_seed) & 1) == 0; });
-  const Levels held_levels =
-      subset([&](std::uint32_t t) { return (Mix(t ^ split_seed) & 1) == 1; });
+  const Levels train_levels = subset(
+      [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ split_seed) & 1) == 0; });
+  const Levels held_levels = subset(
+      [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ split_seed) & 1) == 1; });
   const Objective& train = train_levels.objective.back();
   const Objective& held = held_levels.objective.back();
   Objective full;
@@ -367,7 +352,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     const Vec6 h = (Vec6() << Eigen::Vector3d::Constant(o.curvature_step_deg),
                     Eigen::Vector3d::Constant(o.curvature_step_m))
                        .finished();
-    const Levels full_levels = subset([](std::uint32_t) { return true; });
+    const Levels full_levels = subset([](std::uint32_t, const Eigen::Vector3f&) { return true; });
     const Objective& F = full_levels.objective.back();
     auto at = [&](const Objective& G, const Vec6& d) { return G(Apply(d, best.T)); };
     Eigen::Matrix<double, 6, 6> H;
@@ -391,8 +376,10 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
     for (int k = 0; k < o.resamples; ++k) {
       const std::uint64_t seed_k = Mix(o.seed + 1000 + static_cast<std::uint64_t>(k));
-      const Levels A = subset([&](std::uint32_t t) { return (Mix(t ^ seed_k) & 1) == 0; });
-      const Levels B = subset([&](std::uint32_t t) { return (Mix(t ^ seed_k) & 1) == 1; });
+      const Levels A = subset(
+          [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ seed_k) & 1) == 0; });
+      const Levels B = subset(
+          [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ seed_k) & 1) == 1; });
       Vec6 g;
       for (int i = 0; i < 6; ++i) {
         Vec6 e = Vec6::Zero();
