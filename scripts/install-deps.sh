@@ -17,7 +17,7 @@ PKGS=(
   qtbase5-dev libqt5opengl5-dev qttools5-dev-tools libqt5svg5-dev
   libmrpt-dev libopengv-dev zlib1g-dev
   cloudcompare
-  libtiff-dev nlohmann-json3-dev libtinygltf-dev libpugixml-dev
+  libtiff-dev libjpeg-dev nlohmann-json3-dev libtinygltf-dev libpugixml-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth openbox xdotool x11-apps imagemagick clang-format
   clang libclang-rt-14-dev libomp-14-dev

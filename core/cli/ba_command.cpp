@@ -1,5 +1,7 @@
 // scancam ba: Bearing-Angle images (paper Sec. III, eq. 4) of a scan, written as exact float
 // TIFFs and PNG views.
+#include <unistd.h>  // access
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -132,14 +134,23 @@ int RunBa(const Args& args) {
                 " is not in [0, 100]");
 
   out.dir = args.required("--out");
-  std::error_code ec;
-  std::filesystem::create_directories(out.dir, ec);
-  if (!std::filesystem::is_directory(out.dir))
-    throw FileError(
-        out.dir.string(), "",
-        "cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
   {
-    // Before any work: none of the files this run writes may be the scan.
+    // The directory is made only when the images are ready (below); now only whether it can be.
+    std::error_code ec;
+    if (std::filesystem::exists(out.dir, ec) && !std::filesystem::is_directory(out.dir, ec))
+      throw FileError(out.dir.string(), "", "--out names a file, not a directory");
+    std::filesystem::path existing = std::filesystem::absolute(out.dir, ec);
+    while (!existing.empty() && !std::filesystem::exists(existing, ec) &&
+           existing != existing.parent_path())
+      existing = existing.parent_path();
+    if (::access(existing.c_str(), W_OK | X_OK) != 0)
+      throw FileError(
+          out.dir.string(), "",
+          "cannot create the output directory: '" + existing.string() + "' is not writable");
+  }
+  if (std::filesystem::is_directory(out.dir)) {
+    // Before any work: none of the files this run writes may be the scan (a directory that does
+    // not exist yet holds no input).
     std::vector<std::string> names;
     for (std::size_t t = 0; t < 4; ++t) names.push_back("ba_" + TraceName(kAllBaTraces[t]));
     for (const GridStep& s : extra)
@@ -197,6 +208,14 @@ int RunBa(const Args& args) {
   }
 
   const cv::Mat intensity = IntensityImage(scan);
+  // Only now, with the scan read and its images made: a run that fails earlier (a bad option,
+  // a damaged scan) leaves no new directory behind.
+  std::error_code ec;
+  std::filesystem::create_directories(out.dir, ec);
+  if (!std::filesystem::is_directory(out.dir))
+    throw FileError(
+        out.dir.string(), "",
+        "cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
   const std::size_t total = images.size() + 1;
   std::size_t done = 0;
   for (const auto& [name, ba] : images) {

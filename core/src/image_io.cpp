@@ -1,10 +1,16 @@
 // Float TIFF and 8-bit views: see scancam/image_io.h.
 #include "scancam/image_io.h"
 
+#include <jerror.h>
+#include <jpeglib.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <csetjmp>
 #include <cstdint>
+#include <cstdio>  // before jpeglib.h, which uses FILE
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -225,6 +231,102 @@ void CheckJpegEnd(ByteFile& f) {
   f.Fail(f.size(), "JPEG file ends before its end marker (truncated)");
 }
 
+// What libjpeg said while decoding the entropy-coded data: the first warning (a code from
+// jerror.h, libjpeg's text for it, the byte offset where it was noticed) or a fatal error.
+struct JpegDecodeReport {
+  bool fatal = false;
+  int warning_code = -1;  // -1: no warning
+  long offset = -1;
+  char text[JMSG_LENGTH_MAX] = {0};
+};
+
+struct JpegErrorManager {
+  jpeg_error_mgr base;
+  std::jmp_buf jump;
+  JpegDecodeReport* report;
+  FILE* file;
+  j_decompress_ptr info;
+};
+
+long JpegOffset(JpegErrorManager* m) {
+  const long at = std::ftell(m->file);
+  if (at < 0 || m->info->src == nullptr) return at;
+  return at - static_cast<long>(m->info->src->bytes_in_buffer);
+}
+
+void JpegOnError(j_common_ptr c) {
+  auto* m = reinterpret_cast<JpegErrorManager*>(c->err);
+  m->report->fatal = true;
+  m->report->offset = JpegOffset(m);
+  (*c->err->format_message)(c, m->report->text);
+  std::longjmp(m->jump, 1);
+}
+
+void JpegOnMessage(j_common_ptr c, int level) {
+  // level -1: a warning about the data (damaged entropy data, a premature end); level >= 0:
+  // trace messages, ignored. libjpeg's own handler would print to stderr.
+  auto* m = reinterpret_cast<JpegErrorManager*>(c->err);
+  if (level != -1 || m->report->warning_code >= 0) return;
+  m->report->warning_code = c->err->msg_code;
+  m->report->offset = JpegOffset(m);
+  (*c->err->format_message)(c, m->report->text);
+}
+
+// Decodes the whole entropy-coded data of a JPEG at 1/8 scale (every Huffman code is read; the
+// inverse DCT mostly skipped) only to hear what libjpeg says about it. C only between setjmp and
+// longjmp: nothing here owns a destructor.
+JpegDecodeReport DecodeJpegForDamage(FILE* file) {
+  JpegDecodeReport report;
+  jpeg_decompress_struct info;
+  JpegErrorManager err;
+  info.err = jpeg_std_error(&err.base);
+  err.base.error_exit = JpegOnError;
+  err.base.emit_message = JpegOnMessage;
+  err.report = &report;
+  err.file = file;
+  err.info = &info;
+  JSAMPARRAY row = nullptr;
+  if (setjmp(err.jump)) {
+    jpeg_destroy_decompress(&info);
+    return report;
+  }
+  jpeg_create_decompress(&info);
+  jpeg_stdio_src(&info, file);
+  jpeg_read_header(&info, TRUE);
+  info.scale_num = 1;
+  info.scale_denom = 8;
+  info.dct_method = JDCT_IFAST;
+  info.do_fancy_upsampling = FALSE;
+  jpeg_start_decompress(&info);
+  row = (*info.mem->alloc_sarray)(reinterpret_cast<j_common_ptr>(&info), JPOOL_IMAGE,
+                                  info.output_width * info.output_components, 1);
+  while (info.output_scanline < info.output_height) jpeg_read_scanlines(&info, row, 1);
+  jpeg_finish_decompress(&info);
+  jpeg_destroy_decompress(&info);
+  return report;
+}
+
+// A JPEG whose image data is damaged decodes "successfully" into grey or shifted blocks, with
+// libjpeg's "Corrupt JPEG data: ..." printed to stderr. Such a photo would paint wrong colours:
+// refuse it in plain words. Extra bytes between segments (JWRN_EXTRANEOUS_DATA, written by some
+// cameras) leave the pixels intact and pass.
+void CheckJpegData(const std::string& path) {
+  FILE* file = std::fopen(path.c_str(), "rb");
+  if (file == nullptr) throw FileError(path, "", "cannot open the JPEG file");
+  const JpegDecodeReport r = DecodeJpegForDamage(file);
+  std::fclose(file);
+  const std::string place = r.offset >= 0 ? "byte " + std::to_string(r.offset) : std::string();
+  const std::string said = std::string(" (libjpeg: \"") + r.text + "\")";
+  if (r.fatal) throw FileError(path, place, "damaged JPEG: cannot be decoded" + said);
+  if (r.warning_code < 0 || r.warning_code == JWRN_EXTRANEOUS_DATA) return;
+  std::string what = "the JPEG's image data is damaged";
+  if (r.warning_code == JWRN_JPEG_EOF) what = "the JPEG's image data ends early (truncated)";
+  throw FileError(path, place,
+                  what + said +
+                      ": part of the photo would decode as grey or shifted blocks; copy or export "
+                      "the photo again");
+}
+
 ImageFileInfo TiffHeader(ByteFile& f, bool little) {
   auto u = [&](const unsigned char* b, int n) {
     std::uint64_t v = 0;
@@ -406,6 +508,7 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
     if (info.format == "PNG") CheckPngChunks(f);
     if (info.format == "JPEG") CheckJpegEnd(f);
   }
+  if (info.format == "JPEG") CheckJpegData(path);
   cv::Mat image;
   try {
     image = cv::imread(path, flags);

@@ -175,6 +175,8 @@ TEST(CliBa, BadFileExitsOneNamingTheFile) {
 
   EXPECT_EQ(RunCli(dir, "ba \"" + dir + "/missing.ptx\" --out \"" + dir + "/out\""), 1);
   EXPECT_NE(ReadFile(dir + "/stderr.txt").find("missing.ptx"), std::string::npos);
+  // A run that fails before writing leaves no output directory behind.
+  EXPECT_FALSE(std::filesystem::exists(dir + "/out"));
 
   // Bad options: exit 1 with a message naming the option.
   const std::string ptx = dir + "/ok.ptx";
@@ -183,6 +185,7 @@ TEST(CliBa, BadFileExitsOneNamingTheFile) {
   EXPECT_NE(ReadFile(dir + "/stderr.txt").find("--colormap"), std::string::npos);
   EXPECT_EQ(RunCli(dir, "ba \"" + ptx + "\" --out \"" + dir + "/o\" --step 1"), 1);
   EXPECT_NE(ReadFile(dir + "/stderr.txt").find("--step"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/o"));
   EXPECT_EQ(RunCli(dir, "ba \"" + ptx + "\""), 1);
   EXPECT_NE(ReadFile(dir + "/stderr.txt").find("--out"), std::string::npos);
   // --help explains the options.

@@ -490,6 +490,30 @@ TEST(HostileImage, DamagedPngNamesTheChunkAndByte) {
       << err;
 }
 
+TEST(HostileImage, DamagedJpegImageDataIsRefusedInPlainWords) {
+  const std::string dir = TempDir();
+  cv::Mat img(240, 320, CV_8UC3);
+  cv::randu(img, 0, 255);  // noise: a long entropy-coded segment
+  std::vector<unsigned char> buf;
+  cv::imencode(".jpg", img, buf);
+  const std::string jpg(buf.begin(), buf.end());
+  // The image data cut in the middle, the end marker kept: libjpeg decodes it "successfully"
+  // (grey blocks) and prints "Corrupt JPEG data: premature end of data segment" to stderr.
+  const std::string cut = jpg.substr(0, jpg.size() / 2) + jpg.substr(jpg.size() - 2);
+  std::string p = Write(dir, "cut_middle.jpg", cut);
+  testing::internal::CaptureStderr();
+  ExpectError([&] { ReadImage(p); }, {p, "byte", "image data is damaged", "copy or export"});
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");  // nothing printed by libjpeg
+  // Extra bytes before the end marker (some cameras write them) leave the pixels intact.
+  const std::string extra =
+      jpg.substr(0, jpg.size() - 2) + std::string("\x01\x02\x03") + jpg.substr(jpg.size() - 2);
+  p = Write(dir, "extra.jpg", extra);
+  const cv::Mat read = ReadImage(p);
+  const cv::Mat direct = cv::imdecode(buf, cv::IMREAD_COLOR);
+  ASSERT_EQ(read.size(), direct.size());
+  EXPECT_EQ(cv::norm(read, direct, cv::NORM_INF), 0.0);
+}
+
 TEST(HostileImage, DamagedJpegTiffBmpHeaders) {
   const std::string dir = TempDir();
   const cv::Mat img(40, 60, CV_8UC3, cv::Scalar(5, 6, 7));
