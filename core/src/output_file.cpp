@@ -7,8 +7,10 @@
 
 #include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <mutex>
@@ -103,12 +105,46 @@ std::string RandomTag() {
   return buf;
 }
 
+constexpr char kTempPrefix[] = ".scancam-tmp-";
+
+// A run killed by SIGKILL (which no handler sees) leaves its temporaries. The next run that
+// writes the same output removes those of `filename` whose writer is gone: the name carries the
+// writer's process id, that process no longer exists here, and the file has not changed for
+// 10 minutes (so a run on another machine sharing the directory is never touched). Nothing but
+// `.scancam-tmp-<pid>-<tag>-<filename>` is ever removed.
+void RemoveStaleTemporaries(const fs::path& dir, const std::string& filename) {
+  std::error_code ec;
+  fs::directory_iterator it(dir.empty() ? fs::path(".") : dir, ec), end;
+  const std::string suffix = "-" + filename;
+  const auto now = fs::file_time_type::clock::now();
+  for (int seen = 0; !ec && it != end && seen < 100000; it.increment(ec), ++seen) {
+    const std::string name = it->path().filename().string();
+    if (name.size() <= sizeof kTempPrefix - 1 + suffix.size() ||
+        name.compare(0, sizeof kTempPrefix - 1, kTempPrefix) != 0 ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0)
+      continue;
+    const char* p = name.c_str() + sizeof kTempPrefix - 1;
+    char* after = nullptr;
+    errno = 0;
+    const long pid = std::strtol(p, &after, 10);
+    if (errno != 0 || after == p || *after != '-' || pid <= 0 || pid == ::getpid()) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // still alive
+    std::error_code e2;
+    if (!it->is_regular_file(e2) || e2) continue;
+    const auto written = fs::last_write_time(it->path(), e2);
+    if (e2 || now - written < std::chrono::minutes(10)) continue;
+    fs::remove(it->path(), e2);
+  }
+}
+
 // Creates an empty temporary file beside `final_path`; returns its path.
 std::string CreateTemp(const std::string& final_path) {
   const fs::path f(final_path);
   const fs::path dir = f.parent_path();
+  RemoveStaleTemporaries(dir, f.filename().string());
   for (int attempt = 0; attempt < 100; ++attempt) {
-    const fs::path tmp = dir / (".scancam-tmp-" + RandomTag() + "-" + f.filename().string());
+    const fs::path tmp = dir / (kTempPrefix + std::to_string(::getpid()) + "-" + RandomTag() + "-" +
+                                f.filename().string());
     const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
     if (fd >= 0) {
       struct stat st;

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
@@ -314,8 +315,8 @@ TEST(OutputFile, ABatchWritesNothingUntilCommittedAndNothingIfNot) {
 TEST(OutputFile, ARunKilledBySignalLeavesNoTemporaries) {
   for (const bool handler : {true, false}) {
     for (const int sig : {SIGTERM, SIGINT}) {
-      const std::string d = test::TempDir() + (handler ? "/with" : "/without") +
-                            std::to_string(sig);
+      const std::string d =
+          test::TempDir() + (handler ? "/with" : "/without") + std::to_string(sig);
       fs::create_directories(d);
       WriteFile(d + "/a.txt", "old a");
       const pid_t pid = ::fork();
@@ -324,7 +325,7 @@ TEST(OutputFile, ARunKilledBySignalLeavesNoTemporaries) {
         if (handler) RemoveTemporariesOnSignals();
         OutputBatch batch;
         WriteFileAtomically(d + "/a.txt", std::string("new a"));  // staged
-        AtomicFile open(d + "/b.txt");                             // being written
+        AtomicFile open(d + "/b.txt");                            // being written
         ::raise(sig);
         ::_exit(0);  // not reached
       }
@@ -340,6 +341,46 @@ TEST(OutputFile, ARunKilledBySignalLeavesNoTemporaries) {
       EXPECT_EQ(temporaries, handler ? 0u : 2u) << d;
     }
   }
+}
+
+// SIGKILL cannot be caught: the killed run's temporary stays. The next run writing the same
+// output removes it once it is 10 minutes old and its writer's process is gone; temporaries of a
+// live process, of another output, younger ones and the user's own files stay.
+TEST(OutputFile, TemporariesOfAKilledRunAreRemovedByTheNextRunOfThatOutput) {
+  const std::string d = test::TempDir() + "/killed";
+  fs::create_directories(d);
+  WriteFile(d + "/a.txt", "old a");
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    RemoveTemporariesOnSignals();  // no help against SIGKILL
+    OutputBatch batch;
+    WriteFileAtomically(d + "/a.txt", std::string("new a"));
+    ::raise(SIGKILL);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  std::vector<fs::path> left;
+  for (const auto& e : fs::directory_iterator(d))
+    if (e.path().filename().string().rfind(".scancam-tmp-", 0) == 0) left.push_back(e.path());
+  ASSERT_EQ(left.size(), 1u);
+  const std::string dead = std::to_string(pid);
+  const std::string live_other = d + "/.scancam-tmp-1-0123456789ab-a.txt";  // pid 1 lives
+  const std::string other_output = d + "/.scancam-tmp-" + dead + "-0123456789ab-b.txt";
+  const std::string users = d + "/notes-a.txt";
+  for (const std::string& f : {live_other, other_output, users}) WriteFile(f, "keep");
+  // Young: the next run leaves it (it could be a run on another machine).
+  WriteFileAtomically(d + "/a.txt", std::string("second"));
+  EXPECT_TRUE(fs::exists(left[0]));
+  const auto old = fs::file_time_type::clock::now() - std::chrono::minutes(11);
+  for (const fs::path& f : {left[0], fs::path(live_other), fs::path(other_output)})
+    fs::last_write_time(f, old);
+  WriteFileAtomically(d + "/a.txt", std::string("third"));
+  EXPECT_FALSE(fs::exists(left[0]));
+  EXPECT_EQ(ReadFile(d + "/a.txt"), "third");
+  for (const std::string& f : {live_other, other_output, users}) EXPECT_TRUE(fs::exists(f)) << f;
 }
 
 TEST(OutputFile, ACommitThatFailsPutsThePreviousFilesBack) {
