@@ -293,6 +293,51 @@ TEST(Regrid, AStepFarTooFineForTheCloudIsRefused) {
   EXPECT_GT(s.valid_count(), 100u);
 }
 
+// Fuzzing found a 301-point PCD with a ring field whose rings (135 values) and two nearly equal
+// azimuths asked for a 135 x 22743 ring grid: 3 M cells for 301 points (0.01 % filled), seconds
+// per file. A ring grid that would be under 1 % filled is refused like a spherical one.
+TEST(Regrid, ARingGridFarTooFineForTheCloudIsRefused) {
+  std::vector<Eigen::Vector3f> pts;
+  std::vector<int> ring;
+  for (int i = 0; i < 300; ++i) {
+    const double az = 0.0209 * i, el = -0.4 + 0.006 * (i % 135);
+    pts.emplace_back(10 * std::cos(el) * std::cos(az), 10 * std::cos(el) * std::sin(az),
+                     10 * std::sin(el));
+    ring.push_back(i % 135);
+  }
+  // Two returns 0.0158 deg apart on ring 0: the median gap of the sparse rings is far larger,
+  // so give the fine step explicitly, as the mutated file's gaps did.
+  RegridOptions o;
+  o.source = "sparse_rings.pcd";
+  o.step_deg = 0.0158;
+  try {
+    RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
+    FAIL() << "a nearly empty ring grid was built";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sparse_rings.pcd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nearly empty"), std::string::npos) << e.what();
+  }
+  o.step_deg = 1.2;  // a step the cloud fills
+  const OrderedScan s = RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
+  EXPECT_EQ(s.rows, 135);
+  EXPECT_GT(s.valid_count(), 250u);
+}
+
+// Points so far or so near that float squares overflow or underflow (mutated files hold them)
+// still get a unit beam, so the importer never hands on a cell that CheckScan refuses.
+TEST(OrderedScanCell, ExtremeCoordinatesKeepAUnitBeam) {
+  OrderedScan s = OrderedScan::Empty(1, 3);
+  s.set_point(0, 0, Eigen::Vector3f(3e19f, -4e19f, 0.f));
+  s.set_point(0, 1, Eigen::Vector3f(3e-25f, 4e-25f, 0.f));
+  s.set_point(0, 2, Eigen::Vector3f(1.f, 2.f, 2.f));
+  EXPECT_NEAR(s.range_m[0], 5e19f, 1e14f);
+  EXPECT_NEAR(s.range_m[1] / 5e-25f, 1.f, 1e-5f);
+  EXPECT_EQ(s.range_m[2], 3.f);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(s.beam_dir[c].norm(), 1.f, 1e-6f) << c;
+  EXPECT_NEAR(s.beam_dir[0].x(), 0.6f, 1e-6f);
+  EXPECT_NO_THROW(CheckScan(s, "extreme"));
+}
+
 TEST(Regrid, FullTurnStartsBehindAndLooksForwardInTheMiddle) {
   std::vector<Eigen::Vector3f> pts;
   for (int c = 0; c < 360; ++c) {

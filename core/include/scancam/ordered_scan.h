@@ -78,10 +78,19 @@ struct OrderedScan {
   void set_point(int r, int c, const Eigen::Vector3f& p, float intensity_value = kNaN) {
     const std::size_t i = index(r, c);
     const Eigen::Vector3f d = p - origin_m.cast<float>();
-    const float rho = d.norm();
+    float rho = d.norm();
     point_m[i] = p;
+    if (rho > 1e-18f && rho < 1e18f) {
+      beam_dir[i] = d / rho;
+    } else {
+      // Beyond the range where float squares neither underflow nor overflow: in double, so
+      // that the beam stays a unit vector.
+      const Eigen::Vector3d dd = p.cast<double>() - origin_m;
+      const double rd = dd.norm();
+      rho = static_cast<float>(rd);  // inf (an invalid cell) beyond float's range
+      if (rd > 0.0 && std::isfinite(rd)) beam_dir[i] = (dd / rd).cast<float>();
+    }
     range_m[i] = rho;
-    if (rho > 0.f) beam_dir[i] = d / rho;
     if (!intensity.empty()) intensity[i] = intensity_value;
   }
 };

@@ -188,14 +188,16 @@ void CheckInputs(const std::vector<Eigen::Vector3f>& points, const std::vector<f
   }
 }
 
-// Refuses grids larger than o.max_cells, and grids far larger than the cloud (more than
-// kMaxCellsPerPoint cells per point beyond kFreeCells): a step estimated from a few odd points
-// would otherwise build a mostly empty grid of GBs. Sizes are doubles: a step of 1e-300 deg must
-// not overflow an integer before it is refused.
+// Refuses grids larger than o.max_cells, and (when `allocated`: the grid about to be built,
+// after cropping to the occupied arc) grids far larger than the cloud (more than
+// kMaxCellsPerPoint cells per point beyond kFreeCells, i.e. under 1 % filled): a step estimated
+// from a few odd points would otherwise build a mostly empty grid (fuzzing: 301 points in a
+// 135 x 22743 ring grid, 3 s per file). Sizes are doubles: a step of 1e-300 deg must not
+// overflow an integer before it is refused.
 constexpr double kMaxCellsPerPoint = 100.0;
-constexpr double kFreeCells = 4.0 * 1024 * 1024;
+constexpr double kFreeCells = 256.0 * 1024;
 void CheckCells(double rows, double cols, std::size_t points, const RegridOptions& o,
-                double step_deg) {
+                double step_deg, bool allocated) {
   const double cells = rows * cols;
   char step_text[32];
   std::snprintf(step_text, sizeof step_text, "%.3g", step_deg);
@@ -208,7 +210,7 @@ void CheckCells(double rows, double cols, std::size_t points, const RegridOption
                 " cells at a step of " + step_text + " deg is larger than allowed (" +
                 std::to_string(o.max_cells) + " cells); give a larger grid step");
   }
-  if (cells > kFreeCells && cells > kMaxCellsPerPoint * static_cast<double>(points)) {
+  if (allocated && cells > kFreeCells && cells > kMaxCellsPerPoint * static_cast<double>(points)) {
     throw Error(o.source + ": a grid of " + count(rows) + " x " + count(cols) +
                 " cells at a step of " + step_text + " deg for only " + std::to_string(points) +
                 " points would be nearly empty (the step is too fine for this cloud); give a "
@@ -388,7 +390,7 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
   const double el_min = *std::min_element(p.el.begin(), p.el.end());
   const double el_max = *std::max_element(p.el.begin(), p.el.end());
   CheckCells(std::floor((el_max - el_min) / (el_step_deg * kDeg)) + 2,
-             std::floor(360.0 / step_deg) + 1, p.az.size(), o, step_deg);
+             std::floor(360.0 / step_deg) + 1, p.az.size(), o, step_deg, false);
   progress(0.3, "re-gridding");
 
   const double az_step = 2.0 * kPi / std::max(1.0, std::round(360.0 / step_deg));
@@ -406,8 +408,8 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
   const long long m_max = std::llround((el_max - eph) / est);
   const long long m_min = std::llround((el_min - eph) / est);
   const long long rows = m_max - m_min + 1;
-  CheckCells(static_cast<double>(rows), static_cast<double>(layout.ncols), p.az.size(), o,
-             step_deg);
+  CheckCells(static_cast<double>(rows), static_cast<double>(layout.ncols), p.az.size(), o, step_deg,
+             true);
 
   OrderedScan scan = OrderedScan::Empty(static_cast<int>(rows), layout.ncols);
   scan.origin_m = origin;
@@ -531,7 +533,8 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
     Layout l;
     const long long n_full = std::max(1LL, std::llround(2.0 * kPi / step_rad));
     const double step = 2.0 * kPi / static_cast<double>(n_full);
-    CheckCells(static_cast<double>(nr), static_cast<double>(n_full), p.az.size(), o, step / kDeg);
+    CheckCells(static_cast<double>(nr), static_cast<double>(n_full), p.az.size(), o, step / kDeg,
+               false);
     PhaseAccumulator all(step);
     std::vector<PhaseAccumulator> per_ring(nr, PhaseAccumulator(step));
     for (std::size_t i = 0; i < p.az.size(); ++i) {
@@ -567,6 +570,9 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
       std::sort(wrapped.begin(), wrapped.end());
       for (std::size_t j = 1; j < wrapped.size(); ++j) l.shared += wrapped[j] == wrapped[j - 1];
     }
+    ChooseColumns(l.azimuth, l.cells);
+    CheckCells(static_cast<double>(nr), static_cast<double>(l.azimuth.ncols), p.az.size(), o,
+               step / kDeg, true);
     return l;
   };
   Layout chosen = lay_out(candidates[0]);
@@ -586,7 +592,6 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
   AzimuthLayout& layout = chosen.azimuth;
   const std::vector<double>& shift = chosen.shift;
   std::vector<long long>& cells = chosen.cells;
-  ChooseColumns(layout, cells);
 
   OrderedScan scan = OrderedScan::Empty(static_cast<int>(nr), layout.ncols);
   scan.origin_m = origin;

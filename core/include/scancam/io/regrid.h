@@ -57,7 +57,7 @@ struct RegridOptions {
 /// Spherical re-gridding of an unordered cloud, layout above. `intensity` may be null, else
 /// it has one value per point. Rows = elevation bins, cols = azimuth bins. Throws
 /// scancam::Error (naming options.source) when there is no usable point or the grid would
-/// exceed max_cells, or would be nearly empty (over 4 Mi cells and more than 100 cells per
+/// exceed max_cells, or would be nearly empty (over 256 Ki cells and more than 100 cells per
 /// point: a step far too fine for the cloud, e.g. estimated from a few odd points).
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
                             const std::vector<float>* intensity, const Eigen::Vector3d& origin,
@@ -74,7 +74,8 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
 /// to one step; otherwise the nearer point wins the cell. Rows are the distinct
 /// ring values present (any integers, also those of non-finite points); a ring without a single
 /// finite point cannot be placed by elevation and goes last, with NaN beam directions. Throws
-/// scancam::Error when there is no usable point or `ring` is not one value per point.
+/// scancam::Error when there is no usable point, `ring` is not one value per point, or the grid
+/// would be nearly empty (as RegridSpherical's).
 OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::vector<int>& ring,
                         const std::vector<float>* intensity, const Eigen::Vector3d& origin,
                         RegridOptions options = {}, const Progress& progress = {});
