@@ -66,11 +66,13 @@ inline std::string ReadFile(const std::string& path) {
 }
 
 /// Runs the built `scancam` CLI with `args` (shell words after "scancam"); its stdout and stderr
-/// go to DIR/stdout.txt and DIR/stderr.txt. Returns the exit status (-1 if it did not exit).
-inline int RunCli(const std::string& dir, const std::string& args) {
+/// go to DIR/stdout.txt and DIR/stderr.txt (and, when `output` is given, into it: stdout then
+/// stderr). Returns the exit status (-1 if it did not exit).
+inline int RunCli(const std::string& dir, const std::string& args, std::string* output = nullptr) {
   const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
                           "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
   const int status = std::system(cmd.c_str());
+  if (output) *output = ReadFile(dir + "/stdout.txt") + ReadFile(dir + "/stderr.txt");
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 

@@ -3,7 +3,6 @@
 // asserts the error (file, place, problem), the exit code, the time (no hang) or the memory.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
-#include <sys/wait.h>
 
 #include <chrono>
 #include <cstdint>
@@ -52,13 +51,7 @@ double Seconds(const std::chrono::steady_clock::time_point& t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Runs the CLI; stdout / stderr go to DIR/stdout.txt, DIR/stderr.txt. The exit code.
-int RunCli(const std::string& dir, const std::string& args) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using test::RunCli;
 
 // True when every byte is printable ASCII / UTF-8 or a newline (what reaches the terminal).
 bool PrintableOnly(const std::string& s) {
