@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -15,8 +16,21 @@
 
 #include "scancam/error.h"
 #include "scancam/ordered_scan.h"
+#include "scancam/rotation_rpy.h"
 
 namespace scancam::test {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;  ///< radians per degree
+
+/// A camera-to-scanner pose like the paper's result (Table I: rotation rpy 0.64, -1.24,
+/// 166.95 deg, translation 0.207, 0.042, 0.139 m), as T_cam_scan for the solver tests.
+inline Eigen::Isometry3d PaperLikePose() {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = RpyDegToRotation({0.64, -1.24, 166.95});
+  T.translation() = Eigen::Vector3d(0.207, 0.042, 0.139);
+  return T;
+}
 
 /// ../shared/datasets/<rel>; the test is skipped (with a message) when ../shared is absent.
 inline std::string SharedDataset(const std::string& rel) {

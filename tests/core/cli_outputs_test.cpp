@@ -19,6 +19,7 @@
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
 #include "scancam/sim/simulate.h"
+#include "sim_test_util.h"
 #include "test_util.h"
 
 namespace scancam {
@@ -35,13 +36,8 @@ struct SimFiles {
   SimFiles() {
     dir = std::string(SCANCAM_TEST_TMP) + "/cli_outputs_sim_" + std::to_string(::getpid());
     fs::remove_all(dir);
-    sim::SimulateOptions o;
+    sim::SimulateOptions o = test::SmallSimOptions();
     o.camera = "pinhole";
-    o.supersample = 1;
-    o.rotating.planes = 90;
-    o.rotating.phi_step_deg = 4;
-    o.rotating.beams = 61;
-    o.rotating.theta_step_deg = 3;
     o.pairs = 6;
     const sim::Simulation s = sim::Simulate(o);
     sim::WriteSimulation(s, dir);
@@ -314,8 +310,8 @@ TEST(OutputFile, ABatchWritesNothingUntilCommittedAndNothingIfNot) {
 TEST(OutputFile, ARunKilledBySignalLeavesNoTemporaries) {
   for (const bool handler : {true, false}) {
     for (const int sig : {SIGTERM, SIGINT}) {
-      const std::string d = test::TempDir() + (handler ? "/with" : "/without") +
-                            std::to_string(sig);
+      const std::string d =
+          test::TempDir() + (handler ? "/with" : "/without") + std::to_string(sig);
       fs::create_directories(d);
       WriteFile(d + "/a.txt", "old a");
       const pid_t pid = ::fork();
@@ -324,7 +320,7 @@ TEST(OutputFile, ARunKilledBySignalLeavesNoTemporaries) {
         if (handler) RemoveTemporariesOnSignals();
         OutputBatch batch;
         WriteFileAtomically(d + "/a.txt", std::string("new a"));  // staged
-        AtomicFile open(d + "/b.txt");                             // being written
+        AtomicFile open(d + "/b.txt");                            // being written
         ::raise(sig);
         ::_exit(0);  // not reached
       }
