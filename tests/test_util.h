@@ -79,6 +79,36 @@ inline std::string ReadFile(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
+/// share/cameras/<name>: the example camera files.
+inline std::string CameraExample(const std::string& name) {
+  return std::string(SCANCAM_SOURCE_DIR) + "/share/cameras/" + name;
+}
+
+/// `text` with the first `from` replaced by `to` (a test failure when `from` is not there).
+inline std::string Replaced(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "'" << from << "' not found in the text";
+    return text;
+  }
+  return text.replace(at, from.size(), to);
+}
+
+/// `text` without [from, to) (to the end when `to` is empty).
+inline std::string Without(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t a = text.find(from);
+  const std::size_t b = to.empty() ? text.size() : text.find(to, a);
+  return text.erase(a, b - a);
+}
+
+/// Writes `content` to DIR/NAME and returns that path.
+inline std::string WriteFileIn(const std::string& dir, const std::string& name,
+                               const std::string& content) {
+  const std::string p = dir + "/" + name;
+  WriteFile(p, content);
+  return p;
+}
+
 /// Runs the built `scancam` CLI with `args` (shell words after "scancam"); its stdout and stderr
 /// go to DIR/stdout.txt and DIR/stderr.txt (and, when `output` is given, into it: stdout then
 /// stderr). Returns the exit status (-1 if it did not exit).

@@ -10,30 +10,12 @@
 namespace scancam {
 namespace {
 
+using test::CameraExample;
 using test::ReadFile;
+using test::Replaced;
 using test::TempDir;
-using test::WriteFile;
-
-std::string Example(const std::string& name) {
-  return std::string(SCANCAM_SOURCE_DIR) + "/share/cameras/" + name;
-}
-
-// `text` with the first `from` replaced by `to` (a test failure when `from` is not there).
-std::string Replaced(std::string text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  if (at == std::string::npos) {
-    ADD_FAILURE() << "'" << from << "' not found in the example file";
-    return text;
-  }
-  return text.replace(at, from.size(), to);
-}
-
-// `text` without [from, to) (to the end when `to` is empty).
-std::string Without(std::string text, const std::string& from, const std::string& to) {
-  const std::size_t a = text.find(from);
-  const std::size_t b = to.empty() ? text.size() : text.find(to, a);
-  return text.erase(a, b - a);
-}
+using test::Without;
+using test::WriteFileIn;
 
 // The error message of f(), or "" when it does not throw scancam::Error.
 template <typename F>
@@ -95,46 +77,47 @@ TEST(CameraIo, PinholeExamplesInEveryFormatLoadToTheSameNumbers) {
       {"kalibr_camchain.yaml", CameraFileFormat::kKalibr}};
   for (const auto& [name, fmt] : files) {
     SCOPED_TRACE(name);
-    EXPECT_EQ(DetectCameraFileFormat(Example(name)), fmt);
-    const CameraModel c = LoadCamera(Example(name));
+    EXPECT_EQ(DetectCameraFileFormat(CameraExample(name)), fmt);
+    const CameraModel c = LoadCamera(CameraExample(name));
     ExpectSameCamera(c, kFront);
-    EXPECT_EQ(c.source(), Example(name));
+    EXPECT_EQ(c.source(), CameraExample(name));
   }
-  EXPECT_EQ(LoadCamera(Example("pinhole_opencv.yaml")).name(), "front");
-  EXPECT_EQ(LoadCamera(Example("pinhole_opencalib.json")).name(), "front");
+  EXPECT_EQ(LoadCamera(CameraExample("pinhole_opencv.yaml")).name(), "front");
+  EXPECT_EQ(LoadCamera(CameraExample("pinhole_opencalib.json")).name(), "front");
 }
 
 TEST(CameraIo, FisheyeOmniRationalOCamEquirectExamples) {
-  ExpectSameCamera(LoadCamera(Example("fisheye_opencv.yaml")), kFisheye);
-  ExpectSameCamera(LoadCamera(Example("fisheye_ros_equidistant.yaml")), kFisheye);
+  ExpectSameCamera(LoadCamera(CameraExample("fisheye_opencv.yaml")), kFisheye);
+  ExpectSameCamera(LoadCamera(CameraExample("fisheye_ros_equidistant.yaml")), kFisheye);
   LoadCameraOptions cam1;
   cam1.kalibr_camera = "cam1";
-  ExpectSameCamera(LoadCamera(Example("kalibr_camchain.yaml"), cam1), kFisheye);
-  ExpectSameCamera(LoadCamera(Example("omni_opencv.yaml")), kOmni);
+  ExpectSameCamera(LoadCamera(CameraExample("kalibr_camchain.yaml"), cam1), kFisheye);
+  ExpectSameCamera(LoadCamera(CameraExample("omni_opencv.yaml")), kOmni);
   LoadCameraOptions cam2;
   cam2.kalibr_camera = "cam2";
-  ExpectSameCamera(LoadCamera(Example("kalibr_camchain.yaml"), cam2), kOmni);
-  ExpectSameCamera(LoadCamera(Example("pinhole_rational_ros.yaml")), kWide);
-  ExpectSameCamera(LoadCamera(Example("pinhole_rational_opencv.yaml")), kWide);
+  ExpectSameCamera(LoadCamera(CameraExample("kalibr_camchain.yaml"), cam2), kOmni);
+  ExpectSameCamera(LoadCamera(CameraExample("pinhole_rational_ros.yaml")), kWide);
+  ExpectSameCamera(LoadCamera(CameraExample("pinhole_rational_opencv.yaml")), kWide);
 
   const CameraModel ocam_ref = CameraModel::OCam(OCamExample(), 640, 480);
-  EXPECT_EQ(DetectCameraFileFormat(Example("ocam_calib_results.txt")),
+  EXPECT_EQ(DetectCameraFileFormat(CameraExample("ocam_calib_results.txt")),
             CameraFileFormat::kOCamCalib);
-  const CameraModel ocam = LoadCamera(Example("ocam_calib_results.txt"));
+  const CameraModel ocam = LoadCamera(CameraExample("ocam_calib_results.txt"));
   ExpectSameCamera(ocam, ocam_ref);
   // The file's centre is "row column": 241.37 is the row, i.e. v.
   EXPECT_EQ(ocam.ocam_params().center_v, 241.37);
   EXPECT_EQ(ocam.ocam_params().center_u, 319.82);
   EXPECT_EQ(ocam.ocam_params().invpol.size(), 12u);
-  ExpectSameCamera(LoadCamera(Example("ocam_opencv.yaml")), ocam_ref);
+  ExpectSameCamera(LoadCamera(CameraExample("ocam_opencv.yaml")), ocam_ref);
 
-  ExpectSameCamera(LoadCamera(Example("equirect_opencv.yaml")), CameraModel::Equirect(4000, 2000));
+  ExpectSameCamera(LoadCamera(CameraExample("equirect_opencv.yaml")),
+                   CameraModel::Equirect(4000, 2000));
 }
 
 // Every file in share/cameras is covered above; a new one must be added to the tests.
 TEST(CameraIo, EveryExampleFileLoads) {
   int n = 0;
-  for (const auto& e : std::filesystem::directory_iterator(Example(""))) {
+  for (const auto& e : std::filesystem::directory_iterator(CameraExample(""))) {
     const std::string p = e.path().string();
     if (e.path().extension() == ".md") continue;
     SCOPED_TRACE(p);
@@ -239,9 +222,7 @@ TEST(CameraIo, OCamCalibFileKeepsFullPrecisionAndRowColumnOrder) {
 TEST(CameraIo, BadFilesNameTheFileAndTheField) {
   const std::string dir = TempDir();
   auto write = [&](const std::string& name, const std::string& content) {
-    const std::string p = dir + "/" + name;
-    WriteFile(p, content);
-    return p;
+    return WriteFileIn(dir, name, content);
   };
   EXPECT_ERROR_MENTIONS(LoadCamera(dir + "/missing.yaml"), "missing.yaml", "not found");
   std::string p = write("empty.yaml", "  \n");
@@ -260,12 +241,12 @@ TEST(CameraIo, BadFilesNameTheFileAndTheField) {
     std::string name, content;
     std::vector<std::string> parts;  // besides the file's path
   };
-  const std::string ocv = ReadFile(Example("pinhole_opencv.yaml"));
-  const std::string omni = ReadFile(Example("omni_opencv.yaml"));
-  const std::string kal = ReadFile(Example("kalibr_camchain.yaml"));
-  const std::string ros = ReadFile(Example("pinhole_ros_plumb_bob.yaml"));
-  const std::string oc = ReadFile(Example("pinhole_opencalib.json"));
-  const std::string ocam = ReadFile(Example("ocam_calib_results.txt"));
+  const std::string ocv = ReadFile(CameraExample("pinhole_opencv.yaml"));
+  const std::string omni = ReadFile(CameraExample("omni_opencv.yaml"));
+  const std::string kal = ReadFile(CameraExample("kalibr_camchain.yaml"));
+  const std::string ros = ReadFile(CameraExample("pinhole_ros_plumb_bob.yaml"));
+  const std::string oc = ReadFile(CameraExample("pinhole_opencalib.json"));
+  const std::string ocam = ReadFile(CameraExample("ocam_calib_results.txt"));
   const std::vector<Bad> bad = {
       // OpenCV YAML
       {"no_width.yaml", Without(ocv, "image_width", "image_height"), {"image_width", "missing"}},
@@ -345,12 +326,12 @@ TEST(CameraIo, BadFilesNameTheFileAndTheField) {
   // Kalibr: a camera the file does not have.
   LoadCameraOptions cam7;
   cam7.kalibr_camera = "cam7";
-  EXPECT_ERROR_MENTIONS(LoadCamera(Example("kalibr_camchain.yaml"), cam7), "kalibr_camchain.yaml",
-                        "cam7", "cam0, cam1, cam2");
+  EXPECT_ERROR_MENTIONS(LoadCamera(CameraExample("kalibr_camchain.yaml"), cam7),
+                        "kalibr_camchain.yaml", "cam7", "cam0, cam1, cam2");
 }
 
 TEST(CameraIo, ImageSizeMismatchIsAnError) {
-  const CameraModel c = LoadCamera(Example("pinhole_opencv.yaml"));
+  const CameraModel c = LoadCamera(CameraExample("pinhole_opencv.yaml"));
   EXPECT_NO_THROW(CheckImageSize(c, 1280, 720, "frame.png"));
   EXPECT_ERROR_MENTIONS(CheckImageSize(c, 1920, 1080, "frame.png"), "frame.png", "1920x1080",
                         "1280x720", "pinhole_opencv.yaml", "never rescaled");
