@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -15,8 +16,21 @@
 
 #include "scancam/error.h"
 #include "scancam/ordered_scan.h"
+#include "scancam/rotation_rpy.h"
 
 namespace scancam::test {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;  ///< radians per degree
+
+/// A camera-to-scanner pose like the paper's result (Table I: rotation rpy 0.64, -1.24,
+/// 166.95 deg, translation 0.207, 0.042, 0.139 m), as T_cam_scan for the solver tests.
+inline Eigen::Isometry3d PaperLikePose() {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = RpyDegToRotation({0.64, -1.24, 166.95});
+  T.translation() = Eigen::Vector3d(0.207, 0.042, 0.139);
+  return T;
+}
 
 /// ../shared/datasets/<rel>; the test is skipped (with a message) when ../shared is absent.
 inline std::string SharedDataset(const std::string& rel) {
@@ -65,12 +79,44 @@ inline std::string ReadFile(const std::string& path) {
   return std::string((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
+/// share/cameras/<name>: the example camera files.
+inline std::string CameraExample(const std::string& name) {
+  return std::string(SCANCAM_SOURCE_DIR) + "/share/cameras/" + name;
+}
+
+/// `text` with the first `from` replaced by `to` (a test failure when `from` is not there).
+inline std::string Replaced(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "'" << from << "' not found in the text";
+    return text;
+  }
+  return text.replace(at, from.size(), to);
+}
+
+/// `text` without [from, to) (to the end when `to` is empty).
+inline std::string Without(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t a = text.find(from);
+  const std::size_t b = to.empty() ? text.size() : text.find(to, a);
+  return text.erase(a, b - a);
+}
+
+/// Writes `content` to DIR/NAME and returns that path.
+inline std::string WriteFileIn(const std::string& dir, const std::string& name,
+                               const std::string& content) {
+  const std::string p = dir + "/" + name;
+  WriteFile(p, content);
+  return p;
+}
+
 /// Runs the built `scancam` CLI with `args` (shell words after "scancam"); its stdout and stderr
-/// go to DIR/stdout.txt and DIR/stderr.txt. Returns the exit status (-1 if it did not exit).
-inline int RunCli(const std::string& dir, const std::string& args) {
+/// go to DIR/stdout.txt and DIR/stderr.txt (and, when `output` is given, into it: stdout then
+/// stderr). Returns the exit status (-1 if it did not exit).
+inline int RunCli(const std::string& dir, const std::string& args, std::string* output = nullptr) {
   const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
                           "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
   const int status = std::system(cmd.c_str());
+  if (output) *output = ReadFile(dir + "/stdout.txt") + ReadFile(dir + "/stderr.txt");
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 

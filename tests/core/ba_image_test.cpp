@@ -19,8 +19,8 @@
 namespace scancam {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
+using test::kDeg;
+using test::kPi;
 const double kNaNd = std::numeric_limits<double>::quiet_NaN();
 
 // A single-origin scan on a spherical grid: row r has elevation e0 - r de (row 0 on top),

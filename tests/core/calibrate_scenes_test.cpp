@@ -20,7 +20,7 @@
 namespace scancam {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
+using test::kDeg;
 constexpr double kSigmaPx = 1.0, kSigmaCells = 0.5;  // Calibrate's default noise model
 
 // A simulated scene of the pinhole preset's rig on the rotating scanner; the image is not

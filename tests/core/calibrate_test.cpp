@@ -17,6 +17,8 @@
 namespace scancam {
 namespace {
 
+using test::RunCli;
+
 Eigen::Isometry3d TruePose() {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   // Scanner x forward, z up -> camera z forward, y down, plus a small offset.
@@ -176,12 +178,12 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
   const auto cam = Pinhole();
   SaveCamera(cam, dir + "/cam.yaml");
   WritePairsCsv(dir + "/pairs.csv", MakePairs(cam, TruePose(), 10, 0.3, 10));
-  const std::string cmd = std::string(SCANCAM_CLI) + " calibrate --camera " + dir +
-                          "/cam.yaml --pairs " + dir + "/pairs.csv --out " + dir +
-                          "/calib.json > " + dir + "/stdout.txt 2>&1";
-  ASSERT_EQ(std::system(cmd.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  const std::string args = "calibrate --camera " + dir + "/cam.yaml --pairs " + dir +
+                           "/pairs.csv --out " + dir + "/calib.json";
+  std::string text;
+  ASSERT_EQ(RunCli(dir, args, &text), 0) << text;
   EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/calib.json"), TruePose()), 0.1);
-  EXPECT_NE(test::ReadFile(dir + "/stdout.txt").find("reprojection error"), std::string::npos);
+  EXPECT_NE(text.find("reprojection error"), std::string::npos);
 
   // --truth: the error and whether the reported uncertainty covers it; a truth 2 deg away
   // must be called outside.
@@ -189,9 +191,7 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
     Eigen::Isometry3d truth = TruePose();
     truth.linear() = RpyDegToRotation({off_deg, 0, 0}) * truth.linear();
     WriteJsonFile(dir + "/truth.json", {{"T_cam_scan", PoseToJson(truth)}});
-    const std::string tc = cmd.substr(0, cmd.find(" > ")) + " --truth " + dir + "/truth.json > " +
-                           dir + "/stdout.txt 2>&1";
-    ASSERT_EQ(std::system(tc.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+    ASSERT_EQ(RunCli(dir, args + " --truth " + dir + "/truth.json", &text), 0) << text;
     const auto j = ReadJsonFile(dir + "/calib.json");
     const double d = j["error_vs_truth"]["mahalanobis"].get<double>();
     // Per axis: the truth is turned by off_deg about the camera x axis, so the estimate is
@@ -201,7 +201,6 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
     EXPECT_NEAR(per_axis[1].get<double>(), 0.0, 0.1);
     EXPECT_NEAR(j["error_vs_truth"]["rotation_error_over_std"][0].get<double>(),
                 per_axis[0].get<double>() / j["rotation_std_deg_cam_xyz"][0].get<double>(), 1e-9);
-    const std::string text = test::ReadFile(dir + "/stdout.txt");
     if (off_deg == 0) {
       EXPECT_LT(d, 3.55) << text;
       EXPECT_NE(text.find("within the reported uncertainty"), std::string::npos) << text;
@@ -214,26 +213,23 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
   // --plot draws the pairs on the photo (image size kept, something drawn); without --image
   // it is an error.
   cv::imwrite(dir + "/photo.png", cv::Mat(cam.height(), cam.width(), CV_8UC3, cv::Scalar::all(0)));
-  const std::string base = cmd.substr(0, cmd.find(" > "));
-  const std::string plot = base + " --image " + dir + "/photo.png --plot " + dir + "/plot.png > " +
-                           dir + "/stdout.txt 2>&1";
-  ASSERT_EQ(std::system(plot.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  ASSERT_EQ(RunCli(dir, args + " --image " + dir + "/photo.png --plot " + dir + "/plot.png", &text),
+            0)
+      << text;
   const cv::Mat drawn = cv::imread(dir + "/plot.png");
   ASSERT_EQ(drawn.cols, cam.width());
   ASSERT_EQ(drawn.rows, cam.height());
   EXPECT_GT(cv::countNonZero(drawn.reshape(1)), 10 * 30) << "10 pairs drawn";
-  const std::string no_image = base + " --plot " + dir + "/p2.png > " + dir + "/err.txt 2>&1";
-  EXPECT_EQ(WEXITSTATUS(std::system(no_image.c_str())), 1);
-  EXPECT_NE(test::ReadFile(dir + "/err.txt").find("--plot needs --image"), std::string::npos);
+  EXPECT_EQ(RunCli(dir, args + " --plot " + dir + "/p2.png", &text), 1);
+  EXPECT_NE(text.find("--plot needs --image"), std::string::npos) << text;
 
   test::WriteFile(dir + "/bad.csv", "image_u,image_v,x,y,z\n1,2,3,4\n");
-  const std::string bad = std::string(SCANCAM_CLI) + " calibrate --camera " + dir +
-                          "/cam.yaml --pairs " + dir + "/bad.csv --out " + dir + "/c2.json > " +
-                          dir + "/err.txt 2>&1";
-  const int rc = std::system(bad.c_str());
-  EXPECT_EQ(WEXITSTATUS(rc), 1);
-  EXPECT_NE(test::ReadFile(dir + "/err.txt").find("bad.csv:2"), std::string::npos)
-      << test::ReadFile(dir + "/err.txt");
+  EXPECT_EQ(RunCli(dir,
+                   "calibrate --camera " + dir + "/cam.yaml --pairs " + dir + "/bad.csv --out " +
+                       dir + "/c2.json",
+                   &text),
+            1);
+  EXPECT_NE(text.find("bad.csv:2"), std::string::npos) << text;
 }
 
 // Several scenes of one rig: repeated --pairs (and --image: the k-th of each is scene k), one
@@ -247,12 +243,15 @@ TEST(CalibrateCli, SeveralScenesOneRig) {
   WritePairsCsv(dir + "/a.csv", MakePairs(cam, TruePose(), 10, 0.5, 21));
   WritePairsCsv(dir + "/b.csv", MakePairs(cam, TruePose(), 12, 0.5, 22));
   cv::imwrite(dir + "/photo.png", cv::Mat(cam.height(), cam.width(), CV_8UC3, cv::Scalar::all(0)));
-  const std::string base = std::string(SCANCAM_CLI) + " calibrate --camera " + dir + "/cam.yaml";
-  const std::string two = base + " --pairs " + dir + "/a.csv --pairs " + dir + "/b.csv --image " +
-                          dir + "/photo.png --image " + dir + "/photo.png --sigma-point-m 0.001" +
-                          " --plot " + dir + "/plot.png --out " + dir + "/joint.json > " + dir +
-                          "/stdout.txt 2>&1";
-  ASSERT_EQ(std::system(two.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  const std::string base = "calibrate --camera " + dir + "/cam.yaml";
+  std::string text;
+  ASSERT_EQ(RunCli(dir,
+                   base + " --pairs " + dir + "/a.csv --pairs " + dir + "/b.csv --image " + dir +
+                       "/photo.png --image " + dir + "/photo.png --sigma-point-m 0.001" +
+                       " --plot " + dir + "/plot.png --out " + dir + "/joint.json",
+                   &text),
+            0)
+      << text;
   const auto j = ReadJsonFile(dir + "/joint.json");
   EXPECT_EQ(j.at("pair_count"), 22);
   EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/joint.json"), TruePose()), 0.1);
@@ -266,7 +265,6 @@ TEST(CalibrateCli, SeveralScenesOneRig) {
   EXPECT_EQ(j.at("pairs")[0].at("scene"), 1);
   EXPECT_EQ(j.at("pairs")[21].at("scene"), 2);
   EXPECT_EQ(j.at("rotation_std_deg_cam_xyz").size(), 3u);
-  const std::string text = test::ReadFile(dir + "/stdout.txt");
   EXPECT_NE(text.find("scene 2 (" + dir + "/b.csv, 12 pairs) alone vs joint"), std::string::npos)
       << text;
   EXPECT_NE(text.find("sigma); Mahalanobis"), std::string::npos) << text;
@@ -274,17 +272,16 @@ TEST(CalibrateCli, SeveralScenesOneRig) {
   EXPECT_FALSE(cv::imread(dir + "/plot-scene2.png").empty());
 
   // One --image for two --pairs: which scene it belongs to is unclear, so it is refused.
-  const std::string odd = base + " --pairs " + dir + "/a.csv --pairs " + dir + "/b.csv --image " +
-                          dir + "/photo.png --out " + dir + "/odd.json > " + dir + "/err.txt 2>&1";
-  EXPECT_EQ(WEXITSTATUS(std::system(odd.c_str())), 1);
-  EXPECT_NE(test::ReadFile(dir + "/err.txt").find("--image given 1 time(s) but --pairs 2"),
-            std::string::npos)
-      << test::ReadFile(dir + "/err.txt");
+  EXPECT_EQ(RunCli(dir,
+                   base + " --pairs " + dir + "/a.csv --pairs " + dir + "/b.csv --image " + dir +
+                       "/photo.png --out " + dir + "/odd.json",
+                   &text),
+            1);
+  EXPECT_NE(text.find("--image given 1 time(s) but --pairs 2"), std::string::npos) << text;
 
   // One scene: inputs keep plain strings, the new fields are there, no "scenes".
-  const std::string one =
-      base + " --pairs " + dir + "/a.csv --out " + dir + "/one.json > " + dir + "/stdout.txt 2>&1";
-  ASSERT_EQ(std::system(one.c_str()), 0) << test::ReadFile(dir + "/stdout.txt");
+  ASSERT_EQ(RunCli(dir, base + " --pairs " + dir + "/a.csv --out " + dir + "/one.json", &text), 0)
+      << text;
   const auto o = ReadJsonFile(dir + "/one.json");
   EXPECT_TRUE(o.at("inputs").at("pairs").is_string());
   EXPECT_FALSE(o.contains("scenes"));

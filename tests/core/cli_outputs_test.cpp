@@ -20,6 +20,7 @@
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
 #include "scancam/sim/simulate.h"
+#include "sim_test_util.h"
 #include "test_util.h"
 
 namespace scancam {
@@ -36,13 +37,8 @@ struct SimFiles {
   SimFiles() {
     dir = std::string(SCANCAM_TEST_TMP) + "/cli_outputs_sim_" + std::to_string(::getpid());
     fs::remove_all(dir);
-    sim::SimulateOptions o;
+    sim::SimulateOptions o = test::SmallSimOptions();
     o.camera = "pinhole";
-    o.supersample = 1;
-    o.rotating.planes = 90;
-    o.rotating.phi_step_deg = 4;
-    o.rotating.beams = 61;
-    o.rotating.theta_step_deg = 3;
     o.pairs = 6;
     const sim::Simulation s = sim::Simulate(o);
     sim::WriteSimulation(s, dir);

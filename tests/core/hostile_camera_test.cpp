@@ -3,7 +3,6 @@
 // asserts the error (file, place, problem), the exit code, the time (no hang) or the memory.
 #include <gtest/gtest.h>
 #include <sys/resource.h>
-#include <sys/wait.h>
 
 #include <chrono>
 #include <cstdint>
@@ -25,40 +24,18 @@
 namespace scancam {
 namespace {
 
+using test::CameraExample;
 using test::ExpectError;
 using test::ReadFile;
+using test::Replaced;
 using test::TempDir;
-using test::WriteFile;
-
-std::string Example(const std::string& name) {
-  return std::string(SCANCAM_SOURCE_DIR) + "/share/cameras/" + name;
-}
-
-// `s` with the first `from` replaced by `to` (the test fails when `from` is absent).
-std::string Replace(std::string s, const std::string& from, const std::string& to) {
-  const std::size_t p = s.find(from);
-  EXPECT_NE(p, std::string::npos) << "'" << from << "' not in the example";
-  if (p != std::string::npos) s.replace(p, from.size(), to);
-  return s;
-}
-
-std::string Write(const std::string& dir, const std::string& name, const std::string& content) {
-  const std::string p = dir + "/" + name;
-  WriteFile(p, content);
-  return p;
-}
+using test::WriteFileIn;
 
 double Seconds(const std::chrono::steady_clock::time_point& t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Runs the CLI; stdout / stderr go to DIR/stdout.txt, DIR/stderr.txt. The exit code.
-int RunCli(const std::string& dir, const std::string& args) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using test::RunCli;
 
 // True when every byte is printable ASCII / UTF-8 or a newline (what reaches the terminal).
 bool PrintableOnly(const std::string& s) {
@@ -76,32 +53,32 @@ bool PrintableOnly(const std::string& s) {
 // file and the key.
 TEST(HostileCamera, HugeImageSizeIsRefusedAtOnceNamingTheKey) {
   const std::string dir = TempDir();
-  const std::string ocv = ReadFile(Example("pinhole_opencv.yaml"));
-  const std::string ocvj = ReadFile(Example("pinhole_opencv.json"));
-  const std::string ros = ReadFile(Example("pinhole_ros_plumb_bob.yaml"));
-  const std::string oc = ReadFile(Example("pinhole_opencalib.json"));
-  const std::string kal = ReadFile(Example("kalibr_camchain.yaml"));
-  const std::string ocam = ReadFile(Example("ocam_calib_results.txt"));
+  const std::string ocv = ReadFile(CameraExample("pinhole_opencv.yaml"));
+  const std::string ocvj = ReadFile(CameraExample("pinhole_opencv.json"));
+  const std::string ros = ReadFile(CameraExample("pinhole_ros_plumb_bob.yaml"));
+  const std::string oc = ReadFile(CameraExample("pinhole_opencalib.json"));
+  const std::string kal = ReadFile(CameraExample("kalibr_camchain.yaml"));
+  const std::string ocam = ReadFile(CameraExample("ocam_calib_results.txt"));
   for (const std::string big : {"1000000000", "2147483647", "1e9", "99999999999"}) {
     SCOPED_TRACE(big);
     struct Case {
       std::string file, content, key;
     };
     const std::vector<Case> cases = {
-        {"ocv_w.yaml", Replace(ocv, "image_width: 1280", "image_width: " + big), "image_width"},
-        {"ocv_h.yaml", Replace(ocv, "image_height: 720", "image_height: " + big), "image_height"},
-        {"ocv.json", Replace(ocvj, "\"image_width\": 1280", "\"image_width\": " + big),
+        {"ocv_w.yaml", Replaced(ocv, "image_width: 1280", "image_width: " + big), "image_width"},
+        {"ocv_h.yaml", Replaced(ocv, "image_height: 720", "image_height: " + big), "image_height"},
+        {"ocv.json", Replaced(ocvj, "\"image_width\": 1280", "\"image_width\": " + big),
          "image_width"},
-        {"ros.yaml", Replace(ros, "image_height: 720", "image_height: " + big),
+        {"ros.yaml", Replaced(ros, "image_height: 720", "image_height: " + big),
          "line 3: image_height"},
-        {"opencalib.json", Replace(oc, "\"img_dist_w\": 1280", "\"img_dist_w\": " + big),
+        {"opencalib.json", Replaced(oc, "\"img_dist_w\": 1280", "\"img_dist_w\": " + big),
          "param.img_dist_w"},
-        {"kalibr.yaml", Replace(kal, "resolution: [1280, 720]", "resolution: [1280, " + big + "]"),
+        {"kalibr.yaml", Replaced(kal, "resolution: [1280, 720]", "resolution: [1280, " + big + "]"),
          "cam0.resolution"},
-        {"ocam.txt", Replace(ocam, "480 640", "480 " + big), "line 19"},
+        {"ocam.txt", Replaced(ocam, "480 640", "480 " + big), "line 19"},
     };
     for (const Case& c : cases) {
-      const std::string p = Write(dir, c.file, c.content);
+      const std::string p = WriteFileIn(dir, c.file, c.content);
       const auto t0 = std::chrono::steady_clock::now();
       ExpectError([&] { LoadCamera(p); }, {p, c.key, "100000"});
       EXPECT_LT(Seconds(t0), 1.0) << c.file;
@@ -112,10 +89,10 @@ TEST(HostileCamera, HugeImageSizeIsRefusedAtOnceNamingTheKey) {
 // The same through the CLI: exit 1 within seconds, the camera file and key named.
 TEST(HostileCamera, CliRefusesHugeCameraQuickly) {
   const std::string dir = TempDir();
-  const std::string cam = Write(dir, "cam.yaml",
-                                Replace(ReadFile(Example("pinhole_opencv.yaml")),
-                                        "image_width: 1280", "image_width: 2147483647"));
-  const std::string pairs = Write(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
+  const std::string cam = WriteFileIn(dir, "cam.yaml",
+                                      Replaced(ReadFile(CameraExample("pinhole_opencv.yaml")),
+                                               "image_width: 1280", "image_width: 2147483647"));
+  const std::string pairs = WriteFileIn(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
   const auto t0 = std::chrono::steady_clock::now();
   EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + cam + "\" --pairs \"" + pairs + "\" --out \"" +
                             dir + "/out.json\" --quiet"),
@@ -130,7 +107,7 @@ TEST(HostileCamera, CliRefusesHugeCameraQuickly) {
 
 TEST(HostileCamera, OutOfRangeValuesNameTheKeyAndTheParameter) {
   const std::string dir = TempDir();
-  const std::string ocv = ReadFile(Example("pinhole_opencv.yaml"));
+  const std::string ocv = ReadFile(CameraExample("pinhole_opencv.yaml"));
   const std::string K = "912.35, 0., 641.22, 0., 910.87, 358.91";
   struct Case {
     std::string file, content;
@@ -139,64 +116,64 @@ TEST(HostileCamera, OutOfRangeValuesNameTheKeyAndTheParameter) {
   const std::vector<Case> cases = {
       // focal length of a few pixels: a mistyped value, not a 179-degree pinhole
       {"tiny_f.yaml",
-       Replace(ocv, K, "9.1235, 0., 641.22, 0., 910.87, 358.91"),
+       Replaced(ocv, K, "9.1235, 0., 641.22, 0., 910.87, 358.91"),
        {"camera_matrix", "fx = 9.1235", "implausible"}},
       {"huge_f.yaml",
-       Replace(ocv, K, "912.35, 0., 641.22, 0., 9.1087e+12, 358.91"),
+       Replaced(ocv, K, "912.35, 0., 641.22, 0., 9.1087e+12, 358.91"),
        {"camera_matrix", "fy", "implausible"}},
       {"zero_f.yaml",
-       Replace(ocv, K, "0., 0., 641.22, 0., 910.87, 358.91"),
+       Replaced(ocv, K, "0., 0., 641.22, 0., 910.87, 358.91"),
        {"camera_matrix", "fx = 0", "> 0"}},
       {"pp.yaml",
-       Replace(ocv, K, "912.35, 0., 64122., 0., 910.87, 358.91"),
+       Replaced(ocv, K, "912.35, 0., 64122., 0., 910.87, 358.91"),
        {"camera_matrix", "cx, cy", "outside"}},
       {"nan.yaml",
-       Replace(ocv, K, "912.35, 0., 641.22, 0., .nan, 358.91"),
+       Replaced(ocv, K, "912.35, 0., 641.22, 0., .nan, 358.91"),
        {"camera_matrix", "finite"}},
       {"inf_dist.yaml",
-       Replace(ocv, "-0.3412, 0.1235", "-.inf, 0.1235"),
+       Replaced(ocv, "-0.3412, 0.1235", "-.inf, 0.1235"),
        {"distortion_coefficients", "finite"}},
       // k1 = -40 folds back 20 px from the centre
       {"fold.yaml",
-       Replace(ocv, "-0.3412, 0.1235", "-40., 0.1235"),
+       Replaced(ocv, "-0.3412, 0.1235", "-40., 0.1235"),
        {"distortion_coefficients", "fold back", "not invertible"}},
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
-    const std::string p = Write(dir, c.file, c.content);
+    const std::string p = WriteFileIn(dir, c.file, c.content);
     std::vector<std::string> parts = c.parts;
     parts.insert(parts.begin(), p);
     ExpectError([&] { LoadCamera(p); }, parts);
   }
   // Mei xi < 0, OCam affine far from identity, OCam polynomial folding back, equirect off-sphere.
-  std::string omni = Replace(ReadFile(Example("omni_opencv.yaml")), "xi: 1.1", "xi: -1.1");
-  std::string p = Write(dir, "omni.yaml", omni);
+  std::string omni = Replaced(ReadFile(CameraExample("omni_opencv.yaml")), "xi: 1.1", "xi: -1.1");
+  std::string p = WriteFileIn(dir, "omni.yaml", omni);
   ExpectError([&] { LoadCamera(p); }, {p, ":xi:", "xi = -1.1", ">= 0"});
-  const std::string ocam = ReadFile(Example("ocam_calib_results.txt"));
-  p = Write(dir, "affine.txt", Replace(ocam, "1.000412 0.000187", "1.000412 7.5"));
+  const std::string ocam = ReadFile(CameraExample("ocam_calib_results.txt"));
+  p = WriteFileIn(dir, "affine.txt", Replaced(ocam, "1.000412 0.000187", "1.000412 7.5"));
   ExpectError([&] { LoadCamera(p); }, {p, "line 15", "affine"});
-  p = Write(dir, "ocam_pol.txt", Replace(ocam, "3.050000e-03", "-3.050000e-01"));
+  p = WriteFileIn(dir, "ocam_pol.txt", Replaced(ocam, "3.050000e-03", "-3.050000e-01"));
   ExpectError([&] { LoadCamera(p); }, {p, "line 3", "polynomial pol", "fold back"});
-  p = Write(dir, "centre.txt", Replace(ocam, "241.370000 319.820000", "241.37 31982.0"));
+  p = WriteFileIn(dir, "centre.txt", Replaced(ocam, "241.370000 319.820000", "241.37 31982.0"));
   ExpectError([&] { LoadCamera(p); }, {p, "line 11", "outside"});
-  std::string eq = ReadFile(Example("equirect_opencv.yaml"));
-  p = Write(dir, "equirect.yaml",
-            "%YAML:1.0\n---\nmodel: equirect\nimage_width: 400\nimage_height: 200\n"
-            "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
-            "   data: [ 63.66, 0., 90000., 0., 63.66, 99.5, 0., 0., 1. ]\n");
+  std::string eq = ReadFile(CameraExample("equirect_opencv.yaml"));
+  p = WriteFileIn(dir, "equirect.yaml",
+                  "%YAML:1.0\n---\nmodel: equirect\nimage_width: 400\nimage_height: 200\n"
+                  "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+                  "   data: [ 63.66, 0., 90000., 0., 63.66, 99.5, 0., 0., 1. ]\n");
   ExpectError([&] { LoadCamera(p); }, {p, "camera_matrix", "cu", "longitudes"});
   // The examples still load (the bounds are not too tight for real cameras).
   for (const char* f :
        {"pinhole_opencv.yaml", "fisheye_opencv.yaml", "omni_opencv.yaml", "ocam_calib_results.txt",
         "equirect_opencv.yaml", "pinhole_rational_opencv.yaml"}) {
-    EXPECT_NO_THROW(LoadCamera(Example(f))) << f;
+    EXPECT_NO_THROW(LoadCamera(CameraExample(f))) << f;
   }
 }
 
 // A camera with wrong values used to reach the pose solver and be blamed on the pairs; the
 // solver's message now also points at the camera file.
 TEST(HostileCamera, SolverFailureAlsoNamesTheCameraFile) {
-  CameraModel cam = LoadCamera(Example("pinhole_opencv.yaml"));
+  CameraModel cam = LoadCamera(CameraExample("pinhole_opencv.yaml"));
   std::vector<PointPair> pairs;
   cv::RNG rng(7);
   for (int i = 0; i < 8; ++i) {  // pixels and points with no pose in common
@@ -235,31 +212,34 @@ TEST(HostileCamera, DeletedDistortionKeyIsAnError) {
     return s.erase(a, b - a);
   };
   // OpenCV YAML (the issue's case: "distortion_coefficients" key and its matrix deleted).
-  std::string p =
-      Write(dir, "ocv.yaml",
-            without_line(ReadFile(Example("pinhole_opencv.yaml")), "distortion_coefficients", 5));
+  std::string p = WriteFileIn(
+      dir, "ocv.yaml",
+      without_line(ReadFile(CameraExample("pinhole_opencv.yaml")), "distortion_coefficients", 5));
   ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
-  p = Write(dir, "fisheye.yaml",
-            without_line(ReadFile(Example("fisheye_opencv.yaml")), "distortion_coefficients", 5));
+  p = WriteFileIn(
+      dir, "fisheye.yaml",
+      without_line(ReadFile(CameraExample("fisheye_opencv.yaml")), "distortion_coefficients", 5));
   ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   // ROS: distortion_coefficients is required by ROS's own parser too.
-  p = Write(
-      dir, "ros.yaml",
-      without_line(ReadFile(Example("pinhole_ros_plumb_bob.yaml")), "distortion_coefficients", 4));
+  p = WriteFileIn(dir, "ros.yaml",
+                  without_line(ReadFile(CameraExample("pinhole_ros_plumb_bob.yaml")),
+                               "distortion_coefficients", 4));
   ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   // Kalibr: distortion_model and distortion_coeffs are required by Kalibr.
-  p = Write(dir, "kalibr.yaml",
-            without_line(ReadFile(Example("kalibr_camchain.yaml")), "distortion_model: radtan", 1));
+  p = WriteFileIn(
+      dir, "kalibr.yaml",
+      without_line(ReadFile(CameraExample("kalibr_camchain.yaml")), "distortion_model: radtan", 1));
   ExpectError([&] { LoadCamera(p); }, {p, "cam0.distortion_model", "missing"});
-  p = Write(dir, "kalibr2.yaml",
-            without_line(ReadFile(Example("kalibr_camchain.yaml")), "distortion_coeffs", 1));
+  p = WriteFileIn(
+      dir, "kalibr2.yaml",
+      without_line(ReadFile(CameraExample("kalibr_camchain.yaml")), "distortion_coeffs", 1));
   ExpectError([&] { LoadCamera(p); }, {p, "cam0.distortion_coeffs", "missing"});
   // OpenCalib: cam_dist always present in OpenCalib's files.
-  std::string oc = ReadFile(Example("pinhole_opencalib.json"));
+  std::string oc = ReadFile(CameraExample("pinhole_opencalib.json"));
   const std::size_t a = oc.find(",\n            \"cam_dist\"");
   const std::size_t b = oc.find("}", oc.find("\"cam_dist\"")) + 1;
   oc.erase(a, b - a);
-  p = Write(dir, "opencalib.json", oc);
+  p = WriteFileIn(dir, "opencalib.json", oc);
   ExpectError([&] { LoadCamera(p); }, {p, "param.cam_dist", "missing"});
 }
 
@@ -267,9 +247,10 @@ TEST(HostileCamera, DeletedDistortionKeyIsAnError) {
 // as plumb_bob with a warning; so does ScanCam, and the user sees the warning.
 TEST(HostileCamera, RosWithoutDistortionModelWarns) {
   const std::string dir = TempDir();
-  const std::string p = Write(dir, "old_ros.yaml",
-                              Replace(ReadFile(Example("fisheye_ros_equidistant.yaml")),
-                                      "distortion_model: equidistant\n", ""));
+  const std::string p =
+      WriteFileIn(dir, "old_ros.yaml",
+                  Replaced(ReadFile(CameraExample("fisheye_ros_equidistant.yaml")),
+                           "distortion_model: equidistant\n", ""));
   std::vector<std::string> warnings;
   LoadCameraOptions o;
   o.warnings = &warnings;
@@ -317,7 +298,7 @@ TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
   const std::string dir = TempDir();
   // nlohmann's parse_error.101 -> FILE:LINE:COLUMN, no "[json.exception" text, bytes escaped.
   std::string p =
-      Write(dir, "cam.json", "{\n  \"model\": \"pinhole\",\n  \"image_width\": \xff\n}");
+      WriteFileIn(dir, "cam.json", "{\n  \"model\": \"pinhole\",\n  \"image_width\": \xff\n}");
   ExpectError([&] { LoadCamera(p); }, {p + ":3:", "invalid JSON", "\\xFF"});
   try {
     LoadCamera(p);
@@ -326,9 +307,9 @@ TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
     EXPECT_TRUE(PrintableOnly(e.what())) << e.what();
   }
   // OpenCV FileStorage's parse error -> FILE:line N, no OpenCV source path / framing.
-  std::string y = ReadFile(Example("pinhole_opencv.yaml"));
-  y = Replace(y, "data: [ 912.35, 0.,", "data: [ 912.35, 0., ]]]");
-  p = Write(dir, "broken.yaml", y);
+  std::string y = ReadFile(CameraExample("pinhole_opencv.yaml"));
+  y = Replaced(y, "data: [ 912.35, 0.,", "data: [ 912.35, 0., ]]]");
+  p = WriteFileIn(dir, "broken.yaml", y);
   try {
     LoadCamera(p);
     ADD_FAILURE() << "no error";
@@ -339,9 +320,9 @@ TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
     EXPECT_EQ(m.find(".cpp"), std::string::npos) << m;
   }
   // A YAML scalar holding binary bytes: escaped in the message.
-  p = Write(dir, "bin.yaml",
-            Replace(ReadFile(Example("pinhole_ros_plumb_bob.yaml")), "image_width: 1280",
-                    std::string("image_width: 12\x01\x1b[31m80")));
+  p = WriteFileIn(dir, "bin.yaml",
+                  Replaced(ReadFile(CameraExample("pinhole_ros_plumb_bob.yaml")),
+                           "image_width: 1280", std::string("image_width: 12\x01\x1b[31m80")));
   try {
     LoadCamera(p);
     ADD_FAILURE() << "no error";
@@ -409,8 +390,8 @@ TEST(HostileImage, HeaderSizeOfEveryFormatWithoutDecoding) {
 // decoding (it cost 1.2 GB), naming both sizes.
 TEST(HostileImage, SizeMismatchIsRefusedBeforeDecoding) {
   const std::string dir = TempDir();
-  const std::string p = Write(dir, "big.png", PngClaiming(20000, 20000));
-  const CameraModel cam = LoadCamera(Example("pinhole_opencv.yaml"));
+  const std::string p = WriteFileIn(dir, "big.png", PngClaiming(20000, 20000));
+  const CameraModel cam = LoadCamera(CameraExample("pinhole_opencv.yaml"));
   const long before = MaxRssKiB();
   ExpectError(
       [&] {
@@ -420,26 +401,27 @@ TEST(HostileImage, SizeMismatchIsRefusedBeforeDecoding) {
       {p, "20000x20000", "1280x720"});
   EXPECT_LT(MaxRssKiB() - before, 50 * 1024) << "KiB";
   // Through the CLI: exit 1, message names the image.
-  const std::string pairs = Write(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
-  EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") + "\" --image \"" +
-                            p + "\" --pairs \"" + pairs + "\" --out \"" + dir + "/o.json\""),
-            1);
+  const std::string pairs = WriteFileIn(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
+  EXPECT_EQ(
+      RunCli(dir, "calibrate --camera \"" + CameraExample("pinhole_opencv.yaml") + "\" --image \"" +
+                      p + "\" --pairs \"" + pairs + "\" --out \"" + dir + "/o.json\""),
+      1);
   const std::string err = ReadFile(dir + "/stderr.txt");
   EXPECT_NE(err.find(p + ": image is 20000x20000"), std::string::npos) << err;
 }
 
 TEST(HostileImage, PixelBudgetIsEnforcedFromTheHeader) {
   const std::string dir = TempDir();
-  const std::string p = Write(dir, "huge.png", PngClaiming(90000, 90000));
+  const std::string p = WriteFileIn(dir, "huge.png", PngClaiming(90000, 90000));
   const long before = MaxRssKiB();
   ExpectError([&] { ReadImage(p); }, {p, "90000x90000", "limit"});
-  const std::string q = Write(dir, "wide.png", PngClaiming(200000, 10));
+  const std::string q = WriteFileIn(dir, "wide.png", PngClaiming(200000, 10));
   ExpectError([&] { ReadImage(q); }, {q, "200000x10", "limit"});
   // A format whose size ScanCam cannot read before decoding (Radiance HDR) is refused: OpenCV
   // would allocate 20000 x 20000 x 3 floats for this 100-byte file and print its own text.
-  const std::string r =
-      Write(dir, "huge.hdr",
-            "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 20000 +X 20000\n" + std::string(64, '\x11'));
+  const std::string r = WriteFileIn(
+      dir, "huge.hdr",
+      "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 20000 +X 20000\n" + std::string(64, '\x11'));
   testing::internal::CaptureStderr();
   ExpectError([&] { ReadImage(r); }, {r, "not a PNG, JPEG, TIFF"});
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
@@ -458,17 +440,17 @@ TEST(HostileImage, DamagedPngNamesTheChunkAndByte) {
   const std::size_t idat = png.find("IDAT") - 4;
   std::string flipped = png;
   flipped[idat + 20] = static_cast<char>(flipped[idat + 20] ^ 0x5A);
-  std::string p = Write(dir, "crc.png", flipped);
+  std::string p = WriteFileIn(dir, "crc.png", flipped);
   testing::internal::CaptureStderr();
   ExpectError([&] { ReadImage(p); }, {p, "byte " + std::to_string(idat), "IDAT", "CRC"});
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
-  p = Write(dir, "cut.png", png.substr(0, png.size() / 2));
+  p = WriteFileIn(dir, "cut.png", png.substr(0, png.size() / 2));
   ExpectError([&] { ReadImage(p); }, {p, "truncated"});
   std::string inserted = png;
   inserted.insert(idat + 30, "garbage");
-  p = Write(dir, "inserted.png", inserted);
+  p = WriteFileIn(dir, "inserted.png", inserted);
   ExpectError([&] { ReadImage(p); }, {p, "byte"});
-  p = Write(dir, "header.png", png.substr(0, 20));
+  p = WriteFileIn(dir, "header.png", png.substr(0, 20));
   ExpectError([&] { ReadImage(p); }, {p, "truncated"});
   // The CLI prints one plain line, no libpng text (an image of the camera's size).
   cv::Mat photo(720, 1280, CV_8UC3, cv::Scalar(90, 120, 150));
@@ -477,11 +459,11 @@ TEST(HostileImage, DamagedPngNamesTheChunkAndByte) {
   std::string cam_png(buf.begin(), buf.end());
   const std::size_t idat2 = cam_png.find("IDAT") - 4;
   cam_png[idat2 + 20] = static_cast<char>(cam_png[idat2 + 20] ^ 0x5A);
-  Write(dir, "photo.png", cam_png);
-  const std::string pairs = Write(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
+  WriteFileIn(dir, "photo.png", cam_png);
+  const std::string pairs = WriteFileIn(dir, "pairs.csv", "image_u,image_v,x,y,z\n1,2,3,4,5\n");
   EXPECT_EQ(
-      RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") + "\" --image \"" + dir +
-                      "/photo.png\" --pairs \"" + pairs + "\" --out \"" + dir + "/o.json\""),
+      RunCli(dir, "calibrate --camera \"" + CameraExample("pinhole_opencv.yaml") + "\" --image \"" +
+                      dir + "/photo.png\" --pairs \"" + pairs + "\" --out \"" + dir + "/o.json\""),
       1);
   const std::string err = ReadFile(dir + "/stderr.txt");
   EXPECT_EQ(err.find("libpng"), std::string::npos) << err;
@@ -520,9 +502,9 @@ TEST(HostileImage, DamagedJpegTiffBmpHeaders) {
   std::vector<unsigned char> buf;
   cv::imencode(".jpg", img, buf);
   std::string jpg(buf.begin(), buf.end());
-  std::string p = Write(dir, "cut.jpg", jpg.substr(0, 30));  // ends before the frame header
+  std::string p = WriteFileIn(dir, "cut.jpg", jpg.substr(0, 30));  // ends before the frame header
   ExpectError([&] { ReadImage(p); }, {p, "byte", "JPEG", "truncated"});
-  p = Write(dir, "half.jpg", jpg.substr(0, jpg.size() - 2));  // EOI cut off
+  p = WriteFileIn(dir, "half.jpg", jpg.substr(0, jpg.size() - 2));  // EOI cut off
   testing::internal::CaptureStderr();
   ExpectError([&] { ReadImage(p); }, {p, "byte", "end marker", "truncated"});
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");  // no "Premature end of JPEG file"
@@ -530,16 +512,16 @@ TEST(HostileImage, DamagedJpegTiffBmpHeaders) {
   const std::size_t sof = bad.find("\xFF\xC0");
   ASSERT_NE(sof, std::string::npos);
   bad[sof + 7] = 0, bad[sof + 8] = 0;  // width 0
-  p = Write(dir, "w0.jpg", bad);
+  p = WriteFileIn(dir, "w0.jpg", bad);
   ExpectError([&] { ReadImage(p); }, {p, "byte", "image size of 0x40"});
   cv::imencode(".tif", img, buf);
   std::string tif(buf.begin(), buf.end());
   tif[4] = '\xff', tif[5] = '\xff', tif[6] = '\xff', tif[7] = '\x7f';  // IFD beyond the file
-  p = Write(dir, "ifd.tif", tif);
+  p = WriteFileIn(dir, "ifd.tif", tif);
   ExpectError([&] { ReadImage(p); }, {p, "byte", "TIFF", "IFD"});
-  p = Write(dir, "short.bmp", "BM\x10\x00");
+  p = WriteFileIn(dir, "short.bmp", "BM\x10\x00");
   ExpectError([&] { ReadImage(p); }, {p, "BMP", "truncated"});
-  p = Write(dir, "notimage.png", "hello, not an image");
+  p = WriteFileIn(dir, "notimage.png", "hello, not an image");
   ExpectError([&] { ReadImage(p); }, {p, "not a PNG, JPEG"});
   // Bytes changed inside a PNG's pixel data are caught by the CRC; inside valid chunks with a
   // fixed-up CRC (a crafted file) OpenCV's decoder fails and the message is still plain.
@@ -554,7 +536,7 @@ TEST(HostileJson, CalibrationJsonIsValidatedWithKeyNames) {
   const std::string dir = TempDir();
   const std::string good =
       "{\"T_cam_scan\": [[1, 0, 0, 0.1], [0, 1, 0, 0.2], [0, 0, 1, 0.3], [0, 0, 0, 1]]}";
-  EXPECT_NO_THROW(colour::LoadExtrinsic(Write(dir, "good.json", good)));
+  EXPECT_NO_THROW(colour::LoadExtrinsic(WriteFileIn(dir, "good.json", good)));
   struct Case {
     std::string file, content;
     std::vector<std::string> parts;
@@ -589,7 +571,7 @@ TEST(HostileJson, CalibrationJsonIsValidatedWithKeyNames) {
   };
   for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
-    const std::string p = Write(dir, c.file, c.content);
+    const std::string p = WriteFileIn(dir, c.file, c.content);
     std::vector<std::string> parts = c.parts;
     parts.insert(parts.begin(), p);
     ExpectError([&] { colour::LoadExtrinsic(p); }, parts);
@@ -600,7 +582,7 @@ TEST(HostileJson, CalibrationJsonIsValidatedWithKeyNames) {
       EXPECT_TRUE(PrintableOnly(e.what())) << e.what();
     }
   }
-  ExpectError([&] { ReadCalibrationPose(Write(dir, "calib.json", "{\"T\": 1}")); },
+  ExpectError([&] { ReadCalibrationPose(WriteFileIn(dir, "calib.json", "{\"T\": 1}")); },
               {"calib.json", "T_cam_scan", "missing"});
 }
 
@@ -618,23 +600,24 @@ TEST(HostileJson, WriterSurvivesInvalidUtf8) {
 
 TEST(HostilePairs, InvalidUtf8LabelNamesFileLineAndColumn) {
   const std::string dir = TempDir();
-  const std::string p = Write(dir, "pairs.csv",
-                              "image_u,image_v,x,y,z,label\n1,2,3,4,5,corner\n"
-                              "6,7,8,9,10,caf\xe9 door\n");
+  const std::string p = WriteFileIn(dir, "pairs.csv",
+                                    "image_u,image_v,x,y,z,label\n1,2,3,4,5,corner\n"
+                                    "6,7,8,9,10,caf\xe9 door\n");
   ExpectError([&] { ReadPairsCsv(p); }, {p + ":3:", "0xE9", "column 15", "UTF-8"});
   // The CLI: exit 1, one plain line naming the pairs file and line, no raw byte.
-  EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + Example("pinhole_opencv.yaml") + "\" --pairs \"" +
-                            p + "\" --out \"" + dir + "/o.json\""),
+  EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + CameraExample("pinhole_opencv.yaml") +
+                            "\" --pairs \"" + p + "\" --out \"" + dir + "/o.json\""),
             1);
   const std::string err = ReadFile(dir + "/stderr.txt");
   EXPECT_NE(err.find(p + ":3:"), std::string::npos) << err;
   EXPECT_TRUE(PrintableOnly(err)) << err;
   // Control characters (a terminal escape in a label) are refused too.
-  const std::string e = Write(dir, "esc.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,a\x1b[2Jb\n");
+  const std::string e =
+      WriteFileIn(dir, "esc.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,a\x1b[2Jb\n");
   ExpectError([&] { ReadPairsCsv(e); }, {e + ":2:", "0x1B", "column 12", "control character"});
   // Valid UTF-8 labels are kept as they are.
-  const std::string q =
-      Write(dir, "ok.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,caf\xc3\xa9 \xe2\x82\xac\n");
+  const std::string q = WriteFileIn(
+      dir, "ok.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,caf\xc3\xa9 \xe2\x82\xac\n");
   EXPECT_EQ(ReadPairsCsv(q).at(0).label, "caf\xc3\xa9 \xe2\x82\xac");
 }
 

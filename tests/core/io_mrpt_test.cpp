@@ -16,8 +16,8 @@
 namespace scancam {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
+using test::kDeg;
+using test::kPi;
 
 using test::Elevation;
 using test::ExpectError;

@@ -13,7 +13,7 @@
 namespace scancam {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using test::kPi;
 
 using test::ExpectError;
 

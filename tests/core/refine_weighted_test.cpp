@@ -10,18 +10,13 @@
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/refine.h"
 #include "sim_test_util.h"
+#include "test_util.h"
 
 namespace scancam {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
-Eigen::Isometry3d TruePose() {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = RpyDegToRotation({0.64, -1.24, 166.95});
-  T.translation() = Eigen::Vector3d(0.207, 0.042, 0.139);
-  return T;
-}
+using test::kDeg;
+using test::PaperLikePose;
 
 // The tangent basis at b (TangentBasis, refine.h) as two vectors.
 void Tangent(const Eigen::Vector3d& b, Eigen::Vector3d* e1, Eigen::Vector3d* e2) {
@@ -80,7 +75,7 @@ Eigen::Vector3d RotVecErr(const Eigen::Isometry3d& est, const Eigen::Isometry3d&
 }
 
 TEST(WeightedRefine, IsotropicUnitWeightsGiveTheUnweightedSolution) {
-  const auto T = TruePose();
+  const auto T = PaperLikePose();
   const Problem p = MakeProblem(T);
   std::mt19937 rng(1);
   const auto b = Noisy(p, rng);
@@ -95,7 +90,7 @@ TEST(WeightedRefine, IsotropicUnitWeightsGiveTheUnweightedSolution) {
 }
 
 TEST(WeightedRefine, BeatsUnweightedAndItsCovarianceMatchesTheScatter) {
-  const auto T = TruePose();
+  const auto T = PaperLikePose();
   const Problem p = MakeProblem(T);
   std::mt19937 rng(2);
   const int trials = 300;
@@ -126,7 +121,7 @@ TEST(WeightedRefine, BeatsUnweightedAndItsCovarianceMatchesTheScatter) {
 }
 
 TEST(WeightedRefine, RefusesACovarianceThatIsNotPositiveDefinite) {
-  const auto T = TruePose();
+  const auto T = PaperLikePose();
   const Problem p = MakeProblem(T);
   auto cov = p.cov;
   cov[3] = Eigen::Matrix3d::Zero();

@@ -11,6 +11,7 @@
 #include "scancam/io/pairs_csv.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/sim/simulate.h"
+#include "sim_test_util.h"
 #include "test_util.h"
 
 namespace scancam {
@@ -21,21 +22,14 @@ using test::ReadFile;
 using test::RunCli;
 using test::TempDir;
 
-const char* kSmall =
-    " --planes 90 --phi-step-deg 4 --beams 61 --theta-step-deg 3 --supersample 1 --pairs 6"
-    " --wrong-pairs 1 --seed 9 --quiet";
+const std::string kSmall =
+    test::SmallSimCliOptions() + " --pairs 6 --wrong-pairs 1 --seed 9 --quiet";
 
 TEST(CliSimulate, WritesTheSameFilesAsTheLibrary) {
   const std::string dir = TempDir();
   ASSERT_EQ(RunCli(dir, "simulate --out " + dir + "/cli" + kSmall), 0)
       << ReadFile(dir + "/stderr.txt");
-  sim::SimulateOptions o;
-  o.rotating.planes = 90;
-  o.rotating.phi_step_deg = 4;
-  o.rotating.beams = 61;
-  o.rotating.theta_step_deg = 3;
-  o.rotating.theta0_deg = -90;
-  o.supersample = 1;
+  sim::SimulateOptions o = test::SmallSimOptions();
   o.pairs = 6;
   o.wrong_pairs = 1;
   o.seed = 9;
@@ -53,7 +47,7 @@ TEST(CliSimulate, RigOptionsSetTheGroundTruth) {
   ASSERT_EQ(RunCli(dir, "simulate --out " + dir +
                             "/o --camera equirect --rotation-rpy-deg "
                             "10,-80,30 --translation-m 0.1,0.2,-0.3" +
-                            std::string(kSmall)),
+                            kSmall),
             0)
       << ReadFile(dir + "/stderr.txt");
   const std::string gt = dir + "/o/ground_truth.json";

@@ -7,12 +7,13 @@
 #include "scancam/error.h"
 #include "scancam/io/rotating_log.h"
 #include "scancam/sim/scanner_sim.h"
+#include "test_util.h"
 
 namespace scancam::sim {
 namespace {
 
 using Eigen::Vector3d;
-constexpr double kDeg = M_PI / 180.0;
+using test::kDeg;
 
 // A closed cube room [-a, a]^3 around the origin.
 Scene CubeRoom(double a) {

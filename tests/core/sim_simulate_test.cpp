@@ -18,6 +18,7 @@
 #include "scancam/rotation_rpy.h"
 #include "scancam/sim/office_scene.h"
 #include "scancam/sim/simulate.h"
+#include "sim_test_util.h"
 #include "test_util.h"
 
 namespace scancam::sim {
@@ -369,13 +370,7 @@ TEST(SimSimulate, TruthFileIsConsistentWithScanImageAndOcclusion) {
 // ---- determinism, other sensors, options ------------------------------------------------------
 
 SimulateOptions SmallOptions() {
-  SimulateOptions o;
-  o.rotating.planes = 120;
-  o.rotating.phi_step_deg = 3;
-  o.rotating.beams = 91;
-  o.rotating.theta0_deg = -90;
-  o.rotating.theta_step_deg = 2;
-  o.supersample = 1;
+  SimulateOptions o = test::SmallSimOptions(120, 3, 91, 2);
   o.pairs = 8;
   o.wrong_pairs = 2;
   return o;

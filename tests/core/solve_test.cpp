@@ -9,18 +9,13 @@
 #include "scancam/solve/ransac_pose.h"
 #include "scancam/solve/refine.h"
 #include "scancam/solve/rigid_motion.h"
+#include "test_util.h"
 
 namespace scancam {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
-Eigen::Isometry3d PaperLikePose() {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = RpyDegToRotation({0.64, -1.24, 166.95});
-  T.translation() = Eigen::Vector3d(0.207, 0.042, 0.139);
-  return T;
-}
+using test::kDeg;
+using test::PaperLikePose;
 
 struct Scene {
   std::vector<Eigen::Vector3d> p_scan, bearing;

@@ -7,7 +7,6 @@
 #include "scancam/camera/valid_region.h"
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
@@ -216,13 +215,7 @@ INSTANTIATE_TEST_SUITE_P(Presets, ValidRegionSim, ::testing::Values("omni", "fis
 
 // The CLI: colorize and calibrate use the region by default, a mask file wins, --no-auto-mask
 // turns it off, --valid-region-out writes it (never over an input); pick suggestions stay in it.
-int RunCli(const std::string& dir, const std::string& args, std::string* out = nullptr) {
-  const std::string cmd = std::string("\"") + SCANCAM_CLI + "\" " + args + " > \"" + dir +
-                          "/stdout.txt\" 2> \"" + dir + "/stderr.txt\"";
-  const int status = std::system(cmd.c_str());
-  if (out) *out = test::ReadFile(dir + "/stdout.txt") + test::ReadFile(dir + "/stderr.txt");
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using test::RunCli;
 
 TEST(ValidRegionCli, DefaultMaskWinsOptOutAndSuggestions) {
   const std::string d = test::TempDir();

@@ -15,6 +15,7 @@
 #include "scancam/error.h"
 #include "scancam/io/ptx.h"
 #include "scancam/sim/simulate.h"
+#include "sim_test_util.h"
 
 using scancam_cc::CloudScan;
 
@@ -22,13 +23,7 @@ namespace {
 
 const scancam::PtxScan& Ptx() {
   static const scancam::PtxScan ptx = [] {
-    scancam::sim::SimulateOptions o;
-    o.rotating.planes = 90;
-    o.rotating.phi_step_deg = 4.0;
-    o.rotating.beams = 91;
-    o.rotating.theta_step_deg = 2.0;
-    o.rotating.theta0_deg = -90.0;
-    o.supersample = 1;
+    scancam::sim::SimulateOptions o = scancam::test::SmallSimOptions(90, 4.0, 91, 2.0);
     o.pairs = 4;
     return scancam::PtxFromOrderedScan(scancam::sim::Simulate(o).scan);
   }();

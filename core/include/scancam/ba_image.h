@@ -1,5 +1,5 @@
 // ScanCam: Bearing-Angle (BA) images of an ordered scan (paper Sec. III, eq. 4 as corrected
-// in METHOD.md), the range image, and Sobel edge maps of BA images (paper Fig. 8b).
+// in docs/method.md), the range image, and Sobel edge maps of BA images (paper Fig. 8b).
 //
 // Definition. For a trace given by a grid step (drow, dcol), the previous cell of cell
 // (r, c) is (r - drow, c - dcol): walking along the trace in the direction of the step, one
@@ -127,10 +127,8 @@ cv::Mat IntensityImage(const OrderedScan& scan);
 /// The 8-bit view options for an intensity image, made for picking: the linear 1-99 %
 /// percentile stretch shown with gamma 0.5 (grey = 255 sqrt(t)), so the few bright
 /// retro-reflective returns (lane markings, crossing stripes, signs, number plates) saturate
-/// white while asphalt, walls and vegetation are lifted from black into readable greys. Chosen
-/// by looking at road-pinhole: histogram equalisation (ViewOptions::equalize) shows more
-/// texture in vegetation but makes asphalt noisy mid-grey, which blurs the marking ends; the
-/// plain linear stretch leaves the far road nearly black. Grey; no-return cells magenta.
+/// white while asphalt, walls and vegetation are lifted from black into readable greys (why
+/// this and not the alternatives: docs/design/ba_image.md). Grey; no-return cells magenta.
 ViewOptions IntensityViewOptions();
 
 /// Sobel gradient magnitude of a float image with NaN holes (paper Fig. 8b on a BA image):
@@ -162,8 +160,9 @@ inline constexpr float kAtanPoly[8] = {
     9.642197205955e-02f, -5.591232516799e-02f, 2.186295680588e-02f, -4.054566928008e-03f};
 
 /// atan2(y, x) for y >= 0 (result in [0, pi]) by the polynomial above after reduction to
-/// [0, 1]; |error| < 1e-6 rad against std::atan2 (tested; 3.1e-7 measured). NaN in, NaN out; (0, 0)
-/// -> NaN. The SIMD kernel in ba_image.cpp performs the same operations in the same order.
+/// [0, 1]; |error| < 1e-6 rad against std::atan2 (tested; docs/design/ba_image.md). NaN in,
+/// NaN out; (0, 0) -> NaN. The SIMD kernel in ba_image.cpp performs the same operations in the
+/// same order.
 inline float FastAtan2NonNeg(float y, float x) {
   constexpr float kHalfPi = 1.57079632679489662f, kPi = 3.14159265358979324f;
   const float ax = x < 0.f ? -x : x;

@@ -302,7 +302,8 @@ void WriteRotatingLog(const std::string& path, const RotatingScanData& d) {
   CheckRotatingScanData(d, path);
   std::string out;
   out.reserve(static_cast<std::size_t>(d.planes) * d.beams * 48 + 256);
-  out += "# scancam-rotating 1\n# rotating 2D scanner (METHOD.md eq. 3); one line per beam:\n";
+  out += "# scancam-rotating 1\n";
+  out += "# rotating 2D scanner (ScanCam docs/method.md eq. 3); one line per beam:\n";
   out += "# plane phi_rad theta_rad range_m";
   out += d.intensity.empty() ? "\n" : " intensity\n";
   out += "# dx_m ";

@@ -23,8 +23,8 @@
 //   equirect: every direction.
 // Tangential distortion terms are assumed small: they do not enter the fold-back limits.
 // A CameraModel is immutable after construction (except name / source): all const methods are
-// thread-safe. Construction precomputes the limits (1-10 ms): build a camera once and
-// copy it, do not rebuild it per point.
+// thread-safe. Construction precomputes the limits (milliseconds, docs/design/camera_model.md):
+// build a camera once and copy it, do not rebuild it per point.
 #pragma once
 
 #include <Eigen/Core>

@@ -148,7 +148,7 @@ struct Rgb8 {
 ///
 /// 1. Bearing Angle. With rho_i, rho_j their ranges and h = |b_i - b_j|^2 the squared chord of
 ///    their unit beams (cos dphi = 1 - h/2), the Bearing Angle at P_i towards P_j (ba_image.h,
-///    METHOD.md eq. 4) has
+///    docs/method.md eq. 4) has
 ///      cos BA_i = (rho_i - rho_j cos dphi) / |P_i - P_j|
 ///               = ((rho_i - rho_j) + rho_j h/2) / sqrt((rho_i - rho_j)^2 + rho_i rho_j h).
 ///    The pair passes when |rho_i - rho_j| <= range_noise_m (a jump within the range noise), or
@@ -159,10 +159,8 @@ struct Rgb8 {
 ///    than ~1.7 times the beam spacing at that range (9 cm at 3 m with 1 deg beams: a book
 ///    spine, a door handle, a table edge over its leg) for a discontinuity unless test 2 finds
 ///    a plane: steps of a few beam spacings are where a hidden surface 5-12 cm behind another
-///    took the nearer one's colour with 15 deg (tests/core/colour_sim_test.cpp). Before the
-///    ground prior, 15 deg (and planar_tolerance 0.5) were the defaults, because the stricter
-///    pair doubled the over-occlusion of a lidar's far ground rings; with test 3 it costs the
-///    real road scan 1.4 points of its occluded share (13.2 -> 14.6 %).
+///    took the nearer one's colour with 15 deg (tests/core/colour_sim_test.cpp). Why not the
+///    earlier 15 deg, and what 30 costs on a real scan: docs/design/colour.md.
 /// 2. Planar extrapolation (planar_extrapolation = true). For a plane n.x = d seen from the
 ///    sensor, 1/rho = n.b / d is linear in the beam direction b. With k the cell before i on
 ///    the same grid line (k = i - step, j = i + step), the plane through k and i predicts
@@ -276,10 +274,9 @@ struct ColourOptions {
   /// axis; typically a surface the scanner sees at a grazing angle, e.g. a table top seen from
   /// just above): their virtual neighbours across the strip reach this many times further
   /// (1 = as edge_fill alone). A camera placed higher than the scanner may see such a surface
-  /// extend further than one beam spacing (simulated office, fisheye 16 cm above the scanner:
-  /// 2 turns 5 of 615 hidden points that took a colour into 2), but far ground rings of a
-  /// lidar are such strips too and then hide the ground behind them (road-pinhole scan: 2
-  /// marks 7 % more of the points in view occluded), hence the default 1.
+  /// extend further than one beam spacing, but far ground rings of a lidar are such strips
+  /// too and then hide the ground behind them, hence the default 1 (measurements of both:
+  /// docs/design/colour.md).
   double strip_fill = 1.0;
   /// edge_fill for a cell on the ground (within the band of ContinuityOptions test 3, when a
   /// ground plane is used) towards a neighbour without a return, or towards a ground neighbour
@@ -287,10 +284,8 @@ struct ColourOptions {
   /// is nearer (as ground seen from above lies; not where a beam passes under an object's edge
   /// onto something farther). The ground hides nothing standing on it from a camera above it,
   /// and its splats, reaching the next ring with a depth extrapolated linearly in the image,
-  /// made farther ground behind holes in the rings look hidden. 1 = midpoints. Ground cells in
-  /// clear view marked occluded (colour/ground_view.h), 2 -> 1: road-pinhole 73 -> 8 of 6309
-  /// (at 17-29 m 13 -> 0 of 3028), road2-pinhole 139 -> 38 of 3664 (93 -> 14 of 1531); the
-  /// simulated presets' hidden cells that take a colour unchanged (tools/colour_study.cpp).
+  /// made farther ground behind holes in the rings look hidden. 1 = midpoints (measurements
+  /// behind the default: docs/design/colour.md).
   double ground_edge_fill = 1.0;
   double max_splat_px = 64.0;  ///< half-size limit of a splat box, pixels
   /// The depth test covers the bilinear footprint: besides the cell's nearest pixel, every

@@ -13,7 +13,7 @@
 //     coloured). Points without a colour get ExportOptions::uncoloured_rgb, or are left out
 //     with drop_uncoloured. The "scalar_" prefix is CloudCompare's own convention: it loads
 //     them as the scalar fields "scancam_state" and "quality" without asking (also with
-//     -SILENT; tests/plugin/cc_opens_exports.sh).
+//     -SILENT; tests/plugin/cc_opens_exports_test.sh).
 //   PCD (WriteColouredPcd): organised pcl::PointXYZRGB, height = scan rows, width = scan
 //     columns (cell (r, c) at row r, column c), binary, is_dense = false; cells without a
 //     return (and uncoloured cells with drop_uncoloured) have NaN x, y, z.

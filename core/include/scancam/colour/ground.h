@@ -6,10 +6,10 @@
 // in range (at 2 deg elevation a 5 cm bump is 1.4 m of range). The range-only tests (Bearing
 // Angle, planar extrapolation) then take every ring for a separate surface, a one-sample
 // strip, and the colouring splats it as a wall at its own range up to the next ring; a camera
-// lower than the lidar looks at the next ring through that wall (real road scan: 40-54 % of
-// the points beyond 40 m came out occluded). The scan alone cannot tell such a ring from a
-// rail in front of a wall; the height above the ground can: two neighbouring cells that both
-// lie on the ground are one surface.
+// lower than the lidar looks at the next ring through that wall (measured on a real road scan:
+// docs/design/colour.md). The scan alone cannot tell such a ring from a rail in front of a
+// wall; the height above the ground can: two neighbouring cells that both lie on the ground are
+// one surface.
 //
 // Frames and units: the scan frame (OrderedScan::point_m), metres. The plane is
 //   height_m(p) = normal . p + offset_m = 0,

@@ -1,4 +1,4 @@
-// ScanCam: the paper's rotating 2D scanner (METHOD.md eq. 3) and its text log format.
+// ScanCam: the paper's rotating 2D scanner (docs/method.md eq. 3) and its text log format.
 //
 // The scanner: a 2D laser whose scan plane i is tilted by phi_i about the scanner's y axis;
 // in that plane, beam j leaves at angle theta_j; the rotation axis is offset from the mirror

@@ -12,7 +12,7 @@
 // estimate, iterated (the window follows p) until p moves less than 0.01 px. The lines are
 // weighted by |g| rather than Foerstner's |g|^2: the |g|-weighted mean of the derivative of an
 // area-sampled step is the step's exact position, the |g|^2-weighted one is off by up to 0.1 px
-// with the pixel phase (measured 0.155 px on the test corner). Gradients below 5 % of the window's
+// with the pixel phase (measured: docs/snap.md). Gradients below 5 % of the window's
 // largest are left out (noise on flat parts would pull p towards the window centre). An L-corner,
 // a T- or Y-junction and an X crossing (checkerboard) are all points where edges of different
 // directions meet, so all of them are found. The pick snaps only when
@@ -28,8 +28,8 @@
 // (0,0) the centre of the top-left pixel) on the photo, scan cells (fractional (row, col), integer
 // = cell centre, as in io/pairs_csv.h) on the scan. Strength:
 //   photo: in (grey per px)^2, the grey level scaled to [0, 1] (8-bit / 255, 16-bit / 65535, float
-//          as is); it grows with the square of the corner's contrast (accepted corners of the
-//          simulated office: 4e-4 to 2e-2; the default threshold is 1e-4);
+//          as is); it grows with the square of the corner's contrast (the default threshold is
+//          1e-4; typical values: docs/snap.md);
 //   scan:  in (signal-to-noise per cell)^2: the sum of the tensors of the channels used
 //          (ScanSnapOptions), each channel first divided by its noise (the median absolute second
 //          difference over the crop / 0.6745 sqrt(6), with a floor) and stripped of its median

@@ -2,7 +2,7 @@
 //
 // Two sensors, each a grid of beams (row, col) in the scanner frame (x forward, z up, metres):
 //
-//   RotatingScanner  the paper's rotating SICK (METHOD.md eq. 3, io/rotating_log.h): row i =
+//   RotatingScanner  the paper's rotating SICK (docs/method.md eq. 3, io/rotating_log.h): row i =
 //                    scan plane phi_i = phi0 + i * dphi, column j = beam theta_j = theta0 +
 //                    j * dtheta; beam (i, j) leaves o_i = (c_i dx + s_i dz, 0, -s_i dx + c_i dz)
 //                    along b_ij = (c_i c_j, s_j, -s_i c_j). Default: 360 planes every 1 deg

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The real CloudCompare (headless, -SILENT) finds and loads the plugin from a
-# throw-away per-user plugin folder. Usage: cc_lists_plugin.sh PLUGIN.so WORKDIR
+# throw-away per-user plugin folder. Usage: cc_lists_plugin_test.sh PLUGIN.so WORKDIR
 set -euo pipefail
 plugin="$1"; work="$2"
 rm -rf "$work"; mkdir -p "$work/home" "$work/xdg/CCCorp/CloudCompare/plugins"

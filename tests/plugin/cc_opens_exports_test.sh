@@ -3,7 +3,7 @@
 # textured OBJ (with its MTL and texture: every triangle, the texture coordinates and the
 # materials) and the coloured PLY (every point, with its RGB and the scancam_state and quality
 # fields, which CloudCompare saves back out).
-# Usage: cc_opens_exports.sh SCANCAM_CLI WORKDIR
+# Usage: cc_opens_exports_test.sh SCANCAM_CLI WORKDIR
 set -euo pipefail
 cli="$1"; work="$2"
 rm -rf "$work"; mkdir -p "$work/home" "$work/run"; chmod 700 "$work/run"
