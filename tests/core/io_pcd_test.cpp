@@ -255,6 +255,11 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
   EXPECT_EQ(s.rows, 61);
   EXPECT_EQ(s.cols, 81);
   EXPECT_EQ(s.valid_count(), pts.size());
+  // No step given (the importers' --grid-step-deg 0, the plugin's default): the same grid, both
+  // steps estimated (io/regrid.h ChooseGridSteps, the one policy).
+  const OrderedScan d = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero());
+  EXPECT_EQ(d.rows, 61);
+  EXPECT_EQ(d.cols, 81);
   // One 0.5 deg step for both: twice the columns, half of them empty.
   RegridOptions single;
   single.step_deg = 0.5;

@@ -39,7 +39,7 @@
 namespace scancam {
 
 struct RegridOptions {
-  /// Azimuth cell size in degrees; 0 = estimate (EstimateAngularStepDeg for RegridSpherical;
+  /// Azimuth cell size in degrees; 0 = estimate (ChooseGridSteps for RegridSpherical;
   /// for RegridRings the mean azimuth spacing along each ring over the gaps shorter than 1.5
   /// median gaps, so that missed returns do not count and irregular firings still get a cell
   /// each). The value actually used is adjusted so that a whole number of cells makes 360 deg.
@@ -150,5 +150,21 @@ struct AngularSteps {
 AngularSteps EstimateAngularStepsDeg(
     const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
     const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
+
+/// The one policy for the cell size of a re-gridded cloud, used by the importers (PCD, E57,
+/// KITTI: RegridSpherical with step 0) and by the CloudCompare plugin's window and command line,
+/// so that a pair picked by cell in one front end names the same point in the other:
+///   1. steps the user gave: requested.azimuth_deg > 0 (elevation: requested.elevation_deg when
+///      > 0, else the azimuth step);
+///   2. else the sensor's own steps when the cloud carries them (sensor.azimuth_deg > 0, e.g.
+///      a CloudCompare GBL sensor's yaw / pitch steps; elevation: its own when > 0, else the
+///      azimuth step);
+///   3. else both estimated separately from the points (EstimateAngularStepsDeg: an anisotropic
+///      scan, 1 x 0.5 deg, on one step would leave every other row or column empty); a
+///      requested elevation step alone replaces the estimated one.
+/// Degrees. Both 0 when nothing was given and the estimate fails (fewer than 2 usable points).
+AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
+                             const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
+                             const AngularSteps& requested, const AngularSteps& sensor = {});
 
 }  // namespace scancam
