@@ -175,8 +175,10 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
     const CCVector3* P = cloud->getPoint(i);
     pts[i] = Eigen::Vector3f(P->x, P->y, P->z);
   }
+  // The steps the one grid policy gives (io/regrid.h ChooseGridSteps, as -SCANCAM_COLORIZE and
+  // `scancam`): the dialog's defaults.
   const scancam::AngularSteps estimated =
-      scancam::EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
+      scancam::ChooseGridSteps(pts, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), {});
   // A spinning lidar without a ring field (KITTI, many drivers' PCDs): offer its lasers.
   const scancam::RecoveredRings rings = scancam::RecoverRings(pts, Eigen::Vector3d::Zero());
   scancam::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg, estimated.elevation_deg,

@@ -9,7 +9,6 @@
 #include <ccScalarField.h>
 
 #include <QtTest>
-#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -174,9 +173,9 @@ class CloudAdapterTest : public QObject {
   // One grid policy (io/regrid.h ChooseGridSteps): a cloud without a scan grid gets, in the
   // window and the -SCANCAM_* commands (ScanOfUngriddedCloud), the grid `scancam` builds for
   // the same points (RegridUnordered, spherical, --grid-step-deg 0), so a pair picked by cell
-  // names the same point everywhere. The scan is anisotropic (4 deg planes, 2 deg beams; seen
-  // from the origin about 2.1 deg in azimuth by 3.7 in elevation): one
-  // estimated step for both axes (the importers' former policy) gives another grid.
+  // names the same point everywhere. Before, the window estimated the azimuth and elevation
+  // steps separately and `scancam` one step for both: on this anisotropic scan (4 deg planes,
+  // 2 deg beams) two different grids.
   void ungriddedCloudGetsTheGridScancamBuilds() {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     cloud->removeGrids();
@@ -194,14 +193,13 @@ class CloudAdapterTest : public QObject {
     QCOMPARE(gui.scan->valid_count(), cli.valid_count());
     for (std::size_t k = 0; k < cli.size(); ++k)
       if (cli.valid(k)) QVERIFY(gui.scan->point_m[k] == cli.point_m[k]);
-    const scancam::AngularSteps est = scancam::EstimateAngularStepsDeg(pts, zero);
-    QVERIFY2(std::max(est.azimuth_deg, est.elevation_deg) >
-                 1.5 * std::min(est.azimuth_deg, est.elevation_deg),
-             qPrintable(QString("%1 x %2 deg").arg(est.azimuth_deg).arg(est.elevation_deg)));
-    scancam::RegridOptions one_step;
-    one_step.step_deg = scancam::EstimateAngularStepDeg(pts, zero);
-    QVERIFY(scancam::RegridSpherical(pts, nullptr, zero, one_step).rows != cli.rows ||
-            scancam::RegridSpherical(pts, nullptr, zero, one_step).cols != cli.cols);
+    // The window's former default, the steps estimated separately, was another grid.
+    const scancam::AngularSteps separate = scancam::EstimateAngularStepsDeg(pts, zero);
+    scancam::RegridOptions former;
+    former.step_deg = separate.azimuth_deg;
+    former.elevation_step_deg = separate.elevation_deg;
+    const scancam::OrderedScan old = scancam::RegridSpherical(pts, nullptr, zero, former);
+    QVERIFY(old.rows != cli.rows || old.cols != cli.cols);
     // A step given (-GRID_STEP, --grid-step-deg) is used by both for both axes.
     scancam::RegridOptions given;
     given.step_deg = 3.0;

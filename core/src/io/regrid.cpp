@@ -374,10 +374,9 @@ AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
               given->elevation_deg > 0.0 ? given->elevation_deg : given->azimuth_deg};
     }
   }
-  AngularSteps est = EstimateAngularStepsDeg(points, origin, orientation);
-  if (requested.elevation_deg > 0.0 && est.azimuth_deg > 0.0)
-    est.elevation_deg = requested.elevation_deg;
-  return est;
+  const double h = EstimateAngularStepDeg(points, origin, orientation);
+  if (!(h > 0.0)) return {};
+  return {h, requested.elevation_deg > 0.0 ? requested.elevation_deg : h};
 }
 
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
