@@ -13,10 +13,9 @@
 #include <vector>
 
 #include "scancam/camera/camera_io.h"
-#include "scancam/camera/valid_region.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/colour/overlay.h"
-#include "scancam/image_io.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/refine/alignment.h"
 #include "scancam/refine/dense_refine.h"
@@ -38,14 +37,14 @@ int main(int argc, char** argv) {
     const OrderedScan scan = LoadScan(argv[1]);
     ColourView view;
     view.camera = LoadCamera(argv[2]);
-    view.image = ReadImage(argv[3]);
+    view.image = ReadViewImage(argv[3]);  // the view rule (colour/view_io.h), size see below
     if (view.image.rows != view.camera.height()) {  // road2-pinhole: 1080 in the file, 1200 image
       std::fprintf(stderr, "camera height %d -> image height %d\n", view.camera.height(),
                    view.image.rows);
       view.camera =
           CameraModel(view.camera.type(), view.camera.params(), view.image.cols, view.image.rows);
     }
-    view.mask = FindValidRegion(view.camera, view.image).mask;
+    view.mask = ChooseViewRegion(view.camera, view.image, "");
     view.T_cam_scan = LoadExtrinsic(argv[4]);
     const Eigen::Isometry3d ref = view.T_cam_scan;
 

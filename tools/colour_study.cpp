@@ -17,13 +17,13 @@
 // Without --preset: all seven presets of tests/core/colour_sim_test.cpp.
 #include <cstdio>
 #include <iostream>
-#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/colour/ground_view.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/sim/colour_truth.h"
 #include "scancam/sim/office_scene.h"
@@ -72,7 +72,9 @@ void RoadStudy(const std::string& dir, const std::string& calib, const colour::C
   colour::ColourView v;
   v.name = dir + "/image.png";
   v.camera = LoadCamera(dir + "/camera-intrinsic.json");
-  v.image = cv::imread(v.name, cv::IMREAD_COLOR);
+  // The view's image rule (colour/view_io.h), the size not checked: see above. No mask (the
+  // study's figures are without the automatic valid region).
+  v.image = colour::ReadViewImage(v.name);
   if (v.image.cols != v.camera.width() || v.image.rows != v.camera.height()) {
     std::printf("note: camera file is %dx%d, image %dx%d: camera taken with the image's size\n",
                 v.camera.width(), v.camera.height(), v.image.cols, v.image.rows);

@@ -8,9 +8,11 @@
 #include <sstream>
 
 #include "command.h"
+#include "params_options.h"
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
@@ -18,6 +20,7 @@
 #include "scancam/output_file.h"
 #include "scancam/pick/snap.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibrate_options_io.h"
 #include "valid_region_options.h"
 
 namespace scancam::cli {
@@ -145,20 +148,25 @@ int RunCalibrate(const Args& args) {
       outputs.push_back({"--snap-out", snap_paths.back()});
     }
   }
-  std::vector<NamedPath> inputs = {
-      {"--camera", camera_path}, {"--mask", args.get("--mask")}, {"--truth", args.get("--truth")}};
+  std::vector<NamedPath> inputs = {{"--camera", camera_path},
+                                   {"--params", args.get("--params")},
+                                   {"--mask", args.get("--mask")},
+                                   {"--truth", args.get("--truth")}};
   for (const auto& p : pairs_paths) inputs.push_back({"--pairs", p});
   for (const auto& p : scan_paths) inputs.push_back({"--scan", p});
   for (const auto& p : image_paths) inputs.push_back({"--image", p});
   CheckOutputs(outputs, inputs);
 
-  const CameraModel camera =
-      LoadCameraForImage(camera_path, image_paths.empty() ? std::string() : image_paths[0]);
+  // The first image's view (camera, image, valid region: a mask file wins, else the region
+  // found from the camera and the image, if given); the other scenes' images share the camera.
+  std::string region_how;
+  const colour::ColourView view = colour::LoadView(
+      {camera_path, image_paths.empty() ? std::string() : image_paths[0], "", args.get("--mask")},
+      ParseViewLoadOptions(args), &region_how);
+  const CameraModel& camera = view.camera;
   std::vector<cv::Mat> images;
-  for (const std::string& image_path : image_paths) {
-    images.push_back(ReadImage(image_path, cv::IMREAD_COLOR, "image",
-                               [&](int w, int h) { CheckImageSize(camera, w, h, image_path); }));
-  }
+  for (std::size_t k = 0; k < image_paths.size(); ++k)
+    images.push_back(k == 0 ? view.image : colour::ReadViewImage(image_paths[k], camera));
   const cv::Mat image = images.empty() ? cv::Mat() : images[0];
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");
@@ -183,28 +191,36 @@ int RunCalibrate(const Args& args) {
     }
   }
 
+  // The options: a parameter file (--params, solve/calibrate_options_io.h), then the flags
+  // given here; the core checks the result.
   CalibrateOptions opt;
-  // A mask file wins; else the valid region found from the camera (and the image, if given).
-  std::string region_how;
-  opt.image_mask = ChooseValidRegion(args, camera, image, args.get("--mask"), &region_how);
+  if (args.has("--params")) opt = ReadCalibrateOptions(args.get("--params"));
+  opt.image_mask = view.mask;
   opt.suggest_picks = args.get_int("--suggest", opt.suggest_picks);
   opt.method = args.get("--method", opt.method);
-  opt.refine = !args.has("--no-refine");
+  if (args.has("--no-refine")) opt.refine = false;
   opt.threshold_px = args.get_double("--threshold-px", opt.threshold_px);
   opt.threshold_cells = args.get_double("--threshold-cells", opt.threshold_cells);
   opt.threshold_deg = args.get_double("--threshold-deg", opt.threshold_deg);
-  opt.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
+  if (args.has("--seed")) opt.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   opt.refine_options.loss = args.get("--loss", opt.refine_options.loss);
-  opt.weighted = !args.has("--unweighted");
+  if (args.has("--unweighted")) opt.weighted = false;
   opt.sigma_px = args.get_double("--sigma-px", opt.sigma_px);
   opt.sigma_cells = args.get_double("--sigma-cells", opt.sigma_cells);
   opt.sigma_point_m = args.get_double("--sigma-point-m", opt.sigma_point_m);
-  if (!(opt.sigma_px >= 0) || !(opt.sigma_cells >= 0) || !(opt.sigma_point_m >= 0) ||
-      opt.sigma_px + opt.sigma_cells + opt.sigma_point_m <= 0) {
-    throw Error("--sigma-px, --sigma-cells and --sigma-point-m must be >= 0, not all 0");
-  }
   opt.noise_prior_pairs = args.get_double("--noise-prior-pairs", opt.noise_prior_pairs);
-  if (!(opt.noise_prior_pairs >= 0)) throw Error("--noise-prior-pairs must be >= 0");
+  // A value from the file was checked when it was read: a problem here is a flag's.
+  ThrowFirstOptionProblem(ValidateCalibrateOptions(opt),
+                          {{"method", "--method"},
+                           {"threshold_px", "--threshold-px"},
+                           {"threshold_cells", "--threshold-cells"},
+                           {"threshold_deg", "--threshold-deg"},
+                           {"sigma_px", "--sigma-px"},
+                           {"sigma_cells", "--sigma-cells"},
+                           {"sigma_point_m", "--sigma-point-m"},
+                           {"suggest_picks", "--suggest"},
+                           {"noise_prior_pairs", "--noise-prior-pairs"},
+                           {"refine_options.loss", "--loss"}});
   opt.pairs_source = pairs_paths[0];
   std::vector<CalibrationScene> scene_list;
   for (std::size_t k = 0; k < scenes; ++k)
@@ -347,6 +363,7 @@ Command MakeCalibrateCommand() {
            "Suggest K places where one more pair would lower the parameter std most "
            "(0 = none). Default 3."},
           {"--method", "M", "ransac | paper | epnp | upnp. Default ransac."},
+          ParamsOptionSpec("scancam/solve/calibrate_options_io.h"),
           {"--threshold-px", "PX",
            "Inlier threshold in image pixels (converted to an angle with the camera model at "
            "each pair's pixel). Default 5."},

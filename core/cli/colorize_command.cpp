@@ -9,11 +9,14 @@
 #include <sstream>
 
 #include "command.h"
+#include "params_options.h"
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/colour/colour_options_io.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/colour/export.h"
 #include "scancam/colour/overlay.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/e57.h"
@@ -77,9 +80,9 @@ std::string Pct(std::size_t a, std::size_t b) {
 
 void PrintAlignment(std::ostream& o, const OrderedScan& scan, const ColourView& view,
                     const ColouredScan& coloured, std::size_t k, const cv::Mat& cells) {
-  const cv::Mat dist = ImageEdgeDistance(view.image);
-  const EdgeAlignment a =
-      MeasureEdgeAlignment(scan, view, view.T_cam_scan, cells, dist, &coloured, k);
+  const PerturbedAlignment p =
+      MeasurePerturbedAlignment(scan, view, cells, ImageEdgeDistance(view.image), &coloured, k);
+  const EdgeAlignment& a = p.at_pose;
   char buf[256];
   if (a.edge_points == 0) {
     o << "  edge alignment: no BA edge point is seen by this image\n";
@@ -91,39 +94,14 @@ void PrintAlignment(std::ostream& o, const OrderedScan& scan, const ColourView& 
                 a.edge_points, a.median_px, a.mean_px, a.clip_px, 100.0 * a.within_2px);
   o << buf;
   // The same with the pose perturbed: a right calibration sits at the minimum.
-  const double deg = 3.14159265358979323846 / 180.0;
-  struct Pert {
-    const char* name;
-    Eigen::Isometry3d d;
-  };
-  std::vector<Pert> perts;
-  for (int axis = 0; axis < 3; ++axis) {
-    for (int s = -1; s <= 1; s += 2) {
-      Eigen::Isometry3d r = Eigen::Isometry3d::Identity();
-      r.linear() = Eigen::AngleAxisd(s * 0.5 * deg, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
-      perts.push_back({"rotation 0.5 deg", r});
-      Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-      t.translation()[axis] = s * 0.05;
-      perts.push_back({"translation 5 cm", t});
-    }
-  }
-  double best = 1e30, worst = 0.0;
-  int better = 0;
-  for (const Pert& p : perts) {
-    const EdgeAlignment b =
-        MeasureEdgeAlignment(scan, view, p.d * view.T_cam_scan, cells, dist, &coloured, k);
-    if (b.edge_points == 0) continue;
-    best = std::min(best, b.mean_px);
-    worst = std::max(worst, b.mean_px);
-    better += b.mean_px < a.mean_px ? 1 : 0;
-  }
   std::snprintf(buf, sizeof buf,
-                "  perturbed poses (+-0.5 deg about each camera axis, +-5 cm along each): mean "
+                "  perturbed poses (+-%g deg about each camera axis, +-%g cm along each): mean "
                 "%.2f .. %.2f px; %d of %zu align better than the calibration%s\n",
-                best, worst, better, perts.size(),
-                better == 0 ? " (it is a local minimum)"
-                            : " (a right calibration has few; the measure is weak where depth "
-                              "edges have little image contrast)");
+                p.rotation_deg, 100.0 * p.translation_m, p.best_mean_px, p.worst_mean_px, p.better,
+                p.perturbations,
+                p.better == 0 ? " (it is a local minimum)"
+                              : " (a right calibration has few; the measure is weak where depth "
+                                "edges have little image contrast)");
   o << buf;
 }
 
@@ -184,7 +162,7 @@ int RunColorize(const Args& args) {
       if (!overlay.empty()) outs.push_back({"--overlay", PerImage(overlay, k, n)});
       if (!edge_overlay.empty()) outs.push_back({"--edge-overlay", PerImage(edge_overlay, k, n)});
     }
-    std::vector<NamedPath> ins = {{"--scan", scan_path}};
+    std::vector<NamedPath> ins = {{"--scan", scan_path}, {"--params", args.get("--params")}};
     for (std::size_t k = 0; k < n; ++k) {
       ins.push_back({"--image", images[k]});
       ins.push_back({"--camera", cameras[k]});
@@ -194,30 +172,38 @@ int RunColorize(const Args& args) {
     CheckOutputs(outs, ins);
   }
 
+  // The colour options: a parameter file (--params, colour/colour_options_io.h), then the
+  // flags given here; the core checks the result.
   ColourOptions co;
-  co.occlusion = !args.has("--no-occlusion");
+  if (args.has("--params")) co = ReadColourOptions(args.get("--params"));
+  if (args.has("--no-occlusion")) co.occlusion = false;
   co.edge_fill = args.get_double("--edge-fill", co.edge_fill);
   co.depth_tolerance_m = args.get_double("--depth-tolerance-m", co.depth_tolerance_m);
   co.continuity.min_bearing_angle_deg =
       args.get_double("--min-ba-deg", co.continuity.min_bearing_angle_deg);
   co.continuity.range_noise_m = args.get_double("--range-noise-m", co.continuity.range_noise_m);
-  const std::string blend = args.get("--blend", "best");
-  if (blend == "best")
-    co.blend = BlendMode::kBestView;
-  else if (blend == "weighted")
-    co.blend = BlendMode::kWeighted;
-  else
-    throw Error("option --blend: '" + blend + "' is not best or weighted");
-  co.ground.enabled = !args.has("--no-ground");
+  if (args.has("--blend")) {
+    const std::string blend = args.get("--blend");
+    if (blend == "best")
+      co.blend = BlendMode::kBestView;
+    else if (blend == "weighted")
+      co.blend = BlendMode::kWeighted;
+    else
+      throw Error("option --blend: '" + blend + "' is not best or weighted");
+  }
+  if (args.has("--no-ground")) co.ground.enabled = false;
   if (args.has("--up")) {
     co.ground.up = args.get_vector3("--up");
     if (co.ground.up.norm() == 0.0)
       throw Error("option --up: '" + args.get("--up") + "' is the zero vector (give X,Y,Z)");
   }
-  if (!(co.edge_fill >= 0.0)) throw Error("option --edge-fill: must be >= 0");
-  if (!(co.depth_tolerance_m >= 0.0)) throw Error("option --depth-tolerance-m: must be >= 0");
-  if (!(co.continuity.min_bearing_angle_deg >= 0.0 && co.continuity.min_bearing_angle_deg < 90.0))
-    throw Error("option --min-ba-deg: must be in [0, 90)");
+  // A value from the file was checked when it was read: a problem here is a flag's.
+  ThrowFirstOptionProblem(ValidateColourOptions(co),
+                          {{"edge_fill", "--edge-fill"},
+                           {"depth_tolerance_m", "--depth-tolerance-m"},
+                           {"continuity.min_bearing_angle_deg", "--min-ba-deg"},
+                           {"continuity.range_noise_m", "--range-noise-m"},
+                           {"ground.up", "--up"}});
   ExportOptions eo;
   if (args.has("--uncoloured-rgb")) eo.uncoloured_rgb = ParseRgb(args.get("--uncoloured-rgb"));
   eo.drop_uncoloured = args.has("--drop-uncoloured");
@@ -232,16 +218,10 @@ int RunColorize(const Args& args) {
   const Progress progress(StderrProgress(quiet));
   std::vector<ColourView> views(n);
   std::vector<std::string> region_how(n);
+  const ViewLoadOptions view_options = ParseViewLoadOptions(args);
   for (std::size_t k = 0; k < n; ++k) {
-    ColourView& v = views[k];
-    v.name = images[k];
-    v.camera = LoadCameraForImage(cameras[k], images[k]);
-    v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
-                        [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
-    v.T_cam_scan = LoadExtrinsic(calibs[k]);
     // A mask file wins; else the valid region found from the camera and the image.
-    v.mask = ChooseValidRegion(args, v.camera, v.image, masks[k], &region_how[k]);
-    CheckView(v);
+    views[k] = LoadView({cameras[k], images[k], calibs[k], masks[k]}, view_options, &region_how[k]);
   }
   // The scan after the views: a bad camera, image, mask or pose file fails before a long scan
   // import.
@@ -256,7 +236,6 @@ int RunColorize(const Args& args) {
   }
 
   const ColouredScan coloured = Colourise(scan, views, co, progress);
-  mo.continuity.ground = coloured.ground;  // the mesh joins what the colouring joined
   if (!out_ply.empty()) {
     WriteColouredPly(out_ply, scan, coloured, eo);
     written.push_back(out_ply);
@@ -435,6 +414,8 @@ Command MakeColorizeCommand() {
           {"--grid-full", "",
            "Grid image: the whole grid (default: only the part that projects into an image)."},
           {"--check", "", "Print the edge alignment of each image (also with --edge-overlay)."},
+          ParamsOptionSpec("scancam/colour/colour_options_io.h; CloudCompare's window saves "
+                           "one: File > Save colour options"),
           {"--no-occlusion", "",
            "No depth buffer: every projected point takes a colour (for comparison only)."},
           {"--blend", "MODE", "Several images: best (default) or weighted."},

@@ -7,6 +7,7 @@
 #include "command.h"
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
@@ -92,13 +93,9 @@ int RunRefine(const Args& args) {
   std::vector<std::string> region_how(scans.size());
   for (std::size_t k = 0; k < scans.size(); ++k) {
     colour::ColourView& v = scenes[k].view;
-    v.name = images[k];
-    v.camera = LoadCamera(cameras[k]);
-    v.image = ReadImage(images[k], cv::IMREAD_COLOR, "image",
-                        [&](int w, int h) { CheckImageSize(v.camera, w, h, images[k]); });
-    v.mask = ChooseValidRegion(args, v.camera, v.image, masks[k], &region_how[k]);
+    v = colour::LoadView({cameras[k], images[k], "", masks[k]}, ParseViewLoadOptions(args),
+                         &region_how[k]);
     v.T_cam_scan = start;
-    colour::CheckView(v);
   }
   for (std::size_t k = 0; k < scans.size(); ++k) {
     loaded[k] = LoadScan(scans[k], ParseScanLoadOptions(args), progress);

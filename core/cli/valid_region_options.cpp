@@ -3,8 +3,6 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "scancam/camera/camera_io.h"
-#include "scancam/camera/valid_region.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 
@@ -25,25 +23,18 @@ std::vector<OptionSpec> ValidRegionOptionSpecs() {
   };
 }
 
+colour::ViewLoadOptions ParseViewLoadOptions(const Args& args) {
+  colour::ViewLoadOptions o;
+  o.auto_region = !args.has("--no-auto-mask");
+  o.max_view_angle_deg = args.get_double("--max-view-angle-deg", 0.0);
+  if (!(o.max_view_angle_deg >= 0.0 && o.max_view_angle_deg <= 180.0))
+    throw Error("option --max-view-angle-deg: must be in (0, 180]");
+  return o;
+}
+
 cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
                           const std::string& mask_path, std::string* how) {
-  if (!mask_path.empty()) {
-    cv::Mat mask = ReadImage(mask_path, cv::IMREAD_GRAYSCALE, "mask",
-                             [&](int w, int h) { CheckImageSize(camera, w, h, mask_path); });
-    if (how) *how = "mask file " + mask_path;
-    return mask;
-  }
-  if (args.has("--no-auto-mask")) {
-    if (how) *how = "every pixel (--no-auto-mask)";
-    return {};
-  }
-  ValidRegionOptions o;
-  o.max_angle_deg = args.get_double("--max-view-angle-deg", 0.0);
-  if (!(o.max_angle_deg >= 0.0 && o.max_angle_deg <= 180.0))
-    throw Error("option --max-view-angle-deg: must be in (0, 180]");
-  const ValidRegion r = FindValidRegion(camera, image, o);
-  if (how) *how = "automatic: " + r.Describe() + (image.empty() ? " (no image: model only)" : "");
-  return r.mask;
+  return colour::ChooseViewRegion(camera, image, mask_path, ParseViewLoadOptions(args), how);
 }
 
 void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera) {

@@ -9,11 +9,16 @@
 
 #include "command.h"
 #include "scancam/camera/camera_model.h"
+#include "scancam/colour/view_io.h"
 
 namespace scancam::cli {
 
 /// --no-auto-mask, --valid-region-out, --max-view-angle-deg.
 std::vector<OptionSpec> ValidRegionOptionSpecs();
+
+/// --no-auto-mask and --max-view-angle-deg as colour::ViewLoadOptions (throws scancam::Error
+/// naming the option for an angle outside [0, 180]).
+colour::ViewLoadOptions ParseViewLoadOptions(const Args& args);
 
 /// The region one image is used with: the user's mask (read from mask_path, checked against the
 /// camera's size, errors naming the file), else FindValidRegion(camera, image) unless

@@ -78,6 +78,11 @@ Eigen::Isometry3d SensorPose(const ccGBLSensor& sensor) {
   return ToEigen(sensor.getRigidTransformation());
 }
 
+scancam::AngularSteps SensorSteps(const ccGBLSensor& sensor) {
+  const double az = sensor.getYawStep() * 180.0 / M_PI, el = sensor.getPitchStep() * 180.0 / M_PI;
+  return {az > 0.0 ? az : 0.0, el > 0.0 ? el : 0.0};
+}
+
 CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
                        const scancam::Progress& progress) {
   if (grid_index >= cloud.gridCount() || !cloud.grid(grid_index))
@@ -209,19 +214,16 @@ scancam::Progress Scaled(const scancam::Progress& progress, double fraction) {
 }  // namespace
 
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
-                           const Eigen::Vector3d& origin_scan, double step_deg,
-                           double elevation_step_deg, const scancam::Progress& progress) {
+                           const Eigen::Vector3d& origin_scan,
+                           const scancam::AngularSteps& requested,
+                           const scancam::AngularSteps& sensor, const scancam::Progress& progress) {
   const ScanFramePoints in = PointsInScanFrame(cloud, T_cloud_scan);
   const bool has_intensity = !in.intensity.empty();
+  const scancam::AngularSteps steps = scancam::ChooseGridSteps(
+      in.points, origin_scan, Eigen::Quaterniond::Identity(), requested, sensor);
   scancam::RegridOptions opt;
-  opt.step_deg = step_deg;
-  opt.elevation_step_deg = elevation_step_deg;
-  if (step_deg == 0.0 && elevation_step_deg == 0.0) {
-    // Estimate both: an anisotropic scan (e.g. 1 x 0.5 deg) on one step leaves cells empty.
-    const scancam::AngularSteps est = scancam::EstimateAngularStepsDeg(in.points, origin_scan);
-    opt.step_deg = est.azimuth_deg;
-    opt.elevation_step_deg = est.elevation_deg;
-  }
+  opt.step_deg = steps.azimuth_deg;
+  opt.elevation_step_deg = steps.elevation_deg;
   opt.source = CloudName(cloud);
   CloudScan cs;
   cs.scan = std::make_shared<scancam::OrderedScan>(scancam::RegridSpherical(
@@ -237,6 +239,15 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
           .arg(opt.elevation_step_deg > 0 ? opt.elevation_step_deg : opt.step_deg, 0, 'g', 4);
   progress(1.0, "done");
   return cs;
+}
+
+CloudScan ScanOfUngriddedCloud(const ccPointCloud& cloud, const Eigen::Vector3d& origin,
+                               const scancam::AngularSteps& requested,
+                               const scancam::Progress& progress) {
+  if (const ccGBLSensor* sensor = FindGblSensor(cloud))
+    return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), requested,
+                            SensorSteps(*sensor), progress);
+  return ScanByRegridding(cloud, Eigen::Isometry3d::Identity(), origin, requested, {}, progress);
 }
 
 CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,

@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "scancam/colour/colourise.h"
+#include "scancam/io/regrid.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
@@ -66,13 +67,23 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
                        const scancam::Progress& progress = {});
 
 /// Re-gridded: `T_cloud_scan` is the scan frame in the cloud (identity: the cloud's frame),
-/// `origin_scan` the sensor origin in the scan frame, `step_deg` the angular cell size
-/// (azimuth; 0 = estimate), `elevation_step_deg` the elevation cell size (0 = same as the
-/// azimuth step; io/regrid.h RegridOptions). Throws scancam::Error (e.g. no point, grid too
-/// large).
+/// `origin_scan` the sensor origin in the scan frame; the cell size by the one grid policy
+/// (io/regrid.h ChooseGridSteps): `requested` steps (degrees; 0 = none), else the `sensor`'s,
+/// else both estimated. Throws scancam::Error (e.g. no point, grid too large).
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
-                           const Eigen::Vector3d& origin_scan, double step_deg,
-                           double elevation_step_deg, const scancam::Progress& progress = {});
+                           const Eigen::Vector3d& origin_scan,
+                           const scancam::AngularSteps& requested,
+                           const scancam::AngularSteps& sensor = {},
+                           const scancam::Progress& progress = {});
+
+/// The scan of a cloud without a scan grid as the calibration window and the -SCANCAM_*
+/// commands both build it: about its GBL sensor when it has one (the sensor's pose; its yaw /
+/// pitch steps unless `requested` gives steps), else about `origin` (cloud frame) with the
+/// `requested` steps or estimated ones: the grid `scancam` builds for the same points
+/// (ChooseGridSteps), so that a pair picked by cell names the same point in every front end.
+CloudScan ScanOfUngriddedCloud(const ccPointCloud& cloud, const Eigen::Vector3d& origin,
+                               const scancam::AngularSteps& requested,
+                               const scancam::Progress& progress = {});
 
 /// A spinning lidar without a ring field (e.g. a KITTI or driver PCD opened in CloudCompare):
 /// the lasers recovered from the points seen from `origin_scan` (io/regrid.h RecoverRings),
@@ -85,6 +96,8 @@ CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d&
 
 /// The sensor pose (scan frame in the cloud) of a ccGBLSensor.
 Eigen::Isometry3d SensorPose(const ccGBLSensor& sensor);
+/// Its angular steps, degrees: yaw = azimuth (columns), pitch = elevation (rows); 0 = unknown.
+scancam::AngularSteps SensorSteps(const ccGBLSensor& sensor);
 
 /// Colour statistics of one application.
 struct ApplyStats {

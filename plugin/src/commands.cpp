@@ -9,18 +9,17 @@
 #include <QFileInfo>
 #include <QMap>
 #include <QStringList>
-#include <opencv2/imgcodecs.hpp>
 
 #include "cc_progress.h"
 #include "cloud_adapter.h"
-#include "scancam/camera/camera_io.h"
-#include "scancam/camera/valid_region.h"
+#include "scancam/colour/colour_options_io.h"
 #include "scancam/colour/colourise.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/error.h"
-#include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibrate_options_io.h"
 
 namespace scancam_cc {
 
@@ -55,23 +54,18 @@ bool Require(ccCommandLineInterface& cmd, const QString& keyword,
   return true;
 }
 
-// The cloud's scan grid, its sensor's, or a re-gridding about -ORIGIN.
+// The cloud's scan grid, else a re-gridding about its sensor or -ORIGIN with -GRID_STEP or the
+// steps the window would use (ScanOfUngriddedCloud: the one grid policy).
 CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
                  const QMap<QString, QString>& opts) {
   if (HasScanGrid(cloud)) return ScanFromGrid(cloud, 0, ToProgress(cmd.progressDialog()));
-  double step_deg = 0.0;
+  scancam::AngularSteps requested;
   if (opts.contains("GRID_STEP")) {
     bool ok = false;
-    step_deg = opts["GRID_STEP"].toDouble(&ok);
-    if (!ok || !(step_deg > 0.0))
+    requested.azimuth_deg = opts["GRID_STEP"].toDouble(&ok);
+    if (!ok || !(requested.azimuth_deg > 0.0))
       throw scancam::Error("-GRID_STEP: '" + opts["GRID_STEP"].toStdString() +
                            "' is not a positive number of degrees");
-  }
-  if (const ccGBLSensor* sensor = FindGblSensor(cloud)) {
-    cmd.print(QString("[ScanCam] %1 has no scan grid: re-gridding about its sensor")
-                  .arg(cloud.getName()));
-    return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), step_deg, 0.0,
-                            ToProgress(cmd.progressDialog()));
   }
   const QString origin = opts.value("ORIGIN", "ZERO").toUpper();
   Eigen::Vector3d o = Eigen::Vector3d::Zero();
@@ -81,13 +75,17 @@ CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
   } else if (origin != "ZERO") {
     throw scancam::Error("-ORIGIN: '" + origin.toStdString() + "' is not ZERO or BOX_CENTER");
   }
-  cmd.print(QString("[ScanCam] %1 has no scan grid and no sensor: re-gridding about (%2, %3, %4)")
-                .arg(cloud.getName())
-                .arg(o.x())
-                .arg(o.y())
-                .arg(o.z()));
-  return ScanByRegridding(cloud, Eigen::Isometry3d::Identity(), o, step_deg, 0.0,
-                          ToProgress(cmd.progressDialog()));
+  if (FindGblSensor(cloud)) {
+    cmd.print(QString("[ScanCam] %1 has no scan grid: re-gridding about its sensor")
+                  .arg(cloud.getName()));
+  } else {
+    cmd.print(QString("[ScanCam] %1 has no scan grid and no sensor: re-gridding about (%2, %3, %4)")
+                  .arg(cloud.getName())
+                  .arg(o.x())
+                  .arg(o.y())
+                  .arg(o.z()));
+  }
+  return ScanOfUngriddedCloud(cloud, o, requested, ToProgress(cmd.progressDialog()));
 }
 
 struct CalibCommand : public ccCommandLineInterface::Command {
@@ -96,22 +94,26 @@ struct CalibCommand : public ccCommandLineInterface::Command {
   bool process(ccCommandLineInterface& cmd) override {
     QMap<QString, QString> o;
     if (!ReadOptions(cmd, kCalibKeyword,
-                     {"CAMERA", "PAIRS", "OUT", "METHOD", "IMAGE", "GRID_STEP", "ORIGIN"}, &o) ||
+                     {"CAMERA", "PAIRS", "OUT", "METHOD", "IMAGE", "GRID_STEP", "ORIGIN", "PARAMS"},
+                     &o) ||
         !Require(cmd, kCalibKeyword, o, {"CAMERA", "PAIRS", "OUT"}))
       return false;
     try {
-      const scancam::CameraModel camera = scancam::LoadCamera(o["CAMERA"].toStdString());
-      if (o.contains("IMAGE")) {
-        const std::string image = o["IMAGE"].toStdString();
-        scancam::ReadImage(image, cv::IMREAD_UNCHANGED, "image",
-                           [&](int w, int h) { scancam::CheckImageSize(camera, w, h, image); });
-      }
+      // The camera (and the image, checked against it): the view without a pose or region.
+      scancam::colour::ViewLoadOptions no_region;
+      no_region.auto_region = false;
+      const scancam::CameraModel camera =
+          scancam::colour::LoadView(
+              {o["CAMERA"].toStdString(), o.value("IMAGE").toStdString(), "", ""}, no_region)
+              .camera;
       const std::vector<scancam::PointPair> pairs = scancam::ReadPairsCsv(o["PAIRS"].toStdString());
       CloudScan cs;
       if (!cmd.clouds().empty() && cmd.clouds().back().pc)
         cs = ScanOf(cmd, *cmd.clouds().back().pc, o);
+      // The options: defaults or the -PARAMS file (solve/calibrate_options_io.h), then -METHOD.
       scancam::CalibrateOptions opt;
-      opt.method = o.value("METHOD", "ransac").toLower().toStdString();
+      if (o.contains("PARAMS")) opt = scancam::ReadCalibrateOptions(o["PARAMS"].toStdString());
+      if (o.contains("METHOD")) opt.method = o["METHOD"].toLower().toStdString();
       opt.pairs_source = o["PAIRS"].toStdString();
       const scancam::Calibration cal = scancam::Calibrate(pairs, cs.scan.get(), camera, opt);
       nlohmann::json inputs = {{"camera", o["CAMERA"].toStdString()},
@@ -136,37 +138,35 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
   bool process(ccCommandLineInterface& cmd) override {
     QMap<QString, QString> o;
     if (!ReadOptions(cmd, kColorizeKeyword,
-                     {"CAMERA", "IMAGE", "CALIB", "MASK", "GRID_STEP", "ORIGIN"}, &o) ||
+                     {"CAMERA", "IMAGE", "CALIB", "MASK", "GRID_STEP", "ORIGIN", "PARAMS"}, &o) ||
         !Require(cmd, kColorizeKeyword, o, {"CAMERA", "IMAGE", "CALIB"}))
       return false;
     if (cmd.clouds().empty())
       return cmd.error(QString("-%1: no point cloud loaded (open one with -O before -%1)")
                            .arg(kColorizeKeyword));
     try {
-      scancam::colour::ColourView view;
-      view.name = o["IMAGE"].toStdString();
-      view.camera = scancam::LoadCamera(o["CAMERA"].toStdString());
-      view.image = scancam::ReadImage(view.name, cv::IMREAD_COLOR, "image", [&](int w, int h) {
-        scancam::CheckImageSize(view.camera, w, h, view.name);
-      });
-      view.T_cam_scan = scancam::colour::LoadExtrinsic(o["CALIB"].toStdString());
-      if (o.contains("MASK")) {
-        view.mask = scancam::ReadImage(o["MASK"].toStdString(), cv::IMREAD_GRAYSCALE, "mask");
-      } else {
-        // No mask file: the valid region found from the camera and the image (never colour
-        // from a fisheye's black border or a mirror's blind spot).
-        const scancam::ValidRegion region = scancam::FindValidRegion(view.camera, view.image);
-        view.mask = region.mask;
-        cmd.print(QString("[ScanCam] no MASK: automatic valid image region, %1")
-                      .arg(QString::fromStdString(region.Describe())));
+      // A MASK file wins; without one, the valid region found from the camera and the image
+      // (never colour from a fisheye's black border or a mirror's blind spot).
+      std::string region_how;
+      const scancam::colour::ColourView view =
+          scancam::colour::LoadView({o["CAMERA"].toStdString(), o["IMAGE"].toStdString(),
+                                     o["CALIB"].toStdString(), o.value("MASK").toStdString()},
+                                    {}, &region_how);
+      if (!o.contains("MASK"))
+        cmd.print(QString("[ScanCam] no MASK: %1").arg(QString::fromStdString(region_how)));
+      // The colour options: defaults, or the parameter file the calibration window saves
+      // (File > Save colour options; colour/colour_options_io.h).
+      scancam::colour::ColourOptions options;
+      if (o.contains("PARAMS")) {
+        options = scancam::colour::ReadColourOptions(o["PARAMS"].toStdString());
+        cmd.print(QString("[ScanCam] colour options from %1").arg(o["PARAMS"]));
       }
-      scancam::colour::CheckView(view);
       for (CLCloudDesc& desc : cmd.clouds()) {
         if (!desc.pc) continue;
         ccPointCloud& cloud = *desc.pc;
         const CloudScan cs = ScanOf(cmd, cloud, o);
         const scancam::colour::ColouredScan coloured =
-            scancam::colour::Colourise(*cs.scan, {view}, {}, ToProgress(cmd.progressDialog()));
+            scancam::colour::Colourise(*cs.scan, {view}, options, ToProgress(cmd.progressDialog()));
         const ApplyStats st = ApplyColours(cloud, cs, coloured);
         cmd.print(QString("[ScanCam] %1 (%2): %3 points coloured, %4 occluded, %5 out of view, "
                           "%6 without a grid cell")

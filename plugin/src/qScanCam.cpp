@@ -161,15 +161,11 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
           scancam::ui::CalibrationWindow::kWarning);
     return true;
   }
-  if (const ccGBLSensor* sensor = scancam_cc::FindGblSensor(*cloud)) {
-    // The sensor's own steps: yaw = azimuth (columns), pitch = elevation (rows).
-    const double az_deg = sensor->getYawStep() * 180.0 / M_PI;
-    const double el_deg = sensor->getPitchStep() * 180.0 / M_PI;
+  if (scancam_cc::FindGblSensor(*cloud)) {
+    // About the sensor, with its own steps (the same grid as -SCANCAM_COLORIZE builds).
     scancam_cc::RunWithCcProgress(
         parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
-          *out = scancam_cc::ScanByRegridding(*cloud, scancam_cc::SensorPose(*sensor),
-                                              Eigen::Vector3d::Zero(), az_deg > 0 ? az_deg : 0.0,
-                                              az_deg > 0 && el_deg > 0 ? el_deg : 0.0, p);
+          *out = scancam_cc::ScanOfUngriddedCloud(*cloud, Eigen::Vector3d::Zero(), {}, p);
         });
     return true;
   }
@@ -179,8 +175,10 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
     const CCVector3* P = cloud->getPoint(i);
     pts[i] = Eigen::Vector3f(P->x, P->y, P->z);
   }
+  // The steps the one grid policy gives (io/regrid.h ChooseGridSteps, as -SCANCAM_COLORIZE and
+  // `scancam`): the dialog's defaults.
   const scancam::AngularSteps estimated =
-      scancam::EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
+      scancam::ChooseGridSteps(pts, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), {});
   // A spinning lidar without a ring field (KITTI, many drivers' PCDs): offer its lasers.
   const scancam::RecoveredRings rings = scancam::RecoverRings(pts, Eigen::Vector3d::Zero());
   scancam::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg, estimated.elevation_deg,
@@ -191,14 +189,18 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
     const CCVector3 c = cloud->getOwnBB().getCenter();
     origin = Eigen::Vector3d(c.x, c.y, c.z);
   }
-  const double az_step = dlg.azimuthStepDeg(), el_step = dlg.elevationStepDeg();
+  // Steps left at the estimate the dialog shows (rounded to 4 decimals) mean the estimate
+  // itself, computed about the chosen origin: the grid -SCANCAM_COLORIZE and `scancam` build.
+  scancam::AngularSteps requested{dlg.azimuthStepDeg(), dlg.elevationStepDeg()};
+  if (std::abs(requested.azimuth_deg - estimated.azimuth_deg) <= 0.5e-4 &&
+      std::abs(requested.elevation_deg - estimated.elevation_deg) <= 0.5e-4)
+    requested = {};
   const bool recover = dlg.recoverRings();
   scancam_cc::RunWithCcProgress(
       parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
         *out = recover ? scancam_cc::ScanByRingRecovery(*cloud, Eigen::Isometry3d::Identity(),
                                                         origin, p)
-                       : scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(), origin,
-                                                      az_step, el_step, p);
+                       : scancam_cc::ScanOfUngriddedCloud(*cloud, origin, requested, p);
       });
   return true;
 }

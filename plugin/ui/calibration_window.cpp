@@ -39,8 +39,10 @@
 #include "scancam/ba_image.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/camera/valid_region.h"
+#include "scancam/colour/colour_options_io.h"
 #include "scancam/colour/export.h"
 #include "scancam/colour/overlay.h"
+#include "scancam/colour/view_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
@@ -425,6 +427,7 @@ void CalibrationWindow::buildUi() {
   file->addAction(act_load_calib_);
   file->addAction(act_save_calib_);
   file->addAction(act_export_);
+  file->addAction(tr("Save colour options..."), this, [this] { chooseColourOptionsToSave(); });
   file->addSeparator();
   file->addAction(tr("Close"), this, &QWidget::close);
   QMenu* pairs = menuBar()->addMenu(tr("&Pairs"));
@@ -732,7 +735,9 @@ bool CalibrationWindow::loadCamera(const QString& path) {
 
 bool CalibrationWindow::loadImage(const QString& path) {
   return guarded(tr("Image"), [&] {
-    cv::Mat img = ReadImage(path.toStdString(), cv::IMREAD_COLOR, "image");
+    // The view's image rule (colour/view_io.h); a size other than the camera's is reported
+    // below, not refused, so that the camera can be chosen after the image.
+    cv::Mat img = colour::ReadViewImage(path.toStdString());
     const bool same_image = QFileInfo(path) == QFileInfo(image_path_);
     const bool had_image = !image_path_.isEmpty();
     image_bgr_ = img;
@@ -1406,18 +1411,15 @@ void CalibrationWindow::refreshOverlay() {
   QVector<QPointF> px;
   if (act_overlay_->isChecked() && calibration_ && camera_.valid() && !edge_points_.empty() &&
       !image_bgr_.empty()) {
-    std::vector<Eigen::Vector2f> uv(edge_points_.size());
-    std::vector<std::uint8_t> ok(edge_points_.size());
-    camera_.ProjectBatch(calibration_->T_cam_scan, edge_points_.data(), edge_points_.size(),
-                         uv.data(), ok.data());
-    px.reserve(static_cast<int>(edge_points_.size()));
-    for (std::size_t i = 0; i < uv.size(); ++i) {
-      if (!ok[i]) continue;
-      // With a visibility result, only the edges the camera sees (not occluded, in the mask).
-      if (coloured_ && coloured_->state[edge_point_cells_[i]] != colour::PointState::kColoured)
-        continue;
-      px.push_back(QPointF(uv[i].x(), uv[i].y()));
-    }
+    // The BA edge points the camera sees (colour/overlay.h ProjectSeen: in the mask; with a
+    // visibility result, not occluded), at most kMaxEdgePoints of them.
+    const std::vector<colour::ProjectedPoint> seen = colour::ProjectSeen(
+        *scan_, colourView(), 0, coloured_ ? &*coloured_ : nullptr, &edge_cells_);
+    const std::size_t stride =
+        std::max<std::size_t>(1, (seen.size() + kMaxEdgePoints - 1) / kMaxEdgePoints);
+    px.reserve(static_cast<int>(seen.size() / stride + 1));
+    for (std::size_t i = 0; i < seen.size(); i += stride)
+      px.push_back(QPointF(seen[i].u, seen[i].v));
   }
   camera_view_->setOverlayPoints(px, QColor(0, 255, 80));
   // The pixels the mask in use excludes (the mask file, else the automatic valid region) are
@@ -1511,6 +1513,15 @@ bool CalibrationWindow::loadCalibration(const QString& path) {
   });
 }
 
+bool CalibrationWindow::saveColourOptions(const QString& path) {
+  return guarded(tr("Save colour options"), [&] {
+    colour::WriteColourOptions(path.toStdString(), colour::ColourOptions{});
+    reportInfo(tr("Saved the colour options to %1 (-SCANCAM_COLORIZE -PARAMS, scancam colorize "
+                  "--params)")
+                   .arg(path));
+  });
+}
+
 // ---- file dialogs -------------------------------------------------------------------------
 
 void CalibrationWindow::chooseCamera() {
@@ -1559,6 +1570,13 @@ void CalibrationWindow::chooseCalibrationToLoad() {
   if (!path.isEmpty()) loadCalibration(path);
 }
 
+void CalibrationWindow::chooseColourOptionsToSave() {
+  const QString path = QFileDialog::getSaveFileName(
+      this, tr("Save colour options"), QFileInfo(image_path_).dir().filePath("colour-options.json"),
+      tr("JSON (*.json);;All files (*)"));
+  if (!path.isEmpty()) saveColourOptions(path);
+}
+
 void CalibrationWindow::chooseMask() {
   const QString path =
       QFileDialog::getOpenFileName(this, tr("Image mask"), QFileInfo(image_path_).path(),
@@ -1568,7 +1586,7 @@ void CalibrationWindow::chooseMask() {
 
 bool CalibrationWindow::loadMask(const QString& path) {
   return guarded(tr("Mask"), [&] {
-    cv::Mat m = ReadImage(path.toStdString(), cv::IMREAD_GRAYSCALE, "mask");
+    cv::Mat m = colour::ReadViewMask(path.toStdString());  // colour/view_io.h
     mask_ = m;
     mask_path_ = path;
     refreshActiveInputs();
@@ -1629,7 +1647,6 @@ bool CalibrationWindow::exportModel(const QString& path) {
         return;
       }
       colour::MeshOptions mo;
-      mo.continuity.ground = coloured.ground;  // the mesh joins what the colouring joined
       const colour::TexturedMesh mesh =
           colour::BuildTexturedMesh(*scan_, views, coloured, mo, progress);
       if (ext == "glb")

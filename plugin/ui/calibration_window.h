@@ -143,6 +143,10 @@ class CalibrationWindow : public QMainWindow {
   /// Takes T_cam_scan from a calibration JSON (scancam's, the simulator's truth, or an
   /// OpenCalib extrinsic: colour::LoadExtrinsic).
   bool loadCalibration(const QString& path);
+  /// Writes the colour options this window colours with (the defaults) as the JSON parameter
+  /// file that `-SCANCAM_COLORIZE -PARAMS` and `scancam colorize --params` read
+  /// (colour/colour_options_io.h).
+  bool saveColourOptions(const QString& path);
   /// Optional image mask (8-bit, 0 = pixel not usable, e.g. outside a catadioptric mirror).
   bool loadMask(const QString& path);
   void clearMask();
@@ -306,6 +310,7 @@ class CalibrationWindow : public QMainWindow {
   void choosePairsToSave();
   void chooseCalibrationToSave();
   void chooseCalibrationToLoad();
+  void chooseColourOptionsToSave();
   void chooseMask();
   void chooseExport();
   void measureEdgeAlignment();

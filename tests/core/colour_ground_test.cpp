@@ -10,6 +10,7 @@
 
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
+#include "scancam/colour/export.h"
 #include "scancam/colour/ground.h"
 #include "scancam/error.h"
 #include "scancam/io/scan_io.h"
@@ -141,6 +142,35 @@ TEST(ContinuousNeighbours, GroundPriorJoinsFarRingsNotTheBox) {
   pair.set_point(0, 0, Eigen::Vector3f(60.0f, 0.f, -0.3f));
   EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, without));
   EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
+}
+
+// The mesh joins what the colouring joined: BuildTexturedMesh takes the ground plane from the
+// ColouredScan (callers need not copy it into MeshOptions): the same mesh as with the plane
+// given explicitly, and more faces than a colouring without the prior (far rings joined).
+TEST(GroundPrior, MeshTakesTheGroundOfTheColouring) {
+  const OrderedScan s = LidarOverGround(0.05);
+  ColourView v;  // a camera 0.3 m below the lidar looking along +x
+  v.camera = CameraModel::Pinhole(300, 300, 319.5, 239.5, {}, 640, 480, "test");
+  v.image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 120, 150));
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // camera x = -y, y = -z, z = x (scan frame)
+  v.T_cam_scan.linear() = R;
+  v.T_cam_scan.translation() = R * Eigen::Vector3d(0, 0, 0.3);
+  v.name = "grey";
+  const ColouredScan with = Colourise(s, {v});
+  ASSERT_TRUE(with.ground.has_value());
+  ColourOptions no_ground;
+  no_ground.ground.enabled = false;
+  const ColouredScan without = Colourise(s, {v}, no_ground);
+  ASSERT_FALSE(without.ground.has_value());
+  MeshOptions given;
+  given.continuity.ground = with.ground;
+  const std::size_t faces = BuildTexturedMesh(s, {v}, with).face_count();
+  EXPECT_EQ(faces, BuildTexturedMesh(s, {v}, with, given).face_count());
+  const std::size_t faces_without = BuildTexturedMesh(s, {v}, without).face_count();
+  std::printf("mesh faces: %zu with the colouring's ground plane, %zu without\n", faces,
+              faces_without);
+  EXPECT_GT(faces, faces_without);
 }
 
 // The real road scan with its reference extrinsic: far ground rings no longer hide each

@@ -255,6 +255,20 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
   EXPECT_EQ(s.rows, 61);
   EXPECT_EQ(s.cols, 81);
   EXPECT_EQ(s.valid_count(), pts.size());
+  // The one policy of the importers and the plugin (ChooseGridSteps): steps given win, then a
+  // sensor's own, else one estimated step for both axes (the finer: no two points merge).
+  const Eigen::Vector3d o0 = Eigen::Vector3d::Zero();
+  const Eigen::Quaterniond q0 = Eigen::Quaterniond::Identity();
+  const AngularSteps chosen = ChooseGridSteps(pts, o0, q0, {});
+  EXPECT_NEAR(chosen.azimuth_deg, 0.5, 1e-3);
+  EXPECT_EQ(chosen.elevation_deg, chosen.azimuth_deg);
+  const AngularSteps by_sensor = ChooseGridSteps(pts, o0, q0, {}, {1.0, 0.5});
+  EXPECT_EQ(by_sensor.azimuth_deg, 1.0);
+  EXPECT_EQ(by_sensor.elevation_deg, 0.5);
+  const AngularSteps given = ChooseGridSteps(pts, o0, q0, {2.0, 0.0}, {1.0, 0.5});
+  EXPECT_EQ(given.azimuth_deg, 2.0);
+  EXPECT_EQ(given.elevation_deg, 2.0);
+  EXPECT_EQ(ChooseGridSteps(pts, o0, q0, {0.0, 0.25}).elevation_deg, 0.25);
   // One 0.5 deg step for both: twice the columns, half of them empty.
   RegridOptions single;
   single.step_deg = 0.5;

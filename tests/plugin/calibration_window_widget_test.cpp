@@ -30,6 +30,7 @@
 #include <optional>
 
 #include "scancam/ba_image.h"
+#include "scancam/colour/colour_options_io.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/pick/snap.h"
 #include "scancam/scan_view.h"
@@ -1113,6 +1114,25 @@ class CalibrationWindowTest : public QObject {
     d.findChild<QRadioButton*>("sphericalRadio")->setChecked(true);
     QVERIFY(!d.recoverRings());
     QVERIFY(az->isEnabled());
+  }
+
+  // File > Save colour options writes the parameter file `-SCANCAM_COLORIZE -PARAMS` and
+  // `scancam colorize --params` read: the options the window colours with.
+  void savesColourOptions() {
+    const QString image = FreshImage("colour_options");
+    auto w = MakeWindow(image);
+    QVERIFY(w);
+    const QString json = QFileInfo(image).dir().filePath("colour-options.json");
+    QVERIFY(w->saveColourOptions(json));
+    const scancam::colour::ColourOptions back =
+        scancam::colour::ReadColourOptions(json.toStdString());
+    QCOMPARE(QString::fromStdString(scancam::colour::ColourOptionsJson(back)),
+             QString::fromStdString(
+                 scancam::colour::ColourOptionsJson(scancam::colour::ColourOptions{})));
+    bool in_menu = false;
+    for (QAction* a : w->findChildren<QAction*>())
+      in_menu = in_menu || a->text() == "Save colour options...";
+    QVERIFY(in_menu);
   }
 };
 

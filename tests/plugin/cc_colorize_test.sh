@@ -4,7 +4,8 @@
 # -SCANCAM_COLORIZE and saves it; the colours are checked against the simulator's truth.
 # -AUTO_SAVE ON saves the coloured cloud (and names the file), OFF writes nothing. Then the
 # error paths: a camera / image size mismatch and a missing option make CloudCompare
-# exit 1 with a message naming the problem (and nothing crashes).
+# exit 1 with a message naming the problem (and nothing crashes). -PARAMS reads the colour
+# options file; a bad one is refused naming the file and the key.
 # Usage: cc_colorize_test.sh SCANCAM_CLI PLUGIN.so CHECKER WORKDIR
 set -euo pipefail
 cli="$1"; plugin="$2"; checker="$3"; work="$4"
@@ -61,6 +62,31 @@ out=$(cc -O "$sim/scan.ptx" \
 echo "$out" | grep -q "coloured in memory (-AUTO_SAVE OFF)" || {
   echo "$out"; echo "FAIL: no message about -AUTO_SAVE OFF"; exit 1; }
 [ "$(ls "$sim" | wc -l)" = "$before" ] || { echo "FAIL: a file was written with -AUTO_SAVE OFF"; exit 1; }
+
+echo "== -PARAMS: the colour options file (the window's File > Save colour options)"
+occluded() { echo "$1" | sed -n 's/.*points coloured, \([0-9]*\) occluded.*/\1/p' | head -1; }
+default_occluded=$(occluded "$out")
+printf '{"scancam": "colour options", "version": 1, "occlusion": false}\n' > "$work/no-occlusion.json"
+out=$(cc -O "$sim/scan.ptx" -SCANCAM_COLORIZE -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" \
+  -CALIB "$work/calib.json" -PARAMS "$work/no-occlusion.json" 2>&1)
+echo "$out" | grep -F "[ScanCam]" | head -3
+echo "$out" | grep -q "colour options from .*no-occlusion.json" || {
+  echo "$out"; echo "FAIL: -PARAMS not read"; exit 1; }
+# Without the z-buffer no point is occluded; with the defaults some are.
+if [ -z "$default_occluded" ] || [ "$default_occluded" -eq 0 ] || [ "$(occluded "$out")" != 0 ]; then
+  echo "$out"; echo "FAIL: occluded $default_occluded by default, $(occluded "$out") with occlusion off"
+  exit 1
+fi
+printf '{"edge_fill": -1}\n' > "$work/bad-params.json"
+set +e
+out=$(cc -O "$sim/scan.ptx" -SCANCAM_COLORIZE -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" \
+  -CALIB "$work/calib.json" -PARAMS "$work/bad-params.json" 2>&1)
+rc=$?
+set -e
+if [ $rc -ne 1 ] || ! echo "$out" | grep -q "bad-params.json.*'edge_fill'.*must be >= 0"; then
+  echo "$out"; echo "FAIL: expected exit 1 naming bad-params.json and edge_fill (got $rc)"; exit 1
+fi
+echo "$out" | grep "bad-params.json" | head -1
 
 echo "== size mismatch: an error, exit 1"
 printf 'P5\n4 3\n255\n%012d' 0 > "$work/small.pgm"

@@ -4,6 +4,7 @@
 // to its own points, and colours written by ApplyColours come back exactly with RestoreColours.
 #include "cloud_adapter.h"
 
+#include <ccGBLSensor.h>
 #include <ccPointCloud.h>
 #include <ccScalarField.h>
 
@@ -14,6 +15,7 @@
 
 #include "scancam/error.h"
 #include "scancam/io/ptx.h"
+#include "scancam/io/regrid.h"
 #include "scancam/sim/simulate.h"
 #include "sim_test_util.h"
 
@@ -144,7 +146,7 @@ class CloudAdapterTest : public QObject {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     cloud->removeGrids();
     const CloudScan cs = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(),
-                                                      Eigen::Vector3d::Zero(), 2.0, 0.0);
+                                                      Eigen::Vector3d::Zero(), {2.0, 0.0});
     const scancam::OrderedScan& s = *cs.scan;
     std::size_t mapped = 0;
     for (std::size_t k = 0; k < s.size(); ++k) {
@@ -161,6 +163,61 @@ class CloudAdapterTest : public QObject {
     }
     QCOMPARE(mapped + cs.points_not_in_grid, std::size_t(cloud->size()));
     QVERIFY(mapped > cloud->size() / 2);
+  }
+
+  // One grid policy (io/regrid.h ChooseGridSteps): a cloud without a scan grid gets, in the
+  // window and the -SCANCAM_* commands (ScanOfUngriddedCloud), the grid `scancam` builds for
+  // the same points (RegridUnordered, spherical, --grid-step-deg 0), so a pair picked by cell
+  // names the same point everywhere. Before, the window estimated the azimuth and elevation
+  // steps separately and `scancam` one step for both: on this anisotropic scan (4 deg planes,
+  // 2 deg beams) two different grids.
+  void ungriddedCloudGetsTheGridScancamBuilds() {
+    auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
+    cloud->removeGrids();
+    std::vector<Eigen::Vector3f> pts(cloud->size());
+    for (unsigned i = 0; i < cloud->size(); ++i) {
+      const CCVector3* P = cloud->getPoint(i);
+      pts[i] = Eigen::Vector3f(P->x, P->y, P->z);
+    }
+    const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
+    const scancam::OrderedScan cli = scancam::RegridUnordered(
+        pts, nullptr, zero, scancam::UnorderedGrid::kSpherical, scancam::RegridOptions{});
+    const CloudScan gui = scancam_cc::ScanOfUngriddedCloud(*cloud, zero, {});
+    QCOMPARE(gui.scan->rows, cli.rows);
+    QCOMPARE(gui.scan->cols, cli.cols);
+    QCOMPARE(gui.scan->valid_count(), cli.valid_count());
+    for (std::size_t k = 0; k < cli.size(); ++k)
+      if (cli.valid(k)) QVERIFY(gui.scan->point_m[k] == cli.point_m[k]);
+    // The window's former default, the steps estimated separately, was another grid.
+    const scancam::AngularSteps separate = scancam::EstimateAngularStepsDeg(pts, zero);
+    scancam::RegridOptions former;
+    former.step_deg = separate.azimuth_deg;
+    former.elevation_step_deg = separate.elevation_deg;
+    const scancam::OrderedScan old = scancam::RegridSpherical(pts, nullptr, zero, former);
+    QVERIFY(old.rows != cli.rows || old.cols != cli.cols);
+    // A step given (-GRID_STEP, --grid-step-deg) is used by both for both axes.
+    scancam::RegridOptions given;
+    given.step_deg = 3.0;
+    const scancam::OrderedScan cli3 =
+        scancam::RegridUnordered(pts, nullptr, zero, scancam::UnorderedGrid::kSpherical, given);
+    const CloudScan gui3 = scancam_cc::ScanOfUngriddedCloud(*cloud, zero, {3.0, 0.0});
+    QCOMPARE(gui3.scan->rows, cli3.rows);
+    QCOMPARE(gui3.scan->cols, cli3.cols);
+    // With a GBL sensor: its own steps (yaw = azimuth, pitch = elevation), in the window and the
+    // commands alike.
+    auto* sensor = new ccGBLSensor;
+    sensor->setYawStep(static_cast<PointCoordinateType>(5.0 * M_PI / 180.0));
+    sensor->setPitchStep(static_cast<PointCoordinateType>(2.5 * M_PI / 180.0));
+    cloud->addChild(sensor);
+    scancam::RegridOptions sensor_steps;
+    sensor_steps.step_deg = scancam_cc::SensorSteps(*sensor).azimuth_deg;
+    sensor_steps.elevation_step_deg = scancam_cc::SensorSteps(*sensor).elevation_deg;
+    QVERIFY(std::abs(sensor_steps.step_deg - 5.0) < 1e-5);
+    const scancam::OrderedScan ref = scancam::RegridSpherical(pts, nullptr, zero, sensor_steps);
+    const CloudScan with_sensor = scancam_cc::ScanOfUngriddedCloud(*cloud, zero, {});
+    QCOMPARE(with_sensor.scan->rows, ref.rows);
+    QCOMPARE(with_sensor.scan->cols, ref.cols);
+    QVERIFY(ref.rows != cli.rows || ref.cols != cli.cols);  // the sensor's steps were used
   }
 
   void spinningLidarWithoutRingFieldGetsOneRowPerLaser() {

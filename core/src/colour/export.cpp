@@ -187,6 +187,7 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
 
   const Eigen::Vector3f origin = scan.origin_m.cast<float>();
   ContinuityOptions co = options.continuity;
+  if (!co.ground) co.ground = coloured.ground;  // the mesh joins what the colouring joined
   if (options.close_wrap) {
     // A grid that closes a full turn gets the quads across its seam too (without them a
     // rotating scanner's last plane and its first, or a lidar's azimuth seam, leave a slit).

@@ -12,11 +12,6 @@
 namespace scancam::colour {
 namespace {
 
-struct Dot {
-  float u, v, d;
-  std::size_t cell;
-};
-
 void CheckViewIndex(const std::vector<ColourView>& views, std::size_t k,
                     const ColouredScan* coloured, const OrderedScan& scan) {
   if (k >= views.size())
@@ -25,30 +20,6 @@ void CheckViewIndex(const std::vector<ColourView>& views, std::size_t k,
   CheckView(views[k]);
   if (coloured && coloured->size() != scan.size())
     throw Error("overlay: the coloured scan does not belong to this scan");
-}
-
-// Projected points of view k (optionally only the cells in `cells`, and only those seen).
-std::vector<Dot> ProjectSeen(const OrderedScan& scan, const ColourView& view, std::size_t k,
-                             const ColouredScan* coloured, const cv::Mat* cells) {
-  const std::size_t n = scan.size();
-  std::vector<Eigen::Vector2f> uv(n);
-  std::vector<std::uint8_t> ok(n);
-  view.camera.ProjectBatch(view.T_cam_scan, scan.point_m.data(), n, uv.data(), ok.data());
-  std::vector<Dot> dots;
-  const Eigen::Matrix3f R = view.T_cam_scan.linear().cast<float>();
-  const Eigen::Vector3f t = view.T_cam_scan.translation().cast<float>();
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!ok[i] || !scan.valid(i)) continue;
-    if (cells && !cells->data[i]) continue;
-    if (coloured && !coloured->SeenBy(i, k)) continue;
-    if (!view.mask.empty()) {
-      const int x = std::clamp(static_cast<int>(std::lround(uv[i].x())), 0, view.mask.cols - 1);
-      const int y = std::clamp(static_cast<int>(std::lround(uv[i].y())), 0, view.mask.rows - 1);
-      if (!view.mask.at<std::uint8_t>(y, x)) continue;
-    }
-    dots.push_back({uv[i].x(), uv[i].y(), (R * scan.point_m[i] + t).norm(), i});
-  }
-  return dots;
 }
 
 int AutoRadius(const OverlayOptions& o, std::size_t points, const cv::Mat& image) {
@@ -70,6 +41,34 @@ cv::Vec3b Jet(double f) {
 }
 
 }  // namespace
+
+std::vector<ProjectedPoint> ProjectSeen(const OrderedScan& scan, const ColourView& view,
+                                        std::size_t k, const ColouredScan* coloured,
+                                        const cv::Mat* cells) {
+  const std::size_t n = scan.size();
+  if (cells && (cells->type() != CV_8UC1 || cells->total() != n || !cells->isContinuous()))
+    throw Error("ProjectSeen: the cells must be CV_8UC1 of the scan's grid size");
+  if (coloured && coloured->size() != n)
+    throw Error("ProjectSeen: the coloured scan does not belong to this scan");
+  std::vector<Eigen::Vector2f> uv(n);
+  std::vector<std::uint8_t> ok(n);
+  view.camera.ProjectBatch(view.T_cam_scan, scan.point_m.data(), n, uv.data(), ok.data());
+  std::vector<ProjectedPoint> dots;
+  const Eigen::Matrix3f R = view.T_cam_scan.linear().cast<float>();
+  const Eigen::Vector3f t = view.T_cam_scan.translation().cast<float>();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!ok[i] || !scan.valid(i)) continue;
+    if (cells && !cells->data[i]) continue;
+    if (coloured && !coloured->SeenBy(i, k)) continue;
+    if (!view.mask.empty()) {
+      const int x = std::clamp(static_cast<int>(std::lround(uv[i].x())), 0, view.mask.cols - 1);
+      const int y = std::clamp(static_cast<int>(std::lround(uv[i].y())), 0, view.mask.rows - 1);
+      if (!view.mask.at<std::uint8_t>(y, x)) continue;
+    }
+    dots.push_back({uv[i].x(), uv[i].y(), (R * scan.point_m[i] + t).norm(), i});
+  }
+  return dots;
+}
 
 cv::Mat BaEdgeCells(const OrderedScan& scan, const OverlayOptions& options) {
   cv::Mat out = cv::Mat::zeros(scan.rows, scan.cols, CV_8UC1);
@@ -120,11 +119,11 @@ cv::Mat EdgeOverlay(const OrderedScan& scan, const std::vector<ColourView>& view
   CheckViewIndex(views, view_index, coloured, scan);
   const ColourView& view = views[view_index];
   const cv::Mat cells = BaEdgeCells(scan, options);
-  const std::vector<Dot> dots = ProjectSeen(scan, view, view_index, coloured, &cells);
+  const std::vector<ProjectedPoint> dots = ProjectSeen(scan, view, view_index, coloured, &cells);
   cv::Mat out;
   view.image.convertTo(out, CV_8UC3, options.background_dim);
   const int radius = AutoRadius(options, dots.size() * 10, out);
-  for (const Dot& d : dots) {
+  for (const ProjectedPoint& d : dots) {
     const cv::Point p(static_cast<int>(std::lround(d.u)), static_cast<int>(std::lround(d.v)));
     cv::circle(out, p, radius - 1, options.edge_bgr, cv::FILLED, cv::LINE_8);
   }
@@ -136,13 +135,13 @@ cv::Mat DepthOverlay(const OrderedScan& scan, const std::vector<ColourView>& vie
                      const OverlayOptions& options) {
   CheckViewIndex(views, view_index, coloured, scan);
   const ColourView& view = views[view_index];
-  std::vector<Dot> dots = ProjectSeen(scan, view, view_index, coloured, nullptr);
+  std::vector<ProjectedPoint> dots = ProjectSeen(scan, view, view_index, coloured, nullptr);
   cv::Mat out = view.image.clone();
   if (dots.empty()) return out;
   double lo = options.min_depth_m, hi = options.max_depth_m;
   if (!(hi > lo)) {
     std::vector<float> d(dots.size());
-    for (std::size_t i = 0; i < dots.size(); ++i) d[i] = dots[i].d;
+    for (std::size_t i = 0; i < dots.size(); ++i) d[i] = dots[i].depth_m;
     const std::size_t a = d.size() * 2 / 100, b = std::min(d.size() - 1, d.size() * 98 / 100);
     std::nth_element(d.begin(), d.begin() + a, d.end());
     lo = d[a];
@@ -151,15 +150,16 @@ cv::Mat DepthOverlay(const OrderedScan& scan, const std::vector<ColourView>& vie
     if (!(hi > lo)) hi = lo + 1.0;
   }
   // Far first, so nearer dots are drawn over farther ones.
-  std::sort(dots.begin(), dots.end(), [](const Dot& a, const Dot& b) { return a.d > b.d; });
+  std::sort(dots.begin(), dots.end(),
+            [](const ProjectedPoint& a, const ProjectedPoint& b) { return a.depth_m > b.depth_m; });
   cv::Mat layer(out.size(), CV_8UC3, cv::Scalar::all(0));
   cv::Mat mask = cv::Mat::zeros(out.size(), CV_8UC1);
   const int radius = AutoRadius(options, dots.size(), out);
   // Colour by log distance: near and far structure both resolved.
   const double llo = std::log(std::max(lo, 1e-3)), lhi = std::log(std::max(hi, lo + 1e-3));
   auto frac = [&](double d) { return (std::log(std::max(d, 1e-3)) - llo) / (lhi - llo); };
-  for (const Dot& d : dots) {
-    const cv::Vec3b c = Jet(frac(d.d));
+  for (const ProjectedPoint& d : dots) {
+    const cv::Vec3b c = Jet(frac(d.depth_m));
     const cv::Point p(static_cast<int>(std::lround(d.u)), static_cast<int>(std::lround(d.v)));
     cv::circle(layer, p, radius - 1, cv::Scalar(c[0], c[1], c[2]), cv::FILLED, cv::LINE_8);
     cv::circle(mask, p, radius - 1, cv::Scalar(255), cv::FILLED, cv::LINE_8);
@@ -347,6 +347,42 @@ EdgeAlignment MeasureEdgeAlignment(const OrderedScan& scan, const ColourView& vi
   std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
   a.median_px = d[d.size() / 2];
   return a;
+}
+
+PerturbedAlignment MeasurePerturbedAlignment(const OrderedScan& scan, const ColourView& view,
+                                             const cv::Mat& edge_cells,
+                                             const cv::Mat& edge_distance,
+                                             const ColouredScan* coloured, std::size_t view_index,
+                                             double rotation_deg, double translation_m) {
+  PerturbedAlignment r;
+  r.rotation_deg = rotation_deg;
+  r.translation_m = translation_m;
+  r.at_pose = MeasureEdgeAlignment(scan, view, view.T_cam_scan, edge_cells, edge_distance, coloured,
+                                   view_index);
+  if (r.at_pose.edge_points == 0) return r;
+  const double deg = 3.14159265358979323846 / 180.0;
+  std::vector<Eigen::Isometry3d> perts;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int s = -1; s <= 1; s += 2) {
+      Eigen::Isometry3d rot = Eigen::Isometry3d::Identity();
+      rot.linear() =
+          Eigen::AngleAxisd(s * rotation_deg * deg, Eigen::Vector3d::Unit(axis)).toRotationMatrix();
+      perts.push_back(rot);
+      Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+      t.translation()[axis] = s * translation_m;
+      perts.push_back(t);
+    }
+  }
+  r.perturbations = perts.size();
+  for (const Eigen::Isometry3d& d : perts) {
+    const EdgeAlignment b = MeasureEdgeAlignment(scan, view, d * view.T_cam_scan, edge_cells,
+                                                 edge_distance, coloured, view_index);
+    if (b.edge_points == 0) continue;
+    r.best_mean_px = std::min(r.best_mean_px, b.mean_px);
+    r.worst_mean_px = std::max(r.worst_mean_px, b.mean_px);
+    r.better += b.mean_px < r.at_pose.mean_px ? 1 : 0;
+  }
+  return r;
 }
 
 }  // namespace scancam::colour

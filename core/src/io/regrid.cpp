@@ -367,6 +367,20 @@ AngularSteps EstimateAngularStepsDeg(const std::vector<Eigen::Vector3f>& points,
   return out;
 }
 
+AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
+                             const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
+                             const AngularSteps& requested, const AngularSteps& sensor) {
+  for (const AngularSteps* given : {&requested, &sensor}) {
+    if (given->azimuth_deg > 0.0) {
+      return {given->azimuth_deg,
+              given->elevation_deg > 0.0 ? given->elevation_deg : given->azimuth_deg};
+    }
+  }
+  const double h = EstimateAngularStepDeg(points, origin, orientation);
+  if (!(h > 0.0)) return {};
+  return {h, requested.elevation_deg > 0.0 ? requested.elevation_deg : h};
+}
+
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
                             const std::vector<float>* intensity, const Eigen::Vector3d& origin,
                             RegridOptions o, const Progress& progress) {
@@ -377,16 +391,15 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
     throw Error(o.source + ": no finite point away from the sensor origin to re-grid (" +
                 std::to_string(points.size()) + " points)");
   }
-  double step_deg = o.step_deg;
-  if (step_deg == 0.0) {
-    step_deg = EstimateAngularStepDeg(points, origin, o.orientation);
-    if (!(step_deg > 0.0)) {
-      throw Error(o.source + ": cannot estimate the angular grid step from " +
-                  std::to_string(p.az.size()) + " points; give one");
-    }
+  const AngularSteps steps =
+      ChooseGridSteps(points, origin, o.orientation, {o.step_deg, o.elevation_step_deg});
+  const double step_deg = steps.azimuth_deg;
+  if (!(step_deg > 0.0)) {
+    throw Error(o.source + ": cannot estimate the angular grid step from " +
+                std::to_string(p.az.size()) + " points; give one");
   }
   // Coarse sanity before building anything (the layout adjusts the step slightly).
-  const double el_step_deg = o.elevation_step_deg > 0.0 ? o.elevation_step_deg : step_deg;
+  const double el_step_deg = steps.elevation_deg > 0.0 ? steps.elevation_deg : step_deg;
   const double el_min = *std::min_element(p.el.begin(), p.el.end());
   const double el_max = *std::max_element(p.el.begin(), p.el.end());
   CheckCells(std::floor((el_max - el_min) / (el_step_deg * kDeg)) + 2,

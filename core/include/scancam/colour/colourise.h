@@ -247,8 +247,8 @@ struct ColourOptions {
   ContinuityOptions continuity;
   /// The ground prior of the continuity test (test 3): when continuity.ground is unset and
   /// ground.enabled, Colourise estimates the plane (EstimateGround) and reports it in
-  /// ColouredScan::ground. Callers that also build a mesh pass that plane on
-  /// (MeshOptions::continuity.ground), so that both join the same cells.
+  /// ColouredScan::ground. BuildTexturedMesh takes that plane from the ColouredScan, so that
+  /// both join the same cells.
   GroundOptions ground;
   bool occlusion = true;  ///< false: no z-buffer (every projected point takes a colour;
                           ///< only for comparisons: occluded points take the occluder's colour)

@@ -89,9 +89,10 @@ void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
                       const ColouredScan& coloured, const ExportOptions& options = {});
 
 struct MeshOptions {
-  ContinuityOptions continuity;  ///< which neighbours may share a triangle (set its ground
-                                 ///< to ColouredScan::ground to join far ground rings)
-  bool keep_untextured = true;   ///< keep faces no image sees completely (grey material)
+  /// Which neighbours may share a triangle. Its ground, when unset, is the coloured scan's
+  /// (ColouredScan::ground: the mesh joins the far ground rings the colouring joined).
+  ContinuityOptions continuity;
+  bool keep_untextured = true;  ///< keep faces no image sees completely (grey material)
   /// Close single-cell holes (one missing return, e.g. a dropout) whose four direct
   /// neighbours are valid and continuous around it, with two triangles.
   bool fill_dropouts = true;

@@ -91,6 +91,22 @@ struct EdgeAlignment {
   double clip_px = 20.0;
 };
 
+/// A scan point projected into a view: pixel (OpenCV convention), distance from the camera
+/// centre (metres), and its cell (index r * cols + c).
+struct ProjectedPoint {
+  float u, v, depth_m;
+  std::size_t cell;
+};
+
+/// The valid scan points view `view_index` sees, in cell order: projected with the view's
+/// camera and T_cam_scan (CameraModel::ProjectBatch), inside the view's mask (at the rounded
+/// pixel), and, when `coloured` is given, seen by that image (ColouredScan::SeenBy: not
+/// occluded). `cells`, when not null, is a CV_8UC1 of the grid's size: only its non-zero cells
+/// (e.g. BaEdgeCells). What the overlays draw and the calibration window shows.
+std::vector<ProjectedPoint> ProjectSeen(const OrderedScan& scan, const ColourView& view,
+                                        std::size_t view_index, const ColouredScan* coloured,
+                                        const cv::Mat* cells = nullptr);
+
 /// Image edge distance map of a BGR image: CV_32FC1, distance (px) to the nearest Canny edge.
 cv::Mat ImageEdgeDistance(const cv::Mat& bgr);
 
@@ -102,5 +118,30 @@ EdgeAlignment MeasureEdgeAlignment(const OrderedScan& scan, const ColourView& vi
                                    const Eigen::Isometry3d& T_cam_scan, const cv::Mat& edge_cells,
                                    const cv::Mat& edge_distance, const ColouredScan* coloured,
                                    std::size_t view_index);
+
+}  // namespace scancam::colour
+
+namespace scancam::colour {
+
+/// Is the calibration at a minimum of the edge alignment? MeasureEdgeAlignment at the view's
+/// own pose and at 12 perturbed ones: +-rotation_deg about each camera axis and
+/// +-translation_m along each (the perturbation is applied in the camera frame: d * T_cam_scan).
+struct PerturbedAlignment {
+  EdgeAlignment at_pose;          ///< the view's own T_cam_scan
+  std::size_t perturbations = 0;  ///< poses tried (12)
+  int better = 0;                 ///< perturbed poses with a smaller mean distance than at_pose
+  double best_mean_px = 1e30;     ///< smallest / largest mean over the perturbed poses that
+  double worst_mean_px = 0.0;     ///< see an edge point (1e30 / 0 when none does)
+  double rotation_deg = 0.5, translation_m = 0.05;
+};
+
+/// The check above (the CLI prints it with --check). Arguments as MeasureEdgeAlignment. When
+/// no edge point is seen at the view's pose (at_pose.edge_points == 0) nothing is perturbed.
+PerturbedAlignment MeasurePerturbedAlignment(const OrderedScan& scan, const ColourView& view,
+                                             const cv::Mat& edge_cells,
+                                             const cv::Mat& edge_distance,
+                                             const ColouredScan* coloured, std::size_t view_index,
+                                             double rotation_deg = 0.5,
+                                             double translation_m = 0.05);
 
 }  // namespace scancam::colour

@@ -39,7 +39,7 @@
 namespace scancam {
 
 struct RegridOptions {
-  /// Azimuth cell size in degrees; 0 = estimate (EstimateAngularStepDeg for RegridSpherical;
+  /// Azimuth cell size in degrees; 0 = estimate (ChooseGridSteps for RegridSpherical;
   /// for RegridRings the mean azimuth spacing along each ring over the gaps shorter than 1.5
   /// median gaps, so that missed returns do not count and irregular firings still get a cell
   /// each). The value actually used is adjusted so that a whole number of cells makes 360 deg.
@@ -151,5 +151,25 @@ struct AngularSteps {
 AngularSteps EstimateAngularStepsDeg(
     const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& origin,
     const Eigen::Quaterniond& orientation = Eigen::Quaterniond::Identity());
+
+/// The one policy for the cell size of a re-gridded cloud, used by the importers (PCD, E57,
+/// KITTI: RegridSpherical with step 0) and by the CloudCompare plugin's window and command line,
+/// so that a pair picked by cell in one front end names the same point in the other:
+///   1. steps the user gave: requested.azimuth_deg > 0 (elevation: requested.elevation_deg when
+///      > 0, else the azimuth step);
+///   2. else the sensor's own steps when the cloud carries them (sensor.azimuth_deg > 0, e.g.
+///      a CloudCompare GBL sensor's yaw / pitch steps; elevation: its own when > 0, else the
+///      azimuth step);
+///   3. else one step for both axes, the points' nearest-neighbour spacing
+///      (EstimateAngularStepDeg: the finer of the two axes' steps), or a requested elevation
+///      step with it. A step per axis estimated separately (EstimateAngularStepsDeg) fills an
+///      anisotropic grid (1 x 0.5 deg) without empty columns, but merges points where it is
+///      coarser than the data: measured on spinning lidars with unevenly spaced rings,
+///      road2-pinhole keeps 42.2 % of its points on 43 rows that way against 89.6 % on 200 rows,
+///      KITTI 000000 80.5 % against 91.6 %; empty cells lose nothing, merged points do.
+/// Degrees. Both 0 when nothing was given and the estimate fails (fewer than 2 usable points).
+AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
+                             const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
+                             const AngularSteps& requested, const AngularSteps& sensor = {});
 
 }  // namespace scancam

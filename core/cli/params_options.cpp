@@ -1,0 +1,23 @@
+#include "params_options.h"
+
+#include "scancam/error.h"
+
+namespace scancam::cli {
+
+OptionSpec ParamsOptionSpec(const std::string& keys) {
+  return {"--params", "FILE.json",
+          "Options from a JSON parameter file (the one CloudCompare's -PARAMS reads; keys in " +
+              keys + "). Flags given here override it."};
+}
+
+void ThrowFirstOptionProblem(const std::vector<OptionProblem>& problems,
+                             const std::vector<std::pair<std::string, std::string>>& flags) {
+  if (problems.empty()) return;
+  const OptionProblem& p = problems[0];
+  std::string flag = "--params key '" + p.key + "'";
+  for (const auto& f : flags)
+    if (p.key == f.first) flag = f.second;
+  throw Error("option " + flag + ": " + p.message);
+}
+
+}  // namespace scancam::cli
