@@ -256,12 +256,37 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
   EXPECT_EQ(s.cols, 81);
   EXPECT_EQ(s.valid_count(), pts.size());
   // The one policy of the importers and the plugin (ChooseGridSteps): steps given win, then a
-  // sensor's own, else one estimated step for both axes (the finer: no two points merge).
+  // sensor's own, else estimated: here a step per axis, as one step (0.5 deg) would keep the
+  // same points in twice the cells, every other column empty.
   const Eigen::Vector3d o0 = Eigen::Vector3d::Zero();
   const Eigen::Quaterniond q0 = Eigen::Quaterniond::Identity();
   const AngularSteps chosen = ChooseGridSteps(pts, o0, q0, {});
-  EXPECT_NEAR(chosen.azimuth_deg, 0.5, 1e-3);
-  EXPECT_EQ(chosen.elevation_deg, chosen.azimuth_deg);
+  EXPECT_NEAR(chosen.azimuth_deg, 1.0, 1e-3);
+  EXPECT_NEAR(chosen.elevation_deg, 0.5, 1e-3);
+  {
+    // A spinning lidar's unevenly spaced rings (0.2 and 0.7 deg apart, 0.2 deg firings): a step
+    // per axis would merge rings; one step keeps every return in a cell of its own.
+    std::vector<Eigen::Vector3f> lidar;
+    double el = 2.0;
+    for (int ring = 0; ring < 24; ++ring, el -= (ring % 2 ? 0.2 : 0.7)) {
+      for (int c = 0; c < 600; ++c) {
+        const double e = el * kDeg, az = (60.0 - 0.2 * c) * kDeg, rho = range(rng);
+        lidar.emplace_back(float(rho * std::cos(e) * std::cos(az)),
+                           float(rho * std::cos(e) * std::sin(az)), float(rho * std::sin(e)));
+      }
+    }
+    const AngularSteps one = ChooseGridSteps(lidar, o0, q0, {});
+    EXPECT_NEAR(one.azimuth_deg, 0.2, 0.01);
+    EXPECT_EQ(one.elevation_deg, one.azimuth_deg);
+    RegridOptions lo;
+    lo.step_deg = one.azimuth_deg;
+    lo.elevation_step_deg = one.elevation_deg;
+    EXPECT_EQ(RegridSpherical(lidar, nullptr, o0, lo).valid_count(), lidar.size());
+    const AngularSteps per_axis = EstimateAngularStepsDeg(lidar, o0);
+    lo.step_deg = per_axis.azimuth_deg;
+    lo.elevation_step_deg = per_axis.elevation_deg;
+    EXPECT_LT(RegridSpherical(lidar, nullptr, o0, lo).valid_count(), lidar.size());
+  }
   const AngularSteps by_sensor = ChooseGridSteps(pts, o0, q0, {}, {1.0, 0.5});
   EXPECT_EQ(by_sensor.azimuth_deg, 1.0);
   EXPECT_EQ(by_sensor.elevation_deg, 0.5);

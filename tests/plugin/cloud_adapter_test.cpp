@@ -168,9 +168,9 @@ class CloudAdapterTest : public QObject {
   // One grid policy (io/regrid.h ChooseGridSteps): a cloud without a scan grid gets, in the
   // window and the -SCANCAM_* commands (ScanOfUngriddedCloud), the grid `scancam` builds for
   // the same points (RegridUnordered, spherical, --grid-step-deg 0), so a pair picked by cell
-  // names the same point everywhere. Before, the window estimated the azimuth and elevation
-  // steps separately and `scancam` one step for both: on this anisotropic scan (4 deg planes,
-  // 2 deg beams) two different grids.
+  // names the same point everywhere (before, the window estimated the azimuth and elevation
+  // steps separately and `scancam` one step for both: on this anisotropic scan, 4 deg planes and
+  // 2 deg beams, two different grids).
   void ungriddedCloudGetsTheGridScancamBuilds() {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     cloud->removeGrids();
@@ -188,13 +188,16 @@ class CloudAdapterTest : public QObject {
     QCOMPARE(gui.scan->valid_count(), cli.valid_count());
     for (std::size_t k = 0; k < cli.size(); ++k)
       if (cli.valid(k)) QVERIFY(gui.scan->point_m[k] == cli.point_m[k]);
-    // The window's former default, the steps estimated separately, was another grid.
+    // On this anisotropic scan the policy takes a step per axis (one 2 deg step would keep the
+    // same points with every other column empty), and it keeps every point.
     const scancam::AngularSteps separate = scancam::EstimateAngularStepsDeg(pts, zero);
-    scancam::RegridOptions former;
-    former.step_deg = separate.azimuth_deg;
-    former.elevation_step_deg = separate.elevation_deg;
-    const scancam::OrderedScan old = scancam::RegridSpherical(pts, nullptr, zero, former);
-    QVERIFY(old.rows != cli.rows || old.cols != cli.cols);
+    scancam::RegridOptions per_axis;
+    per_axis.step_deg = separate.azimuth_deg;
+    per_axis.elevation_step_deg = separate.elevation_deg;
+    const scancam::OrderedScan expected = scancam::RegridSpherical(pts, nullptr, zero, per_axis);
+    QCOMPARE(cli.rows, expected.rows);
+    QCOMPARE(cli.cols, expected.cols);
+    QCOMPARE(cli.valid_count(), expected.valid_count());
     // A step given (-GRID_STEP, --grid-step-deg) is used by both for both axes.
     scancam::RegridOptions given;
     given.step_deg = 3.0;

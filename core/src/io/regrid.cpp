@@ -378,7 +378,29 @@ AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
   }
   const double h = EstimateAngularStepDeg(points, origin, orientation);
   if (!(h > 0.0)) return {};
-  return {h, requested.elevation_deg > 0.0 ? requested.elevation_deg : h};
+  if (requested.elevation_deg > 0.0) return {h, requested.elevation_deg};
+  // One step for both axes, or a step per axis: the grid that keeps more points in cells of
+  // their own; when both keep the same (within 0.5 % of the points), the one with fewer cells.
+  const AngularSteps one{h, h};
+  const AngularSteps per_axis = EstimateAngularStepsDeg(points, origin, orientation);
+  if (!(per_axis.azimuth_deg > 0.0 && per_axis.elevation_deg > 0.0) ||
+      (std::abs(per_axis.azimuth_deg - h) < 0.05 * h &&
+       std::abs(per_axis.elevation_deg - h) < 0.05 * h))
+    return one;
+  const Polar p = ToPolar(points, origin, orientation);
+  auto kept = [&](const AngularSteps& st) {
+    const double a = st.azimuth_deg * kDeg, e = st.elevation_deg * kDeg;
+    std::vector<std::pair<long long, long long>> cells(p.az.size());
+    for (std::size_t i = 0; i < p.az.size(); ++i)
+      cells[i] = {std::llround(p.el[i] / e), std::llround((p.az[i] + kPi) / a)};
+    std::sort(cells.begin(), cells.end());
+    return static_cast<double>(std::unique(cells.begin(), cells.end()) - cells.begin());
+  };
+  const double k_one = kept(one), k_axis = kept(per_axis);
+  const double tie = 0.005 * static_cast<double>(p.az.size());
+  if (k_axis > k_one + tie) return per_axis;
+  if (k_one > k_axis + tie) return one;
+  return per_axis.azimuth_deg * per_axis.elevation_deg > h * h ? per_axis : one;
 }
 
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,

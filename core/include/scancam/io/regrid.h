@@ -160,13 +160,14 @@ AngularSteps EstimateAngularStepsDeg(
 ///   2. else the sensor's own steps when the cloud carries them (sensor.azimuth_deg > 0, e.g.
 ///      a CloudCompare GBL sensor's yaw / pitch steps; elevation: its own when > 0, else the
 ///      azimuth step);
-///   3. else one step for both axes, the points' nearest-neighbour spacing
-///      (EstimateAngularStepDeg: the finer of the two axes' steps), or a requested elevation
-///      step with it. A step per axis estimated separately (EstimateAngularStepsDeg) fills an
-///      anisotropic grid (1 x 0.5 deg) without empty columns, but merges points where it is
-///      coarser than the data: measured on spinning lidars with unevenly spaced rings,
-///      road2-pinhole keeps 42.2 % of its points on 43 rows that way against 89.6 % on 200 rows,
-///      KITTI 000000 80.5 % against 91.6 %; empty cells lose nothing, merged points do.
+///   3. else estimated: one step for both axes, the points' nearest-neighbour spacing
+///      (EstimateAngularStepDeg; with a requested elevation step: that one for elevation), or a
+///      step per axis (EstimateAngularStepsDeg), whichever grid keeps more points in cells of
+///      their own; equal (within 0.5 % of the points): the one with fewer cells. A terrestrial
+///      1 x 0.5 deg grid then gets 1 x 0.5 deg cells (one step would leave every other column
+///      empty), a spinning lidar with unevenly spaced rings one step (per axis would merge
+///      points: road2-pinhole 42.2 % kept on 43 rows against 89.6 % on 200, KITTI 000000
+///      80.5 % against 91.6 %).
 /// Degrees. Both 0 when nothing was given and the estimate fails (fewer than 2 usable points).
 AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
                              const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
