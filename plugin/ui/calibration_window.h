@@ -102,13 +102,17 @@ QPointF ViewPixelToCell(const QPointF& px, int rows, int cols, const ScanViewOri
 class CalibrationWindow : public QMainWindow {
   Q_OBJECT
  public:
-  enum LogLevel { kInfo = 0, kWarning = 1, kError = 2 };
+  /// Message levels (logMessage, reportInfo): the session's.
+  enum LogLevel {
+    kInfo = CalibrationSession::kInfo,
+    kWarning = CalibrationSession::kWarning,
+    kError = CalibrationSession::kError
+  };
 
   /// Runs `work` while showing progress titled `title`; `work` receives the Progress to report
   /// to and throws scancam::Cancelled when the user cancels. The default shows a
   /// QProgressDialog; the plugin passes one that uses CloudCompare's progress dialog.
-  using ProgressRunner =
-      std::function<void(const QString& title, const std::function<void(const Progress&)>& work)>;
+  using ProgressRunner = CalibrationSession::ProgressRunner;
 
   explicit CalibrationWindow(QWidget* parent = nullptr);
   ~CalibrationWindow() override;
