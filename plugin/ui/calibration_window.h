@@ -20,15 +20,11 @@
 // cloud), and the window's own shortcuts act only here (eventFilter). Text being edited (a pair's
 // label) keeps its keys.
 //
-// Autosave: every change is written at once (atomically: temporary file + rename) to the
-// pairs file of the current image and scan: the sidecar `<image>.scancam-pairs.csv`
-// (SidecarPath), or, when that file belongs to another scan, `<image>.scancam-pairs.<scan
-// fingerprint>.csv`; or the file last chosen with "Save pairs as". The file records the scan
-// it belongs to in a comment line `# scancam-scan: <fingerprint> <name>` (ScanFingerprint).
-// Opening an image reloads the pairs of that image AND this scan only; a half-picked pair is
-// kept too (as a comment line, pairs_model.h). A new image drops the previous image's mask and
-// calibration. The line under the toolbar always shows what is active: scan, camera file,
-// image, mask, pairs file.
+// State: the window only shows a CalibrationSession (calibration_session.h: scan, camera,
+// image, mask, pairs and their undo stack, solve, visibility, autosave) and forwards the user's
+// actions to it; the methods below that load, pick or solve are those forwards (with messages
+// and progress). Autosave: see the session. The line under the toolbar always shows what is
+// active: scan, camera file, image, mask, pairs file.
 //
 // Scan views: pixel (x, y) of an unrotated view is cell (row = y, col = x) (ba_image.h). The
 // View menu can transpose / flip the pictures (e.g. PTX grids are transposed panoramas,
@@ -73,6 +69,7 @@
 #include "scancam/progress.h"
 #include "scancam/scan_view.h"
 #include "scancam/solve/calibrate.h"
+#include "ui/calibration_session.h"
 
 class QAction;
 class QComboBox;
@@ -105,13 +102,17 @@ QPointF ViewPixelToCell(const QPointF& px, int rows, int cols, const ScanViewOri
 class CalibrationWindow : public QMainWindow {
   Q_OBJECT
  public:
-  enum LogLevel { kInfo = 0, kWarning = 1, kError = 2 };
+  /// Message levels (logMessage, reportInfo): the session's.
+  enum LogLevel {
+    kInfo = CalibrationSession::kInfo,
+    kWarning = CalibrationSession::kWarning,
+    kError = CalibrationSession::kError
+  };
 
   /// Runs `work` while showing progress titled `title`; `work` receives the Progress to report
   /// to and throws scancam::Cancelled when the user cancels. The default shows a
   /// QProgressDialog; the plugin passes one that uses CloudCompare's progress dialog.
-  using ProgressRunner =
-      std::function<void(const QString& title, const std::function<void(const Progress&)>& work)>;
+  using ProgressRunner = CalibrationSession::ProgressRunner;
 
   explicit CalibrationWindow(QWidget* parent = nullptr);
   ~CalibrationWindow() override;
@@ -156,7 +157,7 @@ class CalibrationWindow : public QMainWindow {
 
   /// `<image>.scancam-pairs.csv`.
   static QString SidecarPath(const QString& image_path);
-  /// The pairs file for `image_path` and this window's scan (see Autosave above).
+  /// The pairs file for `image_path` and this window's scan (calibration_session.h, Autosave).
   QString sidecarFor(const QString& image_path) const;
   /// A short hex digest of the scan's size and laser points: the same for the same scan data.
   static QString ScanFingerprint(const OrderedScan& scan);
@@ -164,28 +165,30 @@ class CalibrationWindow : public QMainWindow {
   static QString PairsFileScan(const QString& pairs_path);
 
   // ---- state -----------------------------------------------------------------------------
-  std::shared_ptr<const OrderedScan> scan() const { return scan_; }
-  const CameraModel& camera() const { return camera_; }
-  bool hasCamera() const { return camera_.valid(); }
+  /// The state this window shows.
+  CalibrationSession* session() const { return session_; }
+  std::shared_ptr<const OrderedScan> scan() const { return session_->scan(); }
+  const CameraModel& camera() const { return session_->camera(); }
+  bool hasCamera() const { return session_->camera().valid(); }
   /// The camera image, BGR 8-bit (empty when none).
-  const cv::Mat& imageBgr() const { return image_bgr_; }
-  const cv::Mat& mask() const { return mask_; }
+  const cv::Mat& imageBgr() const { return session_->imageBgr(); }
+  const cv::Mat& mask() const { return session_->mask(); }
   /// The mask in use: the mask file when one is chosen, else the valid region found from the
   /// camera and the image (camera/valid_region.h; empty while either is missing).
-  const cv::Mat& effectiveMask() const { return mask_.empty() ? valid_region_ : mask_; }
+  const cv::Mat& effectiveMask() const { return session_->effectiveMask(); }
   /// How the mask in use was found (the mask file, or the automatic region's description).
-  QString validRegionText() const { return valid_region_text_; }
+  QString validRegionText() const { return session_->validRegionText(); }
   /// Switches the automatic valid region on (default) or off (then, without a mask file, every
   /// pixel the camera model projects to may colour the scan: CLI --no-auto-mask).
   void setAutoValidRegion(bool on);
-  QString maskPath() const { return mask_path_; }
+  QString maskPath() const { return session_->maskPath(); }
   /// Camera + image + mask + pose as one colour::ColourView (call only when
   /// colouringProblem() is empty).
-  colour::ColourView colourView() const;
-  QString cameraPath() const { return camera_path_; }
-  QString imagePath() const { return image_path_; }
-  QString autosavePath() const { return autosave_path_; }
-  QString scanFingerprint() const { return scan_fingerprint_; }
+  colour::ColourView colourView() const { return session_->colourView(); }
+  QString cameraPath() const { return session_->cameraPath(); }
+  QString imagePath() const { return session_->imagePath(); }
+  QString autosavePath() const { return session_->autosavePath(); }
+  QString scanFingerprint() const { return session_->scanFingerprint(); }
   /// The line that shows the active scan, camera, image, mask and pairs file.
   QString activeInputsText() const;
   QUndoStack* undoStack() const { return undo_; }
@@ -202,10 +205,10 @@ class CalibrationWindow : public QMainWindow {
   void setSceneClosed(const QString& message);
   bool sceneClosed() const { return scene_closed_; }
   /// The last solve (or loaded calibration).
-  const std::optional<Calibration>& calibration() const { return calibration_; }
-  std::optional<Eigen::Isometry3d> pose() const;
+  const std::optional<Calibration>& calibration() const { return session_->calibration(); }
+  std::optional<Eigen::Isometry3d> pose() const { return session_->pose(); }
   /// Empty when camera, image and pose are ready for colouring; else what is missing.
-  QString colouringProblem() const;
+  QString colouringProblem() const { return session_->colouringProblem(); }
   QString statusText() const;
 
   PairsModel* pairsModel() const { return pairs_; }
@@ -265,6 +268,18 @@ class CalibrationWindow : public QMainWindow {
 
  private:
   void buildUi();
+  // buildUi's parts (calibration_window_ui.cpp), in this order.
+  void buildViews();
+  void buildDocks();
+  void buildFileActions();
+  void buildUndoActions();
+  void buildToggleActions();
+  void buildToolBars();
+  void buildMenus();
+  void buildStatusBar();
+  QAction* makeAction(const QString& text, const QString& tip, const std::function<void()>& slot);
+  /// After any change of the session: the image, markers, result, overlay, actions, inputs line.
+  void sync();
   void updateActions();
   void refreshMarkers();
   /// A click on the camera image (image = true: (u, v)) or the scan ((row, col)): snaps it
@@ -272,18 +287,11 @@ class CalibrationWindow : public QMainWindow {
   void clickWithSnap(bool image, double a, double b);
   /// Keeps the pending snapped point (snapped = true) or the click it came from.
   void resolveSnap(bool snapped);
+  /// Shows the outcome of a pick (scrolls to its pair, says what happened).
+  void showPick(const CalibrationSession::Pick& pick);
   void refreshScanPictures();
   void refreshOverlay();
-  /// Recomputes valid_region_ from the camera and the image (both needed, same size).
-  void refreshValidRegion();
-  /// After the pose, camera, image or mask changed: visibility, edge alignment, result text,
-  /// overlay, actions.
-  void poseChanged();
   void showResult();
-  void autosave();
-  /// Restores the half-picked pair kept in a pairs file (pairs_model.h), if any.
-  void restoreIncompletePair(const QString& path);
-  bool writePairsFile(const QString& path);
   void setStatus(const QString& text, int level);
   /// aspect_ from the action and the scan; a failure turns the action off with a warning.
   void rebuildAspect();
@@ -294,10 +302,6 @@ class CalibrationWindow : public QMainWindow {
   /// A key pressed in the window: its own shortcuts, Delete, Esc. True when used.
   bool handleKey(QKeyEvent* event);
   void refreshActiveInputs();
-  /// Reloads the pairs file of the current image and scan, if any; returns the message part.
-  QString reloadSidecarPairs();
-  /// Warns about pairs that do not fit the scan (after a load).
-  void reportPairProblems(const QString& source);
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   template <typename F>
   bool guarded(const QString& what, F&& f);
@@ -313,42 +317,20 @@ class CalibrationWindow : public QMainWindow {
   void chooseColourOptionsToSave();
   void chooseMask();
   void chooseExport();
-  void measureEdgeAlignment();
 
   ProgressRunner runner_;
   bool error_dialogs_ = true;
-  bool loading_pairs_ = false;  // suppresses autosave while a file is read in
-
-  std::shared_ptr<const OrderedScan> scan_;
-  QString scan_name_;
+  CalibrationSession* session_ = nullptr;
+  const unsigned char* shown_image_ = nullptr;  // the image data the camera view shows
   std::array<cv::Mat, 4> ba_;
   cv::Mat range_;
-  std::vector<Eigen::Vector3f> edge_points_;      // laser points on BA edges (scan frame)
-  std::vector<std::size_t> edge_point_cells_;     // their cells
-  std::optional<colour::ColouredScan> coloured_;  // visibility with the current pose
-  cv::Mat edge_cells_;                            // colour::BaEdgeCells of the scan
-  cv::Mat image_edge_distance_;                   // colour::ImageEdgeDistance of the image
-  QString alignment_text_;
   ScanViewOrientation orientation_;
-
-  CameraModel camera_;
-  QString camera_path_;
-  cv::Mat image_bgr_;
-  QString image_path_;
-  cv::Mat mask_;
-  QString mask_path_;
-  cv::Mat valid_region_;  ///< automatic valid region (used when there is no mask file)
-  QString valid_region_text_;
-  QString autosave_path_;
-  QString scan_fingerprint_;
   bool scene_closed_ = false;
   bool remembering_ = false;
-  QString title_base_;  // inputs are saved per scan (reopenRememberedInputs)
-  QUndoStack* undo_ = nullptr;
-  std::optional<Calibration> calibration_;
-  QString calibration_source_;
+  QString title_base_;          // inputs are saved per scan (reopenRememberedInputs)
+  QUndoStack* undo_ = nullptr;  // the session's
 
-  PairsModel* pairs_ = nullptr;
+  PairsModel* pairs_ = nullptr;  // the session's
   QTableView* table_ = nullptr;
   ImageView* camera_view_ = nullptr;
   QTabWidget* scan_tabs_ = nullptr;

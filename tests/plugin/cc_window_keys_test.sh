@@ -73,9 +73,14 @@ for _ in $(seq 90); do
   xdotool mousemove 175 138 click 1
   sleep 0.3
   xdotool mousemove 1219 61 click 1
-  win="$(xdotool search --onlyvisible --name "ScanCam calibration" 2>/dev/null | tail -1)" || true
+  # Wait for the window before clicking again: openbox may place it under that spot, and a
+  # second click there would press its "Camera file..." button (a modal dialog then blocks).
+  for _ in $(seq 15); do
+    win="$(xdotool search --onlyvisible --name "ScanCam calibration" 2>/dev/null | tail -1)" || true
+    [ -z "$win" ] || break
+    sleep 0.2
+  done
   [ -z "$win" ] || break
-  sleep 0.7
 done
 [ -n "$win" ] || fail "the calibration window did not open"
 xdotool windowmove "$win" 1150 0

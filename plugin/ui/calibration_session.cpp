@@ -1,0 +1,564 @@
+#include "ui/calibration_session.h"
+
+#include <QCryptographicHash>
+#include <QDir>
+#include <QFileInfo>
+#include <QSaveFile>
+#include <QStringList>
+#include <QUndoStack>
+#include <algorithm>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+
+#include "scancam/camera/camera_io.h"
+#include "scancam/camera/valid_region.h"
+#include "scancam/colour/export.h"
+#include "scancam/colour/overlay.h"
+#include "scancam/colour/view_io.h"
+#include "scancam/error.h"
+#include "scancam/image_io.h"
+#include "scancam/io/json_util.h"
+#include "scancam/io/pairs_csv.h"
+#include "scancam/rotation_rpy.h"
+#include "ui/pairs_model.h"
+
+namespace scancam::ui {
+
+namespace {
+constexpr char kScanTag[] = "# scancam-scan:";
+}  // namespace
+
+CalibrationSession::CalibrationSession(QObject* parent) : QObject(parent) {
+  pairs_ = new PairsModel(this);
+  undo_ = new QUndoStack(this);
+  pairs_->setUndoStack(undo_);
+  connect(pairs_, &PairsModel::pairsEdited, this, [this] { autosave(); });
+}
+
+CalibrationSession::~CalibrationSession() {
+  pairs_->setUndoStack(nullptr);
+  pairs_->disconnect(this);
+}
+
+void CalibrationSession::runWithProgress(const QString& title,
+                                         const std::function<void(const Progress&)>& work) {
+  if (runner_)
+    runner_(title, work);
+  else
+    work(Progress());
+}
+
+// ---- inputs -------------------------------------------------------------------------------
+
+void CalibrationSession::CheckScanUsable(const OrderedScan* scan, const QString& name) {
+  if (!scan || scan->rows <= 0 || scan->cols <= 0)
+    throw Error(name.toStdString() + ": the scan grid is empty");
+  CheckScan(*scan, name.toStdString());
+}
+
+void CalibrationSession::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
+                                 cv::Mat edge_cells) {
+  CheckScanUsable(scan.get(), name);
+  scan_ = std::move(scan);
+  scan_name_ = name;
+  scan_fingerprint_ = ScanFingerprint(*scan_);
+  pairs_->setScan(scan_);
+  edge_cells_ = edge_cells;
+  coloured_.reset();
+  emit changed();
+}
+
+void CalibrationSession::checkImageSize() {
+  if (!camera_.valid() || image_bgr_.empty()) return;
+  try {
+    CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
+  } catch (const std::exception& e) {
+    emit report(QString::fromStdString(e.what()), kError);
+  }
+}
+
+void CalibrationSession::loadCamera(const QString& path) {
+  CameraModel cam = LoadCamera(path.toStdString());
+  camera_ = std::move(cam);
+  camera_path_ = path;
+  calibration_.reset();
+  coloured_.reset();
+  pairs_->clearResults();
+  refreshValidRegion();
+  emit changed();
+  emit inputsChanged();
+  emit report(tr("Camera %1: %2")
+                  .arg(QFileInfo(path).fileName(), QString::fromStdString(camera_.Describe())),
+              kInfo);
+  checkImageSize();
+}
+
+void CalibrationSession::loadImage(const QString& path) {
+  // The view's image rule (colour/view_io.h); a size other than the camera's is reported by
+  // checkImageSize, not refused, so that the camera can be chosen after the image.
+  cv::Mat img = colour::ReadViewImage(path.toStdString());
+  const bool same_image = QFileInfo(path) == QFileInfo(image_path_);
+  const bool had_image = !image_path_.isEmpty();
+  image_bgr_ = img;
+  image_path_ = path;
+  image_edge_distance_.release();
+  QString msg =
+      tr("Image %1: %2 x %3 px").arg(QFileInfo(path).fileName()).arg(img.cols).arg(img.rows);
+  Level level = kInfo;
+  if (!same_image) {
+    // Nothing of the previous image carries over: its mask, its pose, its pairs (they are in
+    // its own pairs file), its undo history.
+    if (!mask_.empty()) {
+      msg += tr("; the mask %1 belonged to the previous image and is no longer used (Mask... "
+                "to choose one for this image)")
+                 .arg(QFileInfo(mask_path_).fileName());
+      level = kWarning;
+      mask_.release();
+      mask_path_.clear();
+    }
+    autosave_path_ = sidecarFor(path);
+    try {
+      if (had_image || pairs_->size() == 0) {
+        loading_pairs_ = true;
+        if (pairs_->size() > 0) pairs_->clear();
+        msg += reloadSidecarPairs();
+        loading_pairs_ = false;
+        undo_->clear();
+      } else if (QFileInfo::exists(autosave_path_)) {
+        // Pairs made (or loaded) before any image: kept, and the image's pairs added to them.
+        const int before = pairs_->size();
+        pairs_->appendPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+        msg += tr("; kept the %1 pairs made before the image and appended the %2 pairs of %3 "
+                  "(Ctrl+Z takes them out)")
+                   .arg(before)
+                   .arg(pairs_->size() - before)
+                   .arg(QFileInfo(autosave_path_).fileName());
+      } else {
+        msg += tr("; the %1 pairs made before the image are kept (saved to %2)")
+                   .arg(pairs_->size())
+                   .arg(QFileInfo(autosave_path_).fileName());
+        autosave();
+      }
+    } catch (const std::exception& e) {
+      // An unreadable pairs file is never overwritten by the next autosave.
+      loading_pairs_ = false;
+      undo_->clear();
+      autosave_path_.clear();
+      emit changed();
+      throw Error(std::string(e.what()) +
+                  " (that file is left as it is; new pairs are not saved until you choose "
+                  "Save pairs as)");
+    }
+    calibration_.reset();
+    calibration_source_.clear();
+    coloured_.reset();
+  }
+  refreshValidRegion();
+  emit changed();
+  emit inputsChanged();
+  emit report(msg, level);
+  if (!same_image) reportPairProblems(QFileInfo(autosave_path_).fileName());
+  checkImageSize();
+}
+
+void CalibrationSession::loadMask(const QString& path) {
+  cv::Mat m = colour::ReadViewMask(path.toStdString());  // colour/view_io.h
+  mask_ = m;
+  mask_path_ = path;
+  emit inputsChanged();
+  poseChanged();
+  emit changed();
+  emit report(tr("Mask %1: %2 x %3 px").arg(QFileInfo(path).fileName()).arg(m.cols).arg(m.rows),
+              kInfo);
+  if (!image_bgr_.empty() && (m.cols != image_bgr_.cols || m.rows != image_bgr_.rows))
+    emit report(tr("%1: the mask is %2 x %3 px but the image is %4 x %5 px")
+                    .arg(path)
+                    .arg(m.cols)
+                    .arg(m.rows)
+                    .arg(image_bgr_.cols)
+                    .arg(image_bgr_.rows),
+                kError);
+}
+
+void CalibrationSession::clearMask() {
+  mask_.release();
+  mask_path_.clear();
+  emit inputsChanged();
+  poseChanged();
+  emit changed();
+  emit report(
+      valid_region_.empty()
+          ? tr("No mask: every pixel of the image may colour the scan")
+          : tr("No mask file: the automatic valid region is used (%1)").arg(valid_region_text_),
+      kInfo);
+}
+
+void CalibrationSession::setAutoValidRegion(bool on) {
+  auto_valid_region_ = on;
+  refreshValidRegion();
+  if (mask_.empty()) poseChanged();
+  emit changed();
+}
+
+void CalibrationSession::refreshValidRegion() {
+  valid_region_.release();
+  valid_region_text_.clear();
+  if (!auto_valid_region_ || !camera_.valid() || image_bgr_.empty() ||
+      image_bgr_.cols != camera_.width() || image_bgr_.rows != camera_.height())
+    return;
+  try {
+    const ValidRegion r = FindValidRegion(camera_, image_bgr_);
+    valid_region_ = r.mask;
+    valid_region_text_ = QString::fromStdString(r.Describe());
+    if (mask_.empty())
+      emit report(tr("Valid image region (used without a mask file): %1").arg(valid_region_text_),
+                  kInfo);
+  } catch (const std::exception& e) {
+    emit report(tr("Valid image region not found: %1").arg(e.what()), kWarning);
+  }
+}
+
+// ---- pairs files --------------------------------------------------------------------------
+
+QString CalibrationSession::SidecarPath(const QString& image_path) {
+  return image_path + ".scancam-pairs.csv";
+}
+
+QString CalibrationSession::sidecarFor(const QString& image_path) const {
+  const QString primary = SidecarPath(image_path);
+  if (scan_fingerprint_.isEmpty() || !QFileInfo::exists(primary)) return primary;
+  const QString owner = PairsFileScan(primary);
+  // A file without the line predates it: it is taken (and marked) for this scan.
+  if (owner.isEmpty() || owner.section(' ', 0, 0) == scan_fingerprint_) return primary;
+  return image_path + ".scancam-pairs." + scan_fingerprint_ + ".csv";
+}
+
+QString CalibrationSession::reloadSidecarPairs() {
+  if (!QFileInfo::exists(autosave_path_)) return {};
+  const QString owner = PairsFileScan(autosave_path_);
+  pairs_->setPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+  restoreIncompletePair(autosave_path_);
+  return tr("; reloaded %1 pairs%2 from %3%4")
+      .arg(pairs_->completeCount())
+      .arg(pairs_->size() > pairs_->completeCount() ? tr(" and a half-picked one") : QString())
+      .arg(QFileInfo(autosave_path_).fileName())
+      .arg(owner.isEmpty() ? tr(" (the file does not say which scan it was made with: check "
+                                "the pairs)")
+                           : tr(" (made with this scan and this image)"));
+}
+
+QString CalibrationSession::ScanFingerprint(const OrderedScan& scan) {
+  QCryptographicHash h(QCryptographicHash::Sha1);
+  const std::int64_t size[2] = {scan.rows, scan.cols};
+  h.addData(reinterpret_cast<const char*>(size), sizeof(size));
+  // At most ~1 M points: enough to tell scans apart, fast on any scan.
+  const std::size_t n = scan.point_m.size();
+  const std::size_t stride = std::max<std::size_t>(1, n / 1000000);
+  for (std::size_t i = 0; i < n; i += stride)
+    h.addData(reinterpret_cast<const char*>(scan.point_m[i].data()), 3 * sizeof(float));
+  return QString::fromLatin1(h.result().toHex().left(16));
+}
+
+QString CalibrationSession::PairsFileScan(const QString& pairs_path) {
+  std::ifstream in(pairs_path.toStdString());
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind(kScanTag, 0) == 0)
+      return QString::fromStdString(line.substr(sizeof(kScanTag) - 1)).trimmed();
+    if (!line.empty() && line[0] != '#') break;  // the tag comes before the header
+  }
+  return {};
+}
+
+void CalibrationSession::loadPairs(const QString& path, PairsLoad how) {
+  const std::vector<PointPair> pairs = ReadPairsCsv(path.toStdString());
+  const QString owner = PairsFileScan(path);
+  // Autosave goes on to the current target (the file read is not overwritten by edits).
+  // One undo step brings the previous pairs back.
+  undo_->beginMacro(how == PairsLoad::kReplace
+                        ? tr("Load pairs from %1").arg(QFileInfo(path).fileName())
+                        : tr("Append pairs from %1").arg(QFileInfo(path).fileName()));
+  try {
+    if (how == PairsLoad::kReplace) {
+      pairs_->setPointPairs(pairs);
+      restoreIncompletePair(path);
+    } else {
+      pairs_->appendPointPairs(pairs);
+    }
+  } catch (...) {
+    undo_->endMacro();
+    throw;
+  }
+  undo_->endMacro();
+  calibration_.reset();
+  coloured_.reset();
+  emit changed();
+  QString msg = how == PairsLoad::kReplace
+                    ? tr("Loaded %1 pairs from %2 (Ctrl+Z brings the previous pairs back)")
+                    : tr("Appended %1 pairs from %2 (Ctrl+Z takes them out again)");
+  msg = msg.arg(pairs.size()).arg(QFileInfo(path).fileName());
+  const QString owner_fp = owner.section(' ', 0, 0);
+  const bool other_scan =
+      !owner_fp.isEmpty() && !scan_fingerprint_.isEmpty() && owner_fp != scan_fingerprint_;
+  if (other_scan)
+    msg += tr("; the file says it was made with another scan (%1)").arg(owner.section(' ', 1));
+  emit report(msg, other_scan ? kWarning : kInfo);
+  reportPairProblems(QFileInfo(path).fileName());
+}
+
+void CalibrationSession::reportPairProblems(const QString& source) {
+  const std::vector<int> rows = pairs_->rowsWithScanProblems();
+  if (rows.empty()) return;
+  QStringList numbers;
+  for (std::size_t k = 0; k < rows.size() && k < 12; ++k) numbers << QString::number(rows[k] + 1);
+  if (rows.size() > 12) numbers << "...";
+  emit report(tr("%1: %2 of %3 pairs do not fit scan %4 (marked orange in the table; the "
+                 "tooltip says why): %5. First: pair %6 %7")
+                  .arg(source)
+                  .arg(rows.size())
+                  .arg(pairs_->size())
+                  .arg(scan_name_)
+                  .arg(numbers.join(", "))
+                  .arg(rows.front() + 1)
+                  .arg(pairs_->scanProblem(rows.front())),
+              kWarning);
+}
+
+void CalibrationSession::restoreIncompletePair(const QString& path) {
+  std::ifstream in(path.toStdString());
+  std::string line;
+  while (std::getline(in, line))
+    if (pairs_->restoreIncompletePair(line)) break;
+}
+
+void CalibrationSession::writePairsFile(const QString& path) const {
+  // The half-picked pair too, as a comment line (pairs_model.h).
+  std::string text;
+  if (!scan_fingerprint_.isEmpty())
+    text += std::string(kScanTag) + " " + scan_fingerprint_.toStdString() + " " +
+            scan_name_.simplified().toStdString() + "\n";
+  text += FormatPairsCsv(pairs_->completePointPairs()) + pairs_->incompletePairComment();
+  QSaveFile file(path);  // writes a temporary file and renames it over `path` on commit
+  if (!file.open(QIODevice::WriteOnly) ||
+      file.write(text.data(), static_cast<qint64>(text.size())) !=
+          static_cast<qint64>(text.size()) ||
+      !file.commit()) {
+    throw Error(path.toStdString() + ": cannot write the pairs file (" +
+                file.errorString().toStdString() + ")");
+  }
+}
+
+void CalibrationSession::savePairs(const QString& path) {
+  writePairsFile(path);
+  autosave_path_ = path;
+  emit changed();
+  emit report(tr("Saved %1 pairs to %2 (later changes are saved there automatically)")
+                  .arg(pairs_->completeCount())
+                  .arg(path),
+              kInfo);
+}
+
+void CalibrationSession::autosave() {
+  if (loading_pairs_ || autosave_path_.isEmpty()) return;
+  try {
+    writePairsFile(autosave_path_);
+  } catch (const std::exception& e) {
+    emit report(tr("Autosave failed: %1").arg(e.what()), kWarning);
+  }
+}
+
+// ---- picking ------------------------------------------------------------------------------
+
+CalibrationSession::Pick CalibrationSession::pickImage(double u, double v, int selected) {
+  if (image_bgr_.empty()) return {-1, tr("Open the camera image first"), kWarning};
+  if (camera_.valid() && camera_.width() == image_bgr_.cols &&
+      camera_.height() == image_bgr_.rows && !camera_.Unproject(Eigen::Vector2d(u, v)))
+    return {-1,
+            tr("Pixel (%1, %2) is outside the camera's field of view: not used")
+                .arg(u, 0, 'f', 1)
+                .arg(v, 0, 'f', 1),
+            kWarning};
+  const int row = pairs_->placeImageHalf(QPointF(u, v), selected);
+  const EditablePair& p = pairs_->pairs()[static_cast<std::size_t>(row)];
+  return {
+      row,
+      p.complete()
+          ? tr("Pair %1 complete (%2 pairs)").arg(row + 1).arg(pairs_->completeCount())
+          : tr("Pair %1: image point set, now click the same point on a scan view").arg(row + 1),
+      kInfo};
+}
+
+CalibrationSession::Pick CalibrationSession::pickScan(double row, double col, int selected) {
+  if (!scan_) return {-1, QString(), kInfo};
+  if (!InterpolatePoint(*scan_, row, col))
+    return {-1,
+            tr("Scan cell (row %1, col %2) has no laser return: not used")
+                .arg(row, 0, 'f', 1)
+                .arg(col, 0, 'f', 1),
+            kWarning};
+  const int r = pairs_->placeScanHalf(row, col, selected);
+  const EditablePair& p = pairs_->pairs()[static_cast<std::size_t>(r)];
+  return {
+      r,
+      p.complete()
+          ? tr("Pair %1 complete (%2 pairs)").arg(r + 1).arg(pairs_->completeCount())
+          : tr("Pair %1: scan point set, now click the same point on the camera image").arg(r + 1),
+      kInfo};
+}
+
+// ---- calibration --------------------------------------------------------------------------
+
+std::vector<int> CalibrationSession::solve(const std::string& method) {
+  if (!camera_.valid()) throw Error("choose the camera file first");
+  if (!image_bgr_.empty())
+    CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
+  std::vector<int> rows;
+  const std::vector<PointPair> pairs = pairs_->completePointPairs(&rows);
+  CalibrateOptions opt;
+  opt.method = method;
+  opt.pairs_source = "pairs";
+  // Pick suggestions stay off the mask (a mask of another size is reported elsewhere).
+  const cv::Mat& mask = effectiveMask();
+  if (!mask.empty() && mask.cols == camera_.width() && mask.rows == camera_.height())
+    opt.image_mask = mask;
+  Calibration cal = Calibrate(pairs, scan_.get(), camera_, opt);
+  pairs_->setResults(cal, rows);
+  calibration_ = std::move(cal);
+  calibration_source_.clear();
+  poseChanged();
+  emit changed();
+  return rows;
+}
+
+void CalibrationSession::loadCalibration(const QString& path) {
+  Calibration c;
+  c.T_cam_scan = colour::LoadExtrinsic(path.toStdString());
+  c.rotation_rpy_deg = RotationToRpyDeg(c.T_cam_scan.linear());
+  c.method = "loaded";
+  calibration_ = c;
+  calibration_source_ = path;
+  pairs_->clearResults();
+  poseChanged();
+  emit changed();
+  emit report(tr("Using T_cam_scan from %1").arg(path), kInfo);
+}
+
+void CalibrationSession::saveCalibration(const QString& path) const {
+  if (!calibration_) throw Error("nothing to save: calibrate first");
+  nlohmann::json inputs = nlohmann::json::object();
+  if (!camera_path_.isEmpty()) inputs["camera"] = camera_path_.toStdString();
+  if (!image_path_.isEmpty()) inputs["image"] = image_path_.toStdString();
+  if (!autosave_path_.isEmpty()) inputs["pairs"] = autosave_path_.toStdString();
+  if (!scan_name_.isEmpty()) inputs["scan"] = scan_name_.toStdString();
+  WriteJsonFile(path.toStdString(), CalibrationToJson(*calibration_, inputs));
+}
+
+std::optional<Eigen::Isometry3d> CalibrationSession::pose() const {
+  if (!calibration_) return std::nullopt;
+  return calibration_->T_cam_scan;
+}
+
+QString CalibrationSession::colouringProblem() const {
+  if (!scan_) return tr("no scan");
+  if (!camera_.valid()) return tr("choose the camera file");
+  if (image_bgr_.empty()) return tr("open the camera image");
+  if (camera_.width() != image_bgr_.cols || camera_.height() != image_bgr_.rows)
+    return tr("the image is %1 x %2 px but the camera file is for %3 x %4 px")
+        .arg(image_bgr_.cols)
+        .arg(image_bgr_.rows)
+        .arg(camera_.width())
+        .arg(camera_.height());
+  if (!mask_.empty() && (mask_.cols != image_bgr_.cols || mask_.rows != image_bgr_.rows))
+    return tr("the mask is %1 x %2 px but the image is %3 x %4 px")
+        .arg(mask_.cols)
+        .arg(mask_.rows)
+        .arg(image_bgr_.cols)
+        .arg(image_bgr_.rows);
+  if (!calibration_) return tr("calibrate (or load a calibration) first");
+  return {};
+}
+
+colour::ColourView CalibrationSession::colourView() const {
+  colour::ColourView v;
+  v.camera = camera_;
+  if (calibration_) v.T_cam_scan = calibration_->T_cam_scan;
+  v.image = image_bgr_;
+  v.mask = effectiveMask();
+  v.name = image_path_.toStdString();
+  return v;
+}
+
+void CalibrationSession::poseChanged() {
+  coloured_.reset();
+  if (calibration_ && colouringProblem().isEmpty()) {
+    // Which points the camera sees with this pose (occlusion, mask): the overlay and the edge
+    // alignment then only use those.
+    try {
+      const std::vector<colour::ColourView> views = {colourView()};
+      colour::ColouredScan coloured;
+      runWithProgress(tr("Visibility"), [&](const Progress& progress) {
+        coloured = colour::Colourise(*scan_, views, {}, progress);
+      });
+      coloured_ = std::move(coloured);
+    } catch (const Cancelled&) {
+      emit report(tr("Visibility not computed (cancelled): the overlay shows every edge point"),
+                  kWarning);
+    } catch (const std::exception& e) {
+      emit report(tr("Visibility not computed: %1").arg(e.what()), kWarning);
+    }
+  }
+  measureEdgeAlignment();
+}
+
+void CalibrationSession::measureEdgeAlignment() {
+  alignment_text_.clear();
+  if (!colouringProblem().isEmpty() || edge_cells_.empty()) return;
+  try {
+    if (image_edge_distance_.empty()) image_edge_distance_ = colour::ImageEdgeDistance(image_bgr_);
+    const colour::ColourView view = colourView();
+    const colour::EdgeAlignment a =
+        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edge_cells_,
+                                     image_edge_distance_, coloured_ ? &*coloured_ : nullptr, 0);
+    if (a.edge_points == 0) {
+      alignment_text_ = tr("no laser edge point is seen in the image: the pose is wrong");
+      return;
+    }
+    alignment_text_ = tr("%1 laser edge points seen; distance to the nearest image edge: "
+                         "median %2 px, %3 % within 2 px")
+                          .arg(a.edge_points)
+                          .arg(a.median_px, 0, 'f', 2)
+                          .arg(100.0 * a.within_2px, 0, 'f', 1);
+  } catch (const std::exception& e) {
+    alignment_text_ = tr("edge alignment not measured: %1").arg(e.what());
+  }
+}
+
+QString CalibrationSession::exportModel(const QString& path) {
+  const QString problem = colouringProblem();
+  if (!problem.isEmpty()) throw Error("cannot export: " + problem.toStdString());
+  const QString ext = QFileInfo(path).suffix().toLower();
+  if (ext != "glb" && ext != "obj" && ext != "ply")
+    throw Error(path.toStdString() + ": choose a .glb, .obj or .ply file name");
+  const std::vector<colour::ColourView> views = {colourView()};
+  QString summary;
+  runWithProgress(tr("Export"), [&](const Progress& progress) {
+    const colour::ColouredScan coloured =
+        coloured_ ? *coloured_ : colour::Colourise(*scan_, views, {}, progress);
+    if (ext == "ply") {
+      colour::WriteColouredPly(path.toStdString(), *scan_, coloured);
+      summary = tr("%1 points, %2 coloured").arg(coloured.valid).arg(coloured.coloured);
+      return;
+    }
+    colour::MeshOptions mo;
+    const colour::TexturedMesh mesh =
+        colour::BuildTexturedMesh(*scan_, views, coloured, mo, progress);
+    if (ext == "glb")
+      colour::WriteGlb(path.toStdString(), mesh);
+    else
+      colour::WriteObj(path.toStdString(), mesh);
+    summary = tr("%1 triangles").arg(mesh.face_count());
+  });
+  return summary;
+}
+
+}  // namespace scancam::ui

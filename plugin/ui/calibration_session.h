@@ -1,0 +1,194 @@
+// qScanCam UI: the calibration session, the state of one calibration and what can be done with
+// it, without any widget (the calibration window shows it and forwards the user's actions;
+// tests drive it directly). Pure Qt Core + core.
+//
+// State: the scan (with its fingerprint and BA edge cells), the camera file, the camera image,
+// the mask (a file, or the automatic valid region), the pairs (PairsModel) with their undo
+// stack, the last solve or loaded calibration, the visibility of the scan with that pose
+// (colour::Colourise) and the edge alignment it gives, and the autosave target.
+//
+// Autosave: every change of the pairs is written at once (atomically: QSaveFile) to the pairs
+// file of the current image and scan: the sidecar `<image>.scancam-pairs.csv` (SidecarPath),
+// or, when that file belongs to another scan, `<image>.scancam-pairs.<scan fingerprint>.csv`;
+// or the file last chosen with savePairs. The file records the scan it belongs to in a comment
+// line `# scancam-scan: <fingerprint> <name>` (ScanFingerprint). Opening an image reloads the
+// pairs of that image AND this scan only; a half-picked pair is kept too (as a comment line,
+// pairs_model.h). A new image drops the previous image's mask, calibration and undo history.
+// An unreadable pairs file is never overwritten (autosave stops until savePairs).
+//
+// Errors: operations throw scancam::Error (or Cancelled) with a message in plain words and leave
+// the state as it was; what the user should read besides is sent with report() (kError for
+// problems found after the operation succeeded, e.g. an image of another size than the camera
+// file). changed() follows every change of the state (not of the pairs: PairsModel::pairsEdited).
+#pragma once
+
+#include <Eigen/Geometry>
+#include <QObject>
+#include <QString>
+#include <functional>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <vector>
+
+#include "scancam/camera/camera_model.h"
+#include "scancam/colour/colourise.h"
+#include "scancam/ordered_scan.h"
+#include "scancam/progress.h"
+#include "scancam/solve/calibrate.h"
+
+class QUndoStack;
+
+namespace scancam::ui {
+
+class PairsModel;
+
+class CalibrationSession : public QObject {
+  Q_OBJECT
+ public:
+  enum Level { kInfo = 0, kWarning = 1, kError = 2 };
+  /// Runs `work` while showing progress titled `title` (the window passes a dialog); the
+  /// default runs it with no progress shown.
+  using ProgressRunner =
+      std::function<void(const QString& title, const std::function<void(const Progress&)>& work)>;
+
+  explicit CalibrationSession(QObject* parent = nullptr);
+  ~CalibrationSession() override;
+  void setProgressRunner(ProgressRunner runner) { runner_ = std::move(runner); }
+
+  // ---- inputs ------------------------------------------------------------------------------
+  /// Throws (naming `name`) when `scan` is null, has an empty grid or is inconsistent.
+  static void CheckScanUsable(const OrderedScan* scan, const QString& name);
+  /// The scan the pairs' cells refer to; `edge_cells` are its colour::BaEdgeCells (for the
+  /// edge alignment; may be empty). Throws when the grid is empty or unusable.
+  void setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
+               cv::Mat edge_cells = {});
+  void loadCamera(const QString& path);
+  /// The camera image (any format OpenCV reads, kept as BGR 8-bit); a new image reloads its
+  /// pairs file (see Autosave above).
+  void loadImage(const QString& path);
+  /// Optional image mask (8-bit, 0 = pixel not usable).
+  void loadMask(const QString& path);
+  void clearMask();
+  /// The automatic valid region (used without a mask file) on (default) or off.
+  void setAutoValidRegion(bool on);
+  bool autoValidRegion() const { return auto_valid_region_; }
+
+  // ---- pairs -------------------------------------------------------------------------------
+  /// The outcome of a pick: the pair's row (-1 when refused) and what to tell the user.
+  struct Pick {
+    int row = -1;
+    QString message;
+    Level level = kInfo;
+  };
+  /// A pick on the camera image (u, v) / on the scan (fractional cell row, col) by the rule of
+  /// PairsModel; `selected` is the selected pair or -1. Refused (row -1) without an image, for
+  /// a pixel outside the camera's field of view, or a cell without a laser return.
+  Pick pickImage(double u, double v, int selected);
+  Pick pickScan(double row, double col, int selected);
+  enum class PairsLoad { kReplace, kAppend };
+  /// Reads a pairs file; kReplace replaces the pairs, kAppend adds them after the complete
+  /// pairs; one undo step takes it back. Drops the calibration.
+  void loadPairs(const QString& path, PairsLoad how);
+  /// Writes the pairs (atomically) and makes `path` the autosave target.
+  void savePairs(const QString& path);
+  QUndoStack* undoStack() const { return undo_; }
+  PairsModel* pairs() const { return pairs_; }
+
+  // ---- calibration -------------------------------------------------------------------------
+  /// Solves with the complete pairs (solver `method`: ransac | paper | epnp | upnp), stores the
+  /// residuals in the pairs and computes the visibility with the new pose. Returns the pairs'
+  /// table rows in solve order (PairResult::index -> row).
+  std::vector<int> solve(const std::string& method);
+  /// Takes T_cam_scan from a calibration JSON (colour::LoadExtrinsic).
+  void loadCalibration(const QString& path);
+  void saveCalibration(const QString& path) const;
+  /// Colours the scan and writes a textured mesh (.glb, .obj) or a coloured cloud (.ply);
+  /// returns what was written ("N triangles").
+  QString exportModel(const QString& path);
+  const std::optional<Calibration>& calibration() const { return calibration_; }
+  /// The file the calibration was loaded from (empty after a solve).
+  QString calibrationSource() const { return calibration_source_; }
+  std::optional<Eigen::Isometry3d> pose() const;
+  /// Which scan points the camera sees with the pose (empty while there is none).
+  const std::optional<colour::ColouredScan>& visibility() const { return coloured_; }
+  /// The edge-alignment sentence for the current pose (empty when not measured).
+  QString alignmentText() const { return alignment_text_; }
+  /// Empty when camera, image and pose are ready for colouring; else what is missing.
+  QString colouringProblem() const;
+  /// Camera + image + mask + pose as one colour::ColourView.
+  colour::ColourView colourView() const;
+
+  // ---- state -------------------------------------------------------------------------------
+  std::shared_ptr<const OrderedScan> scan() const { return scan_; }
+  QString scanName() const { return scan_name_; }
+  QString scanFingerprint() const { return scan_fingerprint_; }
+  const CameraModel& camera() const { return camera_; }
+  QString cameraPath() const { return camera_path_; }
+  const cv::Mat& imageBgr() const { return image_bgr_; }
+  /// CV_8UC1 of the grid's size: the scan's BA edge cells (colour::BaEdgeCells), or empty.
+  const cv::Mat& edgeCells() const { return edge_cells_; }
+  QString imagePath() const { return image_path_; }
+  const cv::Mat& mask() const { return mask_; }
+  QString maskPath() const { return mask_path_; }
+  /// The mask file when one is chosen, else the automatic valid region (may be empty).
+  const cv::Mat& effectiveMask() const { return mask_.empty() ? valid_region_ : mask_; }
+  const cv::Mat& validRegion() const { return valid_region_; }
+  QString validRegionText() const { return valid_region_text_; }
+  QString autosavePath() const { return autosave_path_; }
+
+  /// `<image>.scancam-pairs.csv`.
+  static QString SidecarPath(const QString& image_path);
+  /// The pairs file for `image_path` and this session's scan (see Autosave above).
+  QString sidecarFor(const QString& image_path) const;
+  /// A short hex digest of the scan's size and laser points: the same for the same scan data.
+  static QString ScanFingerprint(const OrderedScan& scan);
+  /// The scan a pairs file says it belongs to (its `# scancam-scan:` line); empty if none.
+  static QString PairsFileScan(const QString& pairs_path);
+
+ signals:
+  void report(const QString& text, int level);
+  void changed();
+  /// The camera file, image or mask changed (the host may remember them).
+  void inputsChanged();
+
+ private:
+  void autosave();
+  void writePairsFile(const QString& path) const;
+  void restoreIncompletePair(const QString& path);
+  QString reloadSidecarPairs();
+  void reportPairProblems(const QString& source);
+  void refreshValidRegion();
+  /// After the pose, camera, image or mask changed: visibility and edge alignment.
+  void poseChanged();
+  void measureEdgeAlignment();
+  void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
+  void checkImageSize();
+
+  ProgressRunner runner_;
+  PairsModel* pairs_ = nullptr;
+  QUndoStack* undo_ = nullptr;
+  bool loading_pairs_ = false;  // suppresses autosave while a file is read in
+
+  std::shared_ptr<const OrderedScan> scan_;
+  QString scan_name_;
+  QString scan_fingerprint_;
+  cv::Mat edge_cells_;           // colour::BaEdgeCells of the scan
+  cv::Mat image_edge_distance_;  // colour::ImageEdgeDistance of the image
+  CameraModel camera_;
+  QString camera_path_;
+  cv::Mat image_bgr_;
+  QString image_path_;
+  cv::Mat mask_;
+  QString mask_path_;
+  bool auto_valid_region_ = true;
+  cv::Mat valid_region_;
+  QString valid_region_text_;
+  QString autosave_path_;
+  std::optional<Calibration> calibration_;
+  QString calibration_source_;
+  std::optional<colour::ColouredScan> coloured_;
+  QString alignment_text_;
+};
+
+}  // namespace scancam::ui

@@ -1,0 +1,87 @@
+#include "ui/calibration_summary_html.h"
+
+#include <QCoreApplication>
+#include <QStringList>
+
+namespace scancam::ui {
+
+namespace {
+QString tr(const char* text) { return QCoreApplication::translate("CalibrationSummaryHtml", text); }
+QString Num(double v, int digits) { return QString::number(v, 'f', digits); }
+QString Escaped(const std::string& s) { return QString::fromStdString(s).toHtmlEscaped(); }
+}  // namespace
+
+QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loaded_from,
+                               const QString& edge_alignment) {
+  const bool solved = loaded_from.isEmpty();
+  QString html;
+  if (!solved) {
+    html += tr("<b>Loaded</b> from %1<br>").arg(loaded_from.toHtmlEscaped());
+  } else {
+    html += tr("<b>Method</b> %1%2 &nbsp; <b>%3</b> of %4 pairs inliers<br>")
+                .arg(Escaped(s.method))
+                .arg(s.refinement.empty() ? QString() : " + " + Escaped(s.refinement))
+                .arg(s.inlier_count)
+                .arg(s.pair_count);
+  }
+  html += tr("<b>T_cam_scan</b> (X_cam = R X_scan + t):<pre>");
+  for (int r = 0; r < 4; ++r) {
+    for (int k = 0; k < 4; ++k) html += QString("%1").arg(s.T_cam_scan(r, k), 11, 'f', 6);
+    html += "\n";
+  }
+  html += "</pre>";
+  html += tr("<b>roll / pitch / yaw</b> %1 %2 %3 deg")
+              .arg(Num(s.rotation_rpy_deg.x(), 3), Num(s.rotation_rpy_deg.y(), 3),
+                   Num(s.rotation_rpy_deg.z(), 3));
+  // The rotation's uncertainty as small angles about the camera's axes: roll/pitch/yaw std is
+  // meaningless near +-90 deg pitch (a lidar-to-camera rig), see solve/calibrate.h.
+  if (s.stds)
+    html += tr("<br><b>rotation std</b> about the camera's x / y / z: %1 %2 %3 deg")
+                .arg(Num(s.stds->rot_cam_deg.x(), 3), Num(s.stds->rot_cam_deg.y(), 3),
+                     Num(s.stds->rot_cam_deg.z(), 3));
+  html += tr("<br><b>t</b> %1 %2 %3 m")
+              .arg(Num(s.translation_m.x(), 4), Num(s.translation_m.y(), 4),
+                   Num(s.translation_m.z(), 4));
+  if (s.stds)
+    html += tr(" &nbsp;(std %1 %2 %3)")
+                .arg(Num(s.stds->t_m.x(), 4), Num(s.stds->t_m.y(), 4), Num(s.stds->t_m.z(), 4));
+  if (solved) {
+    const CalibrationSummary::Residuals& e = s.residuals;
+    html += tr("<br><b>Reprojection error</b> (inliers): mean %1 px, std %2, max %3 px; "
+               "angular mean %4 deg, max %5 deg")
+                .arg(Num(e.mean_px, 2), Num(e.std_px, 2), Num(e.max_px, 2), Num(e.mean_deg, 3),
+                     Num(e.max_deg, 3));
+    if (s.noise_fit && s.noise_fit->picks_noisier)
+      html += tr("<br><span style='color:#a05000'>the residuals are %1 times what the picking "
+                 "noise model expects: the picks are noisier than assumed</span>")
+                  .arg(Num(s.noise_fit->reduced_chi_square, 1));
+    QStringList flagged;
+    for (const CalibrationSummary::Pair& p : s.pairs)
+      if (!p.inlier) flagged << tr("#%1 (%2 deg)").arg(p.number).arg(Num(p.error_deg, 2));
+    if (!flagged.isEmpty())
+      html += tr("<br><span style='color:#c00000'><b>Flagged pairs</b>: %1</span>")
+                  .arg(flagged.join(", "));
+  }
+  if (!edge_alignment.isEmpty())
+    html += tr("<br><b>Edge alignment</b> (green dots on the image): %1")
+                .arg(edge_alignment.toHtmlEscaped());
+  if (solved && !s.suggestions.empty()) {
+    html += tr("<br><b>To tighten the result</b>, pick next a feature near the magenta marks:");
+    for (const CalibrationSummary::Suggestion& g : s.suggestions) {
+      html +=
+          tr("<br>&nbsp; next %1: %2pixel (%3, %4) &rarr; rotation std about the camera's "
+             "x / y / z %5 %6 %7 deg, translation std %8 %9 %10 cm; %11")
+              .arg(g.number)
+              .arg(s.several_scenes ? tr("scene %1, ").arg(g.scene) : QString())
+              .arg(Num(g.image_px.x(), 0), Num(g.image_px.y(), 0), Num(g.std_rot_cam_deg.x(), 3),
+                   Num(g.std_rot_cam_deg.y(), 3), Num(g.std_rot_cam_deg.z(), 3),
+                   Num(g.std_t_cm.x(), 1), Num(g.std_t_cm.y(), 1), Num(g.std_t_cm.z(), 1))
+              .arg(Escaped(g.reason));
+    }
+  }
+  for (const std::string& w : s.warnings)
+    html += tr("<br><span style='color:#a05000'>warning: %1</span>").arg(Escaped(w));
+  return html;
+}
+
+}  // namespace scancam::ui
