@@ -293,4 +293,15 @@ Rgb8 SampleBilinear(const cv::Mat& bgr, float u, float v);
 /// file and the field.
 Eigen::Isometry3d LoadExtrinsic(const std::string& path);
 
+namespace detail {
+/// Which row kernels Colourise uses (for tests: the header promises the same result from
+/// both). kAvx2 (the default): 8 lanes where the processor has AVX2, else kSse2; kSse2: 4
+/// lanes (SSE2 on x86-64, plain C++ elsewhere). Process-wide; not to be changed while a
+/// Colourise call runs.
+enum class ColourKernel { kSse2, kAvx2 };
+void SetColourKernel(ColourKernel kernel);
+/// The kernels in use (kSse2 when the processor has no AVX2, whatever was set).
+ColourKernel ActiveColourKernel();
+}  // namespace detail
+
 }  // namespace scancam::colour
