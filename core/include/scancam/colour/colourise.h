@@ -22,11 +22,11 @@
 //      neighbours (left, right, up, down) and the four implied diagonal corners (sums of two
 //      such vectors), so neighbouring boxes meet and a sparse scan still occludes. A
 //      neighbour counts with its real projection when it is CONTINUOUS with the cell
-//      (ContinuousNeighbours below; also when it projects just outside the image or its mask:
-//      the same surface continues there); otherwise (no return, across a depth discontinuity) a
-//      virtual neighbour is used: the point where the cell's surface (the plane through the
-//      cell and its continuous opposite neighbour; without one, the cell's own range) meets
-//      the neighbour's beam, i.e. the grid's angular spacing projected into the image, scaled
+//      (ContinuousNeighbours, scan/continuity.h; also when it projects just outside the image
+//      or its mask: the same surface continues there); otherwise (no return, across a depth
+//      discontinuity) a virtual neighbour is used: the point where the cell's surface (the plane
+//      through the cell and its continuous opposite neighbour; without one, the cell's own range)
+//      meets the neighbour's beam, i.e. the grid's angular spacing projected into the image, scaled
 //      by `edge_fill` (2 = the box reaches the virtual neighbour: the true silhouette of an
 //      object lies somewhere between its last beam and the next one, so this is the smallest
 //      extent that hides everything behind it; cells with no continuous neighbour at all use
@@ -96,7 +96,8 @@
 // Speed and memory: per image, rows in parallel chunks (OpenMP), each thread with three
 // rolling rows of projections, points and continuity flags (no allocation per point); the
 // arithmetic of a row runs 8 cells at a time with AVX2 where the processor has it, else 4
-// (SSE2, or plain C++ off x86), with the same result to the bit. Passes: (1) splat: the
+// (SSE2, or plain C++ off x86), with the same result to the bit
+// (tests/core/colour_simd_test.cpp compares them, detail::SetColourKernel). Passes: (1) splat: the
 // threads write the depth buffer holding locks of 64 x 64 pixel tiles per segment of 64 cells
 // (plain loads and stores inside); (2) depth test, back faces, state and quality; with one
 // image, (3) the colours, after the depth buffer is freed. Every pass projects the rows it
