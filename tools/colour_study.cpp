@@ -25,6 +25,7 @@
 #include "scancam/colour/ground_view.h"
 #include "scancam/colour/view_io.h"
 #include "scancam/io/scan_io.h"
+#include "scancam/scan/continuity.h"
 #include "scancam/sim/colour_truth.h"
 #include "scancam/sim/office_scene.h"
 #include "scancam/sim/simulate.h"

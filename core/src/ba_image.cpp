@@ -8,12 +8,9 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#if defined(__SSE2__)
-#include <immintrin.h>
-#endif
-
 #include "scancam/error.h"
 #include "scancam/image_io.h"
+#include "simd/simd.h"
 
 namespace scancam {
 namespace {
@@ -51,7 +48,7 @@ void BaSpanScalar(const float* __restrict rho, const float* __restrict beam,
   }
 }
 
-#if defined(__SSE2__)
+#if SCANCAM_SIMD_SSE2
 #define SCANCAM_BA_X86 1
 // SIMD kernels (GCC does not vectorise the scalar loop itself: sqrt may set errno, and the
 // beams have stride 3). They perform the operations of detail::BearingAngleFromChord in the
@@ -62,9 +59,6 @@ void BaSpanScalar(const float* __restrict rho, const float* __restrict beam,
 // with shuffles into x = (a0 a3 b2 c1), y = (a1 b0 b3 c2), z = (a2 b1 c0 c3) and summed.
 
 // SSE2: 4 cells per step.
-inline __m128 SelectSse(__m128 mask, __m128 a, __m128 b) {
-  return _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
-}
 
 void BaSpanSse2(const float* __restrict rho, const float* __restrict beam,
                 const float* __restrict rho_prev, const float* __restrict beam_prev,
@@ -97,12 +91,12 @@ void BaSpanSse2(const float* __restrict rho, const float* __restrict beam,
     const __m128 r1 = _mm_loadu_ps(rho + k), r0 = _mm_loadu_ps(rho_prev + k);
     const __m128 x = _mm_add_ps(_mm_sub_ps(r1, r0), _mm_mul_ps(r0, _mm_mul_ps(half, h)));
     __m128 q = _mm_mul_ps(h, _mm_sub_ps(one, _mm_mul_ps(quarter, h)));
-    q = SelectSse(_mm_cmpgt_ps(q, zero), q, zero);
+    q = simd::SelectPs(_mm_cmpgt_ps(q, zero), q, zero);
     const __m128 y = _mm_mul_ps(r0, _mm_sqrt_ps(q));
 
     const __m128 ax = _mm_andnot_ps(sign, x);
     const __m128 y_big = _mm_cmpgt_ps(y, ax);
-    const __m128 a = _mm_div_ps(SelectSse(y_big, ax, y), SelectSse(y_big, y, ax));
+    const __m128 a = _mm_div_ps(simd::SelectPs(y_big, ax, y), simd::SelectPs(y_big, y, ax));
     const __m128 s = _mm_mul_ps(a, a), s2 = _mm_mul_ps(s, s), s4 = _mm_mul_ps(s2, s2);
     const __m128 p01 = _mm_add_ps(c[0], _mm_mul_ps(c[1], s));
     const __m128 p23 = _mm_add_ps(c[2], _mm_mul_ps(c[3], s));
@@ -111,33 +105,26 @@ void BaSpanSse2(const float* __restrict rho, const float* __restrict beam,
     const __m128 p03 = _mm_add_ps(p01, _mm_mul_ps(p23, s2));
     const __m128 p47 = _mm_add_ps(p45, _mm_mul_ps(p67, s2));
     __m128 p = _mm_mul_ps(_mm_add_ps(p03, _mm_mul_ps(p47, s4)), a);
-    p = SelectSse(y_big, _mm_sub_ps(half_pi, p), p);
-    p = SelectSse(_mm_cmplt_ps(x, zero), _mm_sub_ps(pi, p), p);
+    p = simd::SelectPs(y_big, _mm_sub_ps(half_pi, p), p);
+    p = simd::SelectPs(_mm_cmplt_ps(x, zero), _mm_sub_ps(pi, p), p);
 
     // Valid as OrderedScan::valid (finite, > 0); ordered compares are false for NaN, so a
     // NaN range or an unknown beam (h NaN) gives NaN.
     __m128 ok = _mm_and_ps(_mm_cmpgt_ps(r1, zero), _mm_cmplt_ps(r1, inf));
     ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpgt_ps(r0, zero), _mm_cmplt_ps(r0, inf)));
     ok = _mm_and_ps(ok, _mm_cmpge_ps(h, zero));
-    _mm_storeu_ps(out + k, SelectSse(ok, p, nan));
+    _mm_storeu_ps(out + k, simd::SelectPs(ok, p, nan));
   }
   BaSpanScalar(rho + k, beam + 3 * k, rho_prev + k, beam_prev + 3 * k, out + k, n - k);
-}
-
-// Selection by mask with and/andnot/or: _mm256_blendv_ps gets folded by GCC 12 into a
-// generic vector condition that it then scalarises inside a target("avx") function.
-__attribute__((target("avx"))) inline __m256 SelectAvx(__m256 mask, __m256 a, __m256 b) {
-  return _mm256_or_ps(_mm256_and_ps(mask, a), _mm256_andnot_ps(mask, b));
 }
 
 // AVX: 8 cells per step. The three 8-float vectors are first regrouped by 128-bit halves
 // (permute2f128) so that each half holds the 12 floats of 4 cells; the in-lane shuffles are
 // then those of the SSE2 kernel (lower half: cells 0-3, upper half: cells 4-7).
-__attribute__((target("avx"))) void BaSpanAvx(const float* __restrict rho,
-                                              const float* __restrict beam,
-                                              const float* __restrict rho_prev,
-                                              const float* __restrict beam_prev,
-                                              float* __restrict out, int n) {
+SCANCAM_SIMD_TARGET_AVX void BaSpanAvx(const float* __restrict rho, const float* __restrict beam,
+                                       const float* __restrict rho_prev,
+                                       const float* __restrict beam_prev, float* __restrict out,
+                                       int n) {
   const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(kInf);
   const __m256 nan = _mm256_set1_ps(kNaN);
   const __m256 half = _mm256_set1_ps(0.5f), quarter = _mm256_set1_ps(0.25f);
@@ -172,12 +159,12 @@ __attribute__((target("avx"))) void BaSpanAvx(const float* __restrict rho,
     const __m256 x =
         _mm256_add_ps(_mm256_sub_ps(r1, r0), _mm256_mul_ps(r0, _mm256_mul_ps(half, h)));
     __m256 q = _mm256_mul_ps(h, _mm256_sub_ps(one, _mm256_mul_ps(quarter, h)));
-    q = SelectAvx(_mm256_cmp_ps(q, zero, _CMP_GT_OQ), q, zero);
+    q = simd::SelectPs(_mm256_cmp_ps(q, zero, _CMP_GT_OQ), q, zero);
     const __m256 y = _mm256_mul_ps(r0, _mm256_sqrt_ps(q));
 
     const __m256 ax = _mm256_andnot_ps(sign, x);
     const __m256 y_big = _mm256_cmp_ps(y, ax, _CMP_GT_OQ);
-    const __m256 a = _mm256_div_ps(SelectAvx(y_big, ax, y), SelectAvx(y_big, y, ax));
+    const __m256 a = _mm256_div_ps(simd::SelectPs(y_big, ax, y), simd::SelectPs(y_big, y, ax));
     const __m256 s = _mm256_mul_ps(a, a), s2 = _mm256_mul_ps(s, s);
     const __m256 s4 = _mm256_mul_ps(s2, s2);
     const __m256 p01 = _mm256_add_ps(c[0], _mm256_mul_ps(c[1], s));
@@ -187,15 +174,15 @@ __attribute__((target("avx"))) void BaSpanAvx(const float* __restrict rho,
     const __m256 p03 = _mm256_add_ps(p01, _mm256_mul_ps(p23, s2));
     const __m256 p47 = _mm256_add_ps(p45, _mm256_mul_ps(p67, s2));
     __m256 p = _mm256_mul_ps(_mm256_add_ps(p03, _mm256_mul_ps(p47, s4)), a);
-    p = SelectAvx(y_big, _mm256_sub_ps(half_pi, p), p);
-    p = SelectAvx(_mm256_cmp_ps(x, zero, _CMP_LT_OQ), _mm256_sub_ps(pi, p), p);
+    p = simd::SelectPs(y_big, _mm256_sub_ps(half_pi, p), p);
+    p = simd::SelectPs(_mm256_cmp_ps(x, zero, _CMP_LT_OQ), _mm256_sub_ps(pi, p), p);
 
     __m256 ok =
         _mm256_and_ps(_mm256_cmp_ps(r1, zero, _CMP_GT_OQ), _mm256_cmp_ps(r1, inf, _CMP_LT_OQ));
     ok = _mm256_and_ps(
         ok, _mm256_and_ps(_mm256_cmp_ps(r0, zero, _CMP_GT_OQ), _mm256_cmp_ps(r0, inf, _CMP_LT_OQ)));
     ok = _mm256_and_ps(ok, _mm256_cmp_ps(h, zero, _CMP_GE_OQ));
-    _mm256_storeu_ps(out + k, SelectAvx(ok, p, nan));
+    _mm256_storeu_ps(out + k, simd::SelectPs(ok, p, nan));
   }
   BaSpanSse2(rho + k, beam + 3 * k, rho_prev + k, beam_prev + 3 * k, out + k, n - k);
 }
@@ -205,15 +192,11 @@ using SpanFn = void (*)(const float*, const float*, const float*, const float*, 
 
 detail::BaKernel Resolve(detail::BaKernel want) {
   using K = detail::BaKernel;
-#if defined(SCANCAM_BA_X86)
-  const bool avx = __builtin_cpu_supports("avx");
-  if (want == K::kAuto) return avx ? K::kAvx : K::kSse2;
-  if (want == K::kAvx && !avx) return K::kSse2;
-  return want;
-#else
-  (void)want;
-  return K::kScalar;
-#endif
+  // simd/simd.h's rule: the widest the processor has, up to the one asked for.
+  const simd::Isa isa = simd::Widest(want == K::kScalar ? simd::Isa::kScalar
+                                     : want == K::kSse2 ? simd::Isa::kSse2
+                                                        : simd::Isa::kAvx);
+  return isa == simd::Isa::kAvx ? K::kAvx : isa == simd::Isa::kSse2 ? K::kSse2 : K::kScalar;
 }
 
 std::atomic<detail::BaKernel>& KernelChoice() {

@@ -28,6 +28,7 @@
 #include "scancam/colour/colourise.h"
 #include "scancam/colour/export.h"
 #include "scancam/error.h"
+#include "scancam/scan/continuity.h"
 #include "test_util.h"
 
 namespace {

@@ -14,6 +14,7 @@
 #include "scancam/colour/ground.h"
 #include "scancam/error.h"
 #include "scancam/io/scan_io.h"
+#include "scancam/scan/continuity.h"
 #include "test_util.h"
 
 namespace {

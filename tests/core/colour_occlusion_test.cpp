@@ -12,6 +12,7 @@
 
 #include "scancam/colour/colourise.h"
 #include "scancam/error.h"
+#include "scancam/scan/continuity.h"
 #include "test_util.h"
 
 namespace {

@@ -6,6 +6,7 @@
 #include <limits>
 #include <sstream>
 
+#include "scancam/camera/camera_projector.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 
@@ -412,10 +413,7 @@ void CameraModel::Init() {
 }
 
 bool CameraModel::WithinFov(const Eigen::Vector3d& p) const {
-  const double n = p.norm();
-  if (!(n > 0.0) || !std::isfinite(n)) return false;
-  if (max_angle_rad_ >= M_PI) return true;
-  return p.z() >= n * cos_max_angle_;
+  return WithinFieldOfView(p, cos_max_angle_, max_angle_rad_ >= M_PI);
 }
 
 std::optional<Eigen::Vector2d> CameraModel::ProjectNoImage(const Eigen::Vector3d& p) const {
@@ -466,11 +464,10 @@ void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs,
 #pragma omp parallel for if (n >= 65536) schedule(static, 4096)
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p = R * pts[i].cast<double>() + t;
-    const double nn = p.norm();
-    bool ok = nn > 0.0 && std::isfinite(nn) && (all_dirs || p.z() >= nn * cos_max);
+    bool ok = WithinFieldOfView(p, cos_max, all_dirs);
     double px[2] = {0.0, 0.0};
     if (ok) ok = Model::Project(prm, p.data(), px);
-    ok = ok && px[0] >= -0.5 && px[1] >= -0.5 && px[0] < w - 0.5 && px[1] < h - 0.5;
+    ok = ok && PixelOnImage(px[0], px[1], w, h);
     uv[i] = ok ? Eigen::Vector2f(static_cast<float>(px[0]), static_cast<float>(px[1]))
                : Eigen::Vector2f(fnan, fnan);
     valid[i] = ok ? 1 : 0;

@@ -20,6 +20,7 @@
 
 #include "scancam/error.h"
 #include "scancam/output_file.h"
+#include "scancam/scan/continuity.h"
 
 namespace scancam::colour {
 namespace {

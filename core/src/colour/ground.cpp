@@ -15,11 +15,6 @@
 
 namespace scancam::colour {
 
-double GroundPlane::tilt_deg(const Eigen::Vector3d& up) const {
-  const double c = std::clamp(normal.dot(up.normalized()), -1.0, 1.0);
-  return std::acos(c) * 180.0 / 3.14159265358979323846;
-}
-
 std::string DescribeGround(const GroundPlane& g, const Eigen::Vector3d& origin_m,
                            const Eigen::Vector3d& up) {
   char buf[160];

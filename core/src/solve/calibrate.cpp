@@ -7,10 +7,10 @@
 #include <iomanip>
 #include <sstream>
 
-#include "scancam/colour/colourise.h"
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
 #include "scancam/rotation_rpy.h"
+#include "scancam/scan/continuity.h"
 #include "scancam/solve/linear_pnp.h"
 
 namespace scancam {
@@ -197,8 +197,7 @@ struct CandidateFeature {
 };
 
 std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
-                                                  const colour::ContinuityTest& continuous, int r,
-                                                  int c) {
+                                                  const ContinuityTest& continuous, int r, int c) {
   if (!scan.valid(r, c)) return std::nullopt;
   const float range = scan.range_m[scan.index(r, c)];
   CandidateFeature f;
@@ -299,7 +298,7 @@ void SuggestPicks(const CameraModel& camera, const FlatPairs& f,
   // with a grid neighbour that is farther and not continuous with it, colour/colourise.h: an
   // object's outline, where its corners are), about 1000 of them spread over each grid, that
   // the camera sees, with clutter rejected and corners preferred (ClassifyCandidate).
-  const colour::ContinuityTest continuous;
+  const ContinuityTest continuous;
   struct Cand {
     int scene, r, c;
     Eigen::Vector3d p;

@@ -22,11 +22,11 @@
 //      neighbours (left, right, up, down) and the four implied diagonal corners (sums of two
 //      such vectors), so neighbouring boxes meet and a sparse scan still occludes. A
 //      neighbour counts with its real projection when it is CONTINUOUS with the cell
-//      (ContinuousNeighbours below; also when it projects just outside the image or its mask:
-//      the same surface continues there); otherwise (no return, across a depth discontinuity) a
-//      virtual neighbour is used: the point where the cell's surface (the plane through the
-//      cell and its continuous opposite neighbour; without one, the cell's own range) meets
-//      the neighbour's beam, i.e. the grid's angular spacing projected into the image, scaled
+//      (ContinuousNeighbours, scan/continuity.h; also when it projects just outside the image
+//      or its mask: the same surface continues there); otherwise (no return, across a depth
+//      discontinuity) a virtual neighbour is used: the point where the cell's surface (the plane
+//      through the cell and its continuous opposite neighbour; without one, the cell's own range)
+//      meets the neighbour's beam, i.e. the grid's angular spacing projected into the image, scaled
 //      by `edge_fill` (2 = the box reaches the virtual neighbour: the true silhouette of an
 //      object lies somewhere between its last beam and the next one, so this is the smallest
 //      extent that hides everything behind it; cells with no continuous neighbour at all use
@@ -96,7 +96,8 @@
 // Speed and memory: per image, rows in parallel chunks (OpenMP), each thread with three
 // rolling rows of projections, points and continuity flags (no allocation per point); the
 // arithmetic of a row runs 8 cells at a time with AVX2 where the processor has it, else 4
-// (SSE2, or plain C++ off x86), with the same result to the bit. Passes: (1) splat: the
+// (SSE2, or plain C++ off x86), with the same result to the bit
+// (tests/core/colour_simd_test.cpp compares them, detail::SetColourKernel). Passes: (1) splat: the
 // threads write the depth buffer holding locks of 64 x 64 pixel tiles per segment of 64 cells
 // (plain loads and stores inside); (2) depth test, back faces, state and quality; with one
 // image, (3) the colours, after the depth buffer is freed. Every pass projects the rows it
@@ -123,6 +124,7 @@
 #include "scancam/colour/ground.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
+#include "scancam/scan/continuity.h"
 
 namespace scancam::colour {
 
@@ -143,92 +145,13 @@ struct Rgb8 {
   bool operator==(const Rgb8& o) const { return r == o.r && g == o.g && b == o.b; }
 };
 
-/// When two grid-neighbour cells belong to one surface (used for splats, depth tolerances,
-/// the quality and meshes). Both cells must be valid. Three tests, any one suffices:
-///
-/// 1. Bearing Angle. With rho_i, rho_j their ranges and h = |b_i - b_j|^2 the squared chord of
-///    their unit beams (cos dphi = 1 - h/2), the Bearing Angle at P_i towards P_j (ba_image.h,
-///    docs/method.md eq. 4) has
-///      cos BA_i = (rho_i - rho_j cos dphi) / |P_i - P_j|
-///               = ((rho_i - rho_j) + rho_j h/2) / sqrt((rho_i - rho_j)^2 + rho_i rho_j h).
-///    The pair passes when |rho_i - rho_j| <= range_noise_m (a jump within the range noise), or
-///    when BA_i and BA_j both lie in [min_bearing_angle, pi - min_bearing_angle]. A BA near 0 or
-///    pi means the segment P_i P_j runs almost along the beam: a depth discontinuity, OR a
-///    surface seen at a grazing incidence above 90 deg - min_bearing_angle (a road a few metres
-///    from a car lidar), which tests 2 and 3 recover. The default 30 deg takes a step of more
-///    than ~1.7 times the beam spacing at that range (9 cm at 3 m with 1 deg beams: a book
-///    spine, a door handle, a table edge over its leg) for a discontinuity unless test 2 finds
-///    a plane: steps of a few beam spacings are where a hidden surface 5-12 cm behind another
-///    took the nearer one's colour with 15 deg (tests/core/colour_sim_test.cpp). Why not the
-///    earlier 15 deg, and what 30 costs on a real scan: docs/design/colour.md.
-/// 2. Planar extrapolation (planar_extrapolation = true). For a plane n.x = d seen from the
-///    sensor, 1/rho = n.b / d is linear in the beam direction b. With k the cell before i on
-///    the same grid line (k = i - step, j = i + step), the plane through k and i predicts
-///      1/rho_j ~ 1/rho_i + lambda (1/rho_i - 1/rho_k),  lambda = |b_j - b_i| / |b_i - b_k|
-///    (lambda handles unequal angular steps). The pair passes when
-///      |1/rho_j - prediction| <= planar_tolerance |1/rho_j - 1/rho_i| + range_noise_m /
-///      (rho_i rho_j),
-///    from i's side or, symmetrically, from j's side (the cell after j predicting i). A grazing
-///    surface continues the plane of its neighbours and passes; at a real discontinuity (a pole
-///    in front of a wall) the near surface predicts a range near its own and fails.
-/// 3. Ground (when `ground` is set, colour/ground.h): both cells lie within
-///      ground_tolerance_m + ground_tolerance_fraction * rho
-///    of the ground plane (|height_m(P)|, each with its own range rho), and the segment
-///    between them rises by at most tan(ground_max_slope_deg) |P_i - P_j| (a box's bottom edge
-///    and the floor behind it are not one surface, two far rings of a road are). A lidar sees the
-///    ground at a grazing angle: far rings are metres apart along the beam and centimetres of
-///    height noise are metres of range, so tests 1 and 2 fail there (real road scan, rings beyond
-///    30 m) although the cells are one surface. Objects standing on the ground join it only
-///    with their cells inside the band (a kerb, the bottom 10-30 cm of a wall).
-/// Tests 1 and 2 are symmetric in i and j and use only ranges and beam directions, as BA
-/// images do; test 3 uses the points.
-struct ContinuityOptions {
-  double min_bearing_angle_deg = 30.0;
-  double range_noise_m = 0.03;
-  bool planar_extrapolation = true;
-  double planar_tolerance = 0.2;
-  std::optional<GroundPlane>
-      ground;  ///< none: no test 3 (Colourise fills it, ColourOptions::ground)
-  double ground_tolerance_m = 0.1;
-  double ground_tolerance_fraction = 0.004;
-  double ground_max_slope_deg = 8.0;
-  /// The grid closes on itself (DetectGridWrap): the last row (column) is the first one's
-  /// neighbour. Off by default; meshes turn it on where the grid wraps (MeshOptions::
-  /// close_wrap). Colourise does not use it: its splats do not cross the seam (a neighbour
-  /// more than 2 max_splat_px away in the image is not used).
-  bool wrap_rows = false;
-  bool wrap_cols = false;
-};
-
-/// Which grid axes close a full turn: the last row is the first one's neighbour (a rotating 2D
-/// scanner's planes over 360 deg) or the last column the first one's (a spinning lidar's
-/// azimuth, a 360-deg terrestrial scan). Judged from the beam directions: the median, over the
-/// grid lines, of the angle from the last cell's beam to the first one's, divided by the
-/// angle between the first two, lies in (0.5, 1.5).
-struct GridWrap {
-  bool rows = false, cols = false;
-};
-GridWrap DetectGridWrap(const OrderedScan& scan);
-
-/// True when cell (r, c) and its grid neighbour (r + dr, c + dc) are continuous (see
-/// ContinuityOptions; dr, dc in {-1, 0, 1}, not both 0). False when either is outside the grid
-/// (indices wrap along the axes ContinuityOptions::wrap_rows / wrap_cols name), invalid or has
-/// an unknown beam direction.
-bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
-                          const ContinuityOptions& options = {});
-
-/// ContinuousNeighbours for many calls with the same options: what the options imply (the
-/// cosine of the bearing-angle limit, the ground band, the slope) is worked out once, at
-/// construction. Copies share it.
-class ContinuityTest {
- public:
-  explicit ContinuityTest(const ContinuityOptions& options = {});
-  bool operator()(const OrderedScan& scan, int r, int c, int dr, int dc) const;
-
- private:
-  struct Params;
-  std::shared_ptr<const Params> p_;
-};
+// Grid continuity (ContinuityOptions, ContinuityTest, DetectGridWrap, ContinuousNeighbours) is
+// scan-level: scancam/scan/continuity.h. Its names stay usable here.
+using scancam::ContinuityOptions;
+using scancam::ContinuityTest;
+using scancam::ContinuousNeighbours;
+using scancam::DetectGridWrap;
+using scancam::GridWrap;
 
 /// One image to colour from.
 struct ColourView {
@@ -367,5 +290,16 @@ Rgb8 SampleBilinear(const cv::Mat& bgr, float u, float v);
 /// from the Velodyne: camera/kitti_calib.h KittiVeloToCam2). Throws scancam::Error naming the
 /// file and the field.
 Eigen::Isometry3d LoadExtrinsic(const std::string& path);
+
+namespace detail {
+/// Which row kernels Colourise uses (for tests: the header promises the same result from
+/// both). kAvx2 (the default): 8 lanes where the processor has AVX2, else kSse2; kSse2: 4
+/// lanes (SSE2 on x86-64, plain C++ elsewhere). Process-wide; not to be changed while a
+/// Colourise call runs.
+enum class ColourKernel { kSse2, kAvx2 };
+void SetColourKernel(ColourKernel kernel);
+/// The kernels in use (kSse2 when the processor has no AVX2, whatever was set).
+ColourKernel ActiveColourKernel();
+}  // namespace detail
 
 }  // namespace scancam::colour

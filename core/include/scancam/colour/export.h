@@ -72,6 +72,7 @@
 #include "scancam/colour/colourise.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
+#include "scancam/scan/continuity.h"
 
 namespace scancam::colour {
 

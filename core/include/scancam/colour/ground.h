@@ -1,4 +1,4 @@
-// ScanCam: the ground plane of a scan, a prior for the continuity test (colourise.h,
+// ScanCam: the ground plane of a scan, a prior for the continuity test (scan/continuity.h,
 // ContinuityOptions test 3).
 //
 // Why. A spinning lidar sees the ground at a grazing angle: beyond ~30 m its rings are metres
@@ -34,19 +34,12 @@
 #include <string>
 
 #include "scancam/ordered_scan.h"
+#include "scancam/scan/continuity.h"
 
 namespace scancam::colour {
 
-struct GroundPlane {
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit, pointing up
-  double offset_m = 0.0;
-  std::size_t inliers = 0;       ///< sampled valid cells within fit_threshold_m of the plane
-  double inlier_fraction = 0.0;  ///< inliers / sampled valid cells
-  /// Signed height above the plane, metres.
-  double height_m(const Eigen::Vector3d& p_scan) const { return normal.dot(p_scan) + offset_m; }
-  /// Angle between the normal and `up`, degrees.
-  double tilt_deg(const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ()) const;
-};
+// The plane itself (GroundPlane) is scan-level: scancam/scan/continuity.h (continuity test 3).
+using scancam::GroundPlane;
 
 struct GroundOptions {
   bool enabled = true;  ///< false: no ground prior (Colourise does not estimate one)

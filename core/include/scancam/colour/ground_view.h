@@ -33,6 +33,7 @@
 
 #include "scancam/colour/colourise.h"
 #include "scancam/ordered_scan.h"
+#include "scancam/scan/continuity.h"
 
 namespace scancam::colour {
 
