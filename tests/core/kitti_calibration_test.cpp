@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "real_pairs_util.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/io/pairs_csv.h"
@@ -51,12 +52,6 @@ KittiData LoadKitti() {
           ReadPairsCsv(PairsPath()), colour::LoadExtrinsic(calib)};
 }
 
-// R_a = exp(delta) R_b: delta in degrees, camera axes (the frame rotation_std_deg_cam_xyz uses).
-Eigen::Vector3d RotationDiffCamDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  const Eigen::AngleAxisd aa(a.linear() * b.linear().transpose());
-  return aa.angle() * aa.axis() * 180.0 / M_PI;
-}
-
 TEST(KittiCalibration, HandPickedPairsMatchKittisTargetCalibration) {
   SCANCAM_REQUIRE_SHARED();
   const KittiData d = LoadKitti();
@@ -65,23 +60,17 @@ TEST(KittiCalibration, HandPickedPairsMatchKittisTargetCalibration) {
 
   // The picks cover the photo left to right and the rows the lidar sees (it reaches 2.8 deg up,
   // the photo 14 deg: the top half of the photo has no returns), over 6-15 m.
-  double u_min = 1e9, u_max = -1e9, v_min = 1e9, v_max = -1e9;
-  for (const auto& p : d.pairs) {
-    ASSERT_TRUE(p.has_scan_cell()) << p.label;
-    u_min = std::min(u_min, p.image_u);
-    u_max = std::max(u_max, p.image_u);
-    v_min = std::min(v_min, p.image_v);
-    v_max = std::max(v_max, p.image_v);
-  }
-  EXPECT_GT(u_max - u_min, 0.8 * d.camera.width());
-  EXPECT_GT(v_max - v_min, 0.3 * d.camera.height());
+  for (const auto& p : d.pairs) ASSERT_TRUE(p.has_scan_cell()) << p.label;
+  const test::PickSpan span = test::ImageSpan(d.pairs);
+  EXPECT_GT(span.width_px, 0.8 * d.camera.width());
+  EXPECT_GT(span.height_px, 0.3 * d.camera.height());
 
   CalibrateOptions options;
   options.pairs_source = PairsPath();
   const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, options);
   ASSERT_TRUE(c.has_covariance);
 
-  const Eigen::Vector3d rot_deg = RotationDiffCamDeg(c.T_cam_scan, d.reference);
+  const Eigen::Vector3d rot_deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference);
   const Eigen::Vector3d dt = c.T_cam_scan.translation() - d.reference.translation();
   EXPECT_LT(rot_deg.norm(), kMaxRotationDeg) << FormatCalibrationSummary(c);
   EXPECT_LT(dt.norm(), kMaxTranslationM) << FormatCalibrationSummary(c);
@@ -116,7 +105,7 @@ TEST(KittiCalibration, NoSinglePairCarriesTheResult) {
     std::vector<PointPair> rest = d.pairs;
     rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
     const Calibration c = Calibrate(rest, &d.scan, d.camera, {});
-    const double deg = RotationDiffCamDeg(c.T_cam_scan, d.reference).norm();
+    const double deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference).norm();
     const double m = (c.T_cam_scan.translation() - d.reference.translation()).norm();
     EXPECT_LT(deg, kMaxLeaveOneOutRotationDeg) << "without " << d.pairs[i].label;
     EXPECT_LT(m, kMaxTranslationM) << "without " << d.pairs[i].label;

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "real_pairs_util.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/image_io.h"
 #include "scancam/io/pairs_csv.h"
@@ -80,16 +81,10 @@ TEST(RoadCalibration, HandPickedPairsMatchTheDatasetsExtrinsic) {
   ASSERT_GE(d.pairs.size(), 10u);
 
   // The picks cover the photo: left to right and from the signals down to the road.
-  double u_min = 1e9, u_max = -1e9, v_min = 1e9, v_max = -1e9;
-  for (const auto& p : d.pairs) {
-    ASSERT_TRUE(p.has_scan_cell()) << p.label;
-    u_min = std::min(u_min, p.image_u);
-    u_max = std::max(u_max, p.image_u);
-    v_min = std::min(v_min, p.image_v);
-    v_max = std::max(v_max, p.image_v);
-  }
-  EXPECT_GT(u_max - u_min, 0.8 * d.camera.width());
-  EXPECT_GT(v_max - v_min, 0.2 * d.camera.height());
+  for (const auto& p : d.pairs) ASSERT_TRUE(p.has_scan_cell()) << p.label;
+  const test::PickSpan span = test::ImageSpan(d.pairs);
+  EXPECT_GT(span.width_px, 0.8 * d.camera.width());
+  EXPECT_GT(span.height_px, 0.2 * d.camera.height());
 
   CalibrateOptions options;
   options.pairs_source = PairsPath();
@@ -215,12 +210,6 @@ RoadData LoadRoad2() {
           ReadReference(test::SharedDataset("road2-pinhole/reference-extrinsic.json"))};
 }
 
-// R_a = exp(delta) R_b: delta in degrees about the camera axes.
-Eigen::Vector3d RotationDiffCamDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  const Eigen::AngleAxisd aa(a.linear() * b.linear().transpose());
-  return aa.angle() * aa.axis() * 180.0 / M_PI;
-}
-
 TEST(Road2Calibration, HandPickedPairsOnARingRecoveredCloud) {
   SCANCAM_REQUIRE_SHARED();
   const RoadData d = LoadRoad2();
@@ -235,7 +224,7 @@ TEST(Road2Calibration, HandPickedPairsOnARingRecoveredCloud) {
   EXPECT_EQ(FlaggedCount(c), 0) << FormatCalibrationSummary(c);
   EXPECT_LT(c.mean_px, kRoad2MaxMeanPx);
 
-  const Eigen::Vector3d rot_deg = RotationDiffCamDeg(c.T_cam_scan, d.reference);
+  const Eigen::Vector3d rot_deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference);
   const Eigen::Vector3d dt = c.T_cam_scan.translation() - d.reference.translation();
   EXPECT_LT(rot_deg.norm(), kRoad2MaxRotationDeg);
   EXPECT_LT(dt.norm(), kRoad2MaxTranslationM);
@@ -275,8 +264,8 @@ TEST(RoadCalibration, TwoRecordingsOfTheRigAgreeWithinTheirStd) {
   ASSERT_TRUE(ca.has_covariance && cb.has_covariance);
   EXPECT_LT((a.reference.translation() - b.reference.translation()).norm(), 0.05);
 
-  const Eigen::Vector3d ours = RotationDiffCamDeg(ca.T_cam_scan, cb.T_cam_scan);
-  const Eigen::Vector3d refs = RotationDiffCamDeg(a.reference, b.reference);
+  const Eigen::Vector3d ours = test::RotationDiffCamDeg(ca.T_cam_scan, cb.T_cam_scan);
+  const Eigen::Vector3d refs = test::RotationDiffCamDeg(a.reference, b.reference);
   const Eigen::Vector3d dt = ca.T_cam_scan.translation() - cb.T_cam_scan.translation();
   for (int k = 0; k < 3; ++k) {
     const double s_rot = std::hypot(ca.std_rot_cam_deg(k), cb.std_rot_cam_deg(k));
