@@ -17,7 +17,9 @@
 #include <string>
 #include <vector>
 
+#include "real_pairs_util.h"
 #include "scancam/camera/camera_io.h"
+#include "scancam/image_io.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/solve/calibrate.h"
@@ -79,16 +81,10 @@ TEST(RoadCalibration, HandPickedPairsMatchTheDatasetsExtrinsic) {
   ASSERT_GE(d.pairs.size(), 10u);
 
   // The picks cover the photo: left to right and from the signals down to the road.
-  double u_min = 1e9, u_max = -1e9, v_min = 1e9, v_max = -1e9;
-  for (const auto& p : d.pairs) {
-    ASSERT_TRUE(p.has_scan_cell()) << p.label;
-    u_min = std::min(u_min, p.image_u);
-    u_max = std::max(u_max, p.image_u);
-    v_min = std::min(v_min, p.image_v);
-    v_max = std::max(v_max, p.image_v);
-  }
-  EXPECT_GT(u_max - u_min, 0.8 * d.camera.width());
-  EXPECT_GT(v_max - v_min, 0.2 * d.camera.height());
+  for (const auto& p : d.pairs) ASSERT_TRUE(p.has_scan_cell()) << p.label;
+  const test::PickSpan span = test::ImageSpan(d.pairs);
+  EXPECT_GT(span.width_px, 0.8 * d.camera.width());
+  EXPECT_GT(span.height_px, 0.2 * d.camera.height());
 
   CalibrateOptions options;
   options.pairs_source = PairsPath();
@@ -172,6 +168,115 @@ TEST(RoadCalibration, ReportedStdCoversTheErrorToTheReference) {
   for (const auto& s : j.scenes) {
     ASSERT_TRUE(s.solved) << s.error;
     EXPECT_LT(s.mahalanobis, 3.55) << s.source;
+  }
+}
+
+// road2-pinhole: another recording of a 64-ring lidar and a 1920 x 1200 camera
+// (../shared/datasets/road2-pinhole), an unordered cloud without a ring field, re-gridded by
+// ring recovery; pairs picked by hand on ScanCam's views (tests/data/road2_pairs.csv, how at
+// its top). Its intrinsic file says 1080 rows for the 1200-row image: the camera is the file's
+// K and distortion taken with the image's size, as the colour tests do.
+//
+// Measured when the pairs were made (default options): 24 of 24 inliers, mean 4.36 px (max
+// 11.5 px, a stripe's far end); against the dataset's extrinsic (a manual calibration, not
+// survey truth) 0.123 deg and 0.363 m, 0.342 m of it along the optical axis: 5.8 times its
+// reported std (5.9 cm); across it 0.103 / 0.064 m (1.9 / 1.5 std); rotation about camera
+// x/y/z 0.6 / 0.1 / 0.8 std. Why the optical axis: every pick lies at 21-41 m (zebra stripes,
+// the car, one signal head) in 20 % of the image height, where moving the camera along its
+// axis by 0.35 m moves the picks by what a 1.6 % change of focal length would, i.e. 2-8 px,
+// within the stripes' picking error (their scan ends come out a little long: residuals are
+// largest at the far ends and lie along the stripes). Leaving any one pair out keeps t_z
+// between -0.27 and -0.20 m (the reference: -0.57 m), so no single pick is to blame; and the
+// image edges line up equally well with either pose (`scancam colorize --check`: mean 2.82 px
+// with this calibration, 2.84 px with the reference). The bounds below are what was measured,
+// with a margin; the 0.45 m says the translation of this scene is not known to better than
+// that, whatever its std says (the tool warns: band of rows, nearest pick 21 m).
+constexpr double kRoad2MaxRotationDeg = 0.25;   // measured 0.123
+constexpr double kRoad2MaxTranslationM = 0.45;  // measured 0.363
+constexpr double kRoad2MaxAcrossAxisM = 0.15;   // measured 0.103 (x), 0.064 (y)
+constexpr double kRoad2MaxMeanPx = 5.5;         // measured 4.36
+
+std::string Road2PairsPath() {
+  return std::string(SCANCAM_SOURCE_DIR) + "/tests/data/road2_pairs.csv";
+}
+
+RoadData LoadRoad2() {
+  const std::string image = test::SharedDataset("road2-pinhole/image.png");
+  const CameraModel file = LoadCamera(test::SharedDataset("road2-pinhole/camera-intrinsic.json"));
+  const ImageFileInfo size = ReadImageHeader(image);
+  return {LoadScan(test::SharedDataset("road2-pinhole/scan.pcd")),
+          CameraModel(file.type(), file.params(), size.width, size.height),
+          ReadPairsCsv(Road2PairsPath()),
+          ReadReference(test::SharedDataset("road2-pinhole/reference-extrinsic.json"))};
+}
+
+TEST(Road2Calibration, HandPickedPairsOnARingRecoveredCloud) {
+  SCANCAM_REQUIRE_SHARED();
+  const RoadData d = LoadRoad2();
+  ASSERT_EQ(d.scan.rows, 64);
+  ASSERT_EQ(d.camera.height(), 1200);
+  ASSERT_GE(d.pairs.size(), 20u);
+
+  CalibrateOptions options;
+  options.pairs_source = Road2PairsPath();
+  const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, options);
+  ASSERT_TRUE(c.has_covariance);
+  EXPECT_EQ(FlaggedCount(c), 0) << FormatCalibrationSummary(c);
+  EXPECT_LT(c.mean_px, kRoad2MaxMeanPx);
+
+  const Eigen::Vector3d rot_deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference);
+  const Eigen::Vector3d dt = c.T_cam_scan.translation() - d.reference.translation();
+  EXPECT_LT(rot_deg.norm(), kRoad2MaxRotationDeg);
+  EXPECT_LT(dt.norm(), kRoad2MaxTranslationM);
+  for (int k = 0; k < 3; ++k) EXPECT_LT(std::abs(rot_deg(k)), 3.0 * c.std_rot_cam_deg(k)) << k;
+  for (int k = 0; k < 2; ++k) {  // across the optical axis
+    EXPECT_LT(std::abs(dt(k)), kRoad2MaxAcrossAxisM) << k;
+    EXPECT_LT(std::abs(dt(k)), 3.0 * c.std_t_m(k)) << k;
+  }
+  // The weak geometry behind the optical-axis error is warned about.
+  auto warned = [&](const std::string& text) {
+    return std::any_of(c.warnings.begin(), c.warnings.end(),
+                       [&](const std::string& w) { return w.find(text) != std::string::npos; });
+  };
+  EXPECT_TRUE(warned("% of the image height")) << FormatCalibrationSummary(c);
+  EXPECT_TRUE(warned("the nearest pick is")) << FormatCalibrationSummary(c);
+  RecordProperty("rotation_diff_deg", std::to_string(rot_deg.norm()));
+  RecordProperty("translation_diff_m", std::to_string(dt.norm()));
+  RecordProperty("translation_diff_along_axis_m", std::to_string(dt.z()));
+  RecordProperty("translation_diff_along_axis_over_std", std::to_string(dt.z() / c.std_t_m.z()));
+  RecordProperty("mean_px", std::to_string(c.mean_px));
+}
+
+// road-pinhole and road2-pinhole as two recordings of one rig, each calibrated from its own
+// hand-picked pairs. The two are not mounted or modelled identically: their intrinsic files
+// differ (cy 656 vs 576 px, fx 2117 vs 2110) and the datasets' own extrinsics differ by
+// 1.44 / -0.50 / 0.37 deg about the camera axes, while their translations agree within 3 cm.
+// Measured: our two calibrations differ by 1.36 / -0.56 / 0.18 deg, which reproduces the
+// references' difference within 0.7 / 0.4 / 1.3 sigma of the two reported stds combined; the
+// translations agree across the optical axis (1.2 / 2.1 sigma) but not along it: 0.42 m,
+// 6.2 sigma (road2's optical-axis error above). That last comparison is recorded, not asserted.
+TEST(RoadCalibration, TwoRecordingsOfTheRigAgreeWithinTheirStd) {
+  SCANCAM_REQUIRE_SHARED();
+  const RoadData a = LoadRoad();
+  const RoadData b = LoadRoad2();
+  const Calibration ca = Calibrate(a.pairs, &a.scan, a.camera, {});
+  const Calibration cb = Calibrate(b.pairs, &b.scan, b.camera, {});
+  ASSERT_TRUE(ca.has_covariance && cb.has_covariance);
+  EXPECT_LT((a.reference.translation() - b.reference.translation()).norm(), 0.05);
+
+  const Eigen::Vector3d ours = test::RotationDiffCamDeg(ca.T_cam_scan, cb.T_cam_scan);
+  const Eigen::Vector3d refs = test::RotationDiffCamDeg(a.reference, b.reference);
+  const Eigen::Vector3d dt = ca.T_cam_scan.translation() - cb.T_cam_scan.translation();
+  for (int k = 0; k < 3; ++k) {
+    const double s_rot = std::hypot(ca.std_rot_cam_deg(k), cb.std_rot_cam_deg(k));
+    const double s_t = std::hypot(ca.std_t_m(k), cb.std_t_m(k));
+    if (k < 2) {
+      EXPECT_LT(std::abs(dt(k)), 3.0 * s_t) << k;
+    }
+    EXPECT_LT(std::abs(ours(k) - refs(k)), 3.0 * s_rot) << k;
+    RecordProperty("rotation_diff_minus_references_over_std_" + std::to_string(k),
+                   std::to_string((ours(k) - refs(k)) / s_rot));
+    RecordProperty("translation_diff_over_std_" + std::to_string(k), std::to_string(dt(k) / s_t));
   }
 }
 
