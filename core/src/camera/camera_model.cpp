@@ -584,4 +584,16 @@ std::string CameraModel::Describe() const {
   return s.str();
 }
 
+void CheckImageSize(const CameraModel& camera, int width, int height,
+                    const std::string& image_path) {
+  if (width == camera.width() && height == camera.height()) return;
+  const std::string cam = camera.source().empty() ? "'" + camera.name() + "'" : camera.source();
+  throw FileError(image_path, "",
+                  "image is " + std::to_string(width) + "x" + std::to_string(height) +
+                      " px but camera " + cam + " is calibrated for " +
+                      std::to_string(camera.width()) + "x" + std::to_string(camera.height()) +
+                      " px (images are never rescaled: use the camera file made for this image "
+                      "size)");
+}
+
 }  // namespace scancam
