@@ -68,6 +68,27 @@ bool ParseFiniteDouble(const std::string& token, double* v);
 /// "[a, b, c]" with Num.
 std::string FlowList(const std::vector<double>& v);
 
+/// Named slices of a camera's parameters (models.h layouts). Pinhole, fisheye, omni and
+/// equirect start with fx fy cx cy (equirect: fu fv cu cv).
+static_assert(EquirectModel::kIdxFx == PinholeModel::kIdxFx &&
+                  EquirectModel::kIdxFy == PinholeModel::kIdxFy &&
+                  EquirectModel::kIdxCx == PinholeModel::kIdxCx &&
+                  EquirectModel::kIdxCy == PinholeModel::kIdxCy,
+              "fu fv cu cv sit where fx fy cx cy do");
+inline double Fx(const CameraModel& c) { return c.params()[PinholeModel::kIdxFx]; }
+inline double Fy(const CameraModel& c) { return c.params()[PinholeModel::kIdxFy]; }
+inline double Cx(const CameraModel& c) { return c.params()[PinholeModel::kIdxCx]; }
+inline double Cy(const CameraModel& c) { return c.params()[PinholeModel::kIdxCy]; }
+/// params()[M::kIdxDist, M::kNumParams): the model's distortion block.
+template <typename M>
+std::vector<double> DistortionBlock(const CameraModel& c) {
+  const std::vector<double>& p = c.params();
+  return std::vector<double>(p.begin() + M::kIdxDist, p.begin() + M::kNumParams);
+}
+/// A pinhole's distortion as written to files: k1 k2 p1 p2 k3, and k4 k5 k6 only when one of
+/// them is not zero (the rational model).
+std::vector<double> PinholeDistortionForFile(const CameraModel& c);
+
 /// Throws unless v has one of the `allowed` sizes ("expected 4 or 5 values (what), found N").
 void ExpectCount(const std::string& file, const std::string& where, const std::vector<double>& v,
                  std::initializer_list<std::size_t> allowed, const std::string& what);

@@ -72,6 +72,13 @@ bool ParseFiniteDouble(const std::string& token, double* v) {
   return io_detail::ParseDouble(token, *v) && std::isfinite(*v);
 }
 
+std::vector<double> PinholeDistortionForFile(const CameraModel& c) {
+  std::vector<double> d = DistortionBlock<PinholeModel>(c);  // k1 k2 p1 p2 k3 k4 k5 k6
+  const bool rational = d[5] != 0.0 || d[6] != 0.0 || d[7] != 0.0;
+  d.resize(rational ? 8 : 5);
+  return d;
+}
+
 std::string FlowList(const std::vector<double>& v) {
   std::string s = "[";
   for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + Num(v[i]);
@@ -110,11 +117,15 @@ std::string Keys::For(CameraType type, int param) const {
   switch (type) {
     case CameraType::kPinhole:
     case CameraType::kFisheye:
-      return param < 4 ? matrix : dist;
+      static_assert(PinholeModel::kIdxDist == FisheyeModel::kIdxDist, "same layout up to k");
+      return param < PinholeModel::kIdxDist ? matrix : dist;
     case CameraType::kOmni:
-      return param < 5 ? matrix : param == 5 ? xi : dist;
+      return param < OmniModel::kIdxXi ? matrix : param == OmniModel::kIdxXi ? xi : dist;
     case CameraType::kOCam:
-      return param < 2 ? centre : param < 5 ? affine : param < OCamModel::kIdxNInv ? pol : invpol;
+      return param < OCamModel::kIdxAffine   ? centre
+             : param < OCamModel::kIdxRhoMax ? affine
+             : param < OCamModel::kIdxNInv   ? pol
+                                             : invpol;
     case CameraType::kEquirect:
       break;
   }

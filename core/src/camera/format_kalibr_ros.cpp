@@ -206,26 +206,31 @@ CameraModel LoadRos(CameraFileContent& file, const LoadCameraOptions& options) {
 void SaveKalibr(const CameraModel& c, const std::string& path) {
   std::ostringstream out;
   const std::vector<double>& p = c.params();
+  const std::vector<double> f_c = {Fx(c), Fy(c), Cx(c), Cy(c)};
   out << "cam0:\n";
   switch (c.type()) {
-    case CameraType::kPinhole:
-      for (int i = 8; i < 12; ++i) {
-        if (p[i] != 0.0) throw FileError(path, "", "Kalibr radtan has no k3..k6: cannot write");
+    case CameraType::kPinhole: {
+      std::vector<double> d = DistortionBlock<PinholeModel>(c);  // k1 k2 p1 p2 k3 k4 k5 k6
+      for (std::size_t i = 4; i < d.size(); ++i) {
+        if (d[i] != 0.0) throw FileError(path, "", "Kalibr radtan has no k3..k6: cannot write");
       }
-      out << "  camera_model: pinhole\n  intrinsics: " << FlowList({p[0], p[1], p[2], p[3]})
-          << "\n  distortion_model: radtan\n  distortion_coeffs: "
-          << FlowList({p[4], p[5], p[6], p[7]}) << "\n";
-      break;
+      d.resize(4);
+      out << "  camera_model: pinhole\n  intrinsics: " << FlowList(f_c)
+          << "\n  distortion_model: radtan\n  distortion_coeffs: " << FlowList(d) << "\n";
+    } break;
     case CameraType::kFisheye:
-      out << "  camera_model: pinhole\n  intrinsics: " << FlowList({p[0], p[1], p[2], p[3]})
+      out << "  camera_model: pinhole\n  intrinsics: " << FlowList(f_c)
           << "\n  distortion_model: equidistant\n  distortion_coeffs: "
-          << FlowList({p[4], p[5], p[6], p[7]}) << "\n";
+          << FlowList(DistortionBlock<FisheyeModel>(c)) << "\n";
       break;
     case CameraType::kOmni:
-      if (p[4] != 0.0) throw FileError(path, "", "Kalibr omni has no skew: cannot write");
-      out << "  camera_model: omni\n  intrinsics: " << FlowList({p[5], p[0], p[1], p[2], p[3]})
+      if (p[OmniModel::kIdxSkew] != 0.0) {
+        throw FileError(path, "", "Kalibr omni has no skew: cannot write");
+      }
+      out << "  camera_model: omni\n  intrinsics: "
+          << FlowList({p[OmniModel::kIdxXi], Fx(c), Fy(c), Cx(c), Cy(c)})
           << "\n  distortion_model: radtan\n  distortion_coeffs: "
-          << FlowList({p[6], p[7], p[8], p[9]}) << "\n";
+          << FlowList(DistortionBlock<OmniModel>(c)) << "\n";
       break;
     default:
       throw FileError(
@@ -238,16 +243,14 @@ void SaveKalibr(const CameraModel& c, const std::string& path) {
 
 void SaveRos(const CameraModel& c, const std::string& path) {
   std::ostringstream out;
-  const std::vector<double>& p = c.params();
   std::string dmodel;
   std::vector<double> d;
   if (c.type() == CameraType::kPinhole) {
-    const bool rational = p[9] != 0.0 || p[10] != 0.0 || p[11] != 0.0;
-    dmodel = rational ? "rational_polynomial" : "plumb_bob";
-    d.assign(p.begin() + 4, p.begin() + (rational ? 12 : 9));
+    d = PinholeDistortionForFile(c);
+    dmodel = d.size() == 8 ? "rational_polynomial" : "plumb_bob";
   } else if (c.type() == CameraType::kFisheye) {
     dmodel = "equidistant";
-    d.assign(p.begin() + 4, p.begin() + 8);
+    d = DistortionBlock<FisheyeModel>(c);
   } else {
     throw FileError(
         path, "",
@@ -256,13 +259,13 @@ void SaveRos(const CameraModel& c, const std::string& path) {
   out << "image_width: " << c.width() << "\nimage_height: " << c.height() << "\n";
   out << "camera_name: " << (c.name().empty() ? "camera" : c.name()) << "\n";
   out << "camera_matrix:\n  rows: 3\n  cols: 3\n  data: "
-      << FlowList({p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1}) << "\n";
+      << FlowList({Fx(c), 0, Cx(c), 0, Fy(c), Cy(c), 0, 0, 1}) << "\n";
   out << "distortion_model: " << dmodel << "\n";
   out << "distortion_coefficients:\n  rows: 1\n  cols: " << d.size() << "\n  data: " << FlowList(d)
       << "\n";
   out << "rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n";
   out << "projection_matrix:\n  rows: 3\n  cols: 4\n  data: "
-      << FlowList({p[0], 0, p[2], 0, 0, p[1], p[3], 0, 0, 0, 1, 0}) << "\n";
+      << FlowList({Fx(c), 0, Cx(c), 0, 0, Fy(c), Cy(c), 0, 0, 0, 1, 0}) << "\n";
   WriteFileAtomically(path, out.str());
 }
 

@@ -90,11 +90,9 @@ void SaveOpenCalib(const CameraModel& c, const std::string& path) {
   if (c.type() != CameraType::kPinhole) {
     throw FileError(path, "", "OpenCalib JSON holds pinhole cameras only");
   }
-  const std::vector<double>& p = c.params();
-  const bool rational = p[9] != 0.0 || p[10] != 0.0 || p[11] != 0.0;
   nlohmann::json dist = nlohmann::json::array();
   nlohmann::json row = nlohmann::json::array();
-  for (int i = 4; i < (rational ? 12 : 9); ++i) row.push_back(p[i]);
+  for (double k : PinholeDistortionForFile(c)) row.push_back(k);
   dist.push_back(row);
   const std::string name = c.name().empty() ? "camera" : c.name();
   nlohmann::json j;
@@ -111,7 +109,7 @@ void SaveOpenCalib(const CameraModel& c, const std::string& path) {
           {"cols", 3},
           {"type", 6},
           {"continuous", true},
-          {"data", {{p[0], 0.0, p[2]}, {0.0, p[1], p[3]}, {0.0, 0.0, 1.0}}}}},
+          {"data", {{Fx(c), 0.0, Cx(c)}, {0.0, Fy(c), Cy(c)}, {0.0, 0.0, 1.0}}}}},
         {"cam_dist",
          {{"rows", 1}, {"cols", row.size()}, {"type", 6}, {"continuous", true}, {"data", dist}}}}}};
   WriteFileAtomically(path, j.dump(4) + "\n");

@@ -221,22 +221,23 @@ void SaveOpenCv(const CameraModel& c, const std::string& path) {
   }
   if (!fs.isOpened()) throw FileError(path, "", "cannot open for writing");
   const std::vector<double>& p = c.params();
+  const cv::Mat K = KMat(Fx(c), Fy(c), Cx(c), Cy(c));
   fs << "model" << CameraTypeName(c.type());
   if (!c.name().empty()) fs << "camera_name" << c.name();
   fs << "image_width" << c.width() << "image_height" << c.height();
   switch (c.type()) {
     case CameraType::kPinhole:
-      fs << "camera_matrix" << KMat(p[0], p[1], p[2], p[3]);
-      fs << "distortion_coefficients" << RowMat({p.begin() + 4, p.begin() + 12});
+      fs << "camera_matrix" << K;
+      fs << "distortion_coefficients" << RowMat(DistortionBlock<PinholeModel>(c));
       break;
     case CameraType::kFisheye:
-      fs << "camera_matrix" << KMat(p[0], p[1], p[2], p[3]);
-      fs << "distortion_coefficients" << RowMat({p.begin() + 4, p.begin() + 8});
+      fs << "camera_matrix" << K;
+      fs << "distortion_coefficients" << RowMat(DistortionBlock<FisheyeModel>(c));
       break;
     case CameraType::kOmni:
-      fs << "camera_matrix" << KMat(p[0], p[1], p[2], p[3], p[4]);
-      fs << "xi" << p[5];
-      fs << "distortion_coefficients" << RowMat({p.begin() + 6, p.begin() + 10});
+      fs << "camera_matrix" << KMat(Fx(c), Fy(c), Cx(c), Cy(c), p[OmniModel::kIdxSkew]);
+      fs << "xi" << p[OmniModel::kIdxXi];
+      fs << "distortion_coefficients" << RowMat(DistortionBlock<OmniModel>(c));
       break;
     case CameraType::kOCam: {
       const OCamParams o = c.ocam_params();
@@ -247,7 +248,7 @@ void SaveOpenCv(const CameraModel& c, const std::string& path) {
       break;
     }
     case CameraType::kEquirect:
-      fs << "camera_matrix" << KMat(p[0], p[1], p[2], p[3]);
+      fs << "camera_matrix" << K;
       break;
   }
   fs.release();
