@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <locale>
 #include <sstream>
 
 #include "scancam/error.h"
@@ -181,6 +182,7 @@ static_assert(
 
 std::string Num(double v) {
   std::ostringstream s;
+  s.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   s.precision(10);
   s << v;
   return s.str();
@@ -566,6 +568,7 @@ std::vector<double> FitOCamInvPol(const CameraModel& ocam, double max_error_px) 
 
 std::string CameraModel::Describe() const {
   std::ostringstream s;
+  s.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   s.precision(10);
   s << CameraTypeName(type_) << " " << width_ << "x" << height_;
   if (!name_.empty()) s << " '" << name_ << "'";

@@ -1,6 +1,7 @@
 // Kalibr camchain YAML and ROS camera_info YAML (camera_io.h lists the keys read).
 #include <functional>
 #include <iostream>
+#include <locale>
 #include <sstream>
 
 #include "camera_format.h"
@@ -205,6 +206,7 @@ CameraModel LoadRos(CameraFileContent& file, const LoadCameraOptions& options) {
 
 void SaveKalibr(const CameraModel& c, const std::string& path) {
   std::ostringstream out;
+  out.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   const std::vector<double>& p = c.params();
   const std::vector<double> f_c = {Fx(c), Fy(c), Cx(c), Cy(c)};
   out << "cam0:\n";
@@ -243,6 +245,7 @@ void SaveKalibr(const CameraModel& c, const std::string& path) {
 
 void SaveRos(const CameraModel& c, const std::string& path) {
   std::ostringstream out;
+  out.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   std::string dmodel;
   std::vector<double> d;
   if (c.type() == CameraType::kPinhole) {

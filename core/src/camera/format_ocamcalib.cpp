@@ -2,6 +2,7 @@
 // comments, in order pol, invpol, centre "xc yc" (row, column), affine "c d e", image
 // "height width"; converted to the OpenCV frame on reading (OCamModel in models.h).
 #include <cmath>
+#include <locale>
 #include <sstream>
 
 #include "camera_format.h"
@@ -128,6 +129,7 @@ void SaveOCam(const CameraModel& c, const std::string& path) {
         std::string("OCamCalib files hold ocam cameras only, not ") + CameraTypeName(c.type()));
   }
   std::ostringstream out;
+  out.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   const OCamParams o = c.ocam_params();
   out << "#polynomial coefficients for the DIRECT mapping function (ocam_model.ss in MATLAB). "
          "These are used by cam2world\n\n";

@@ -74,11 +74,14 @@ class YamlReader {
     throw FileError(file_, "line " + std::to_string(line), what);
   }
 
-  // Finds "key:" at the top level of a line (not inside quotes or brackets). npos if none.
-  static std::size_t KeyColon(const std::string& t) {
+  // Walks t outside quoted strings, keeping the depth of flow brackets (after each character):
+  // the first index where stop(i, depth) holds, else npos. *end_depth: the depth at the end.
+  template <typename F>
+  static std::size_t ScanUnquoted(const std::string& t, F&& stop, int* end_depth = nullptr) {
     char quote = 0;
     int depth = 0;
-    for (std::size_t i = 0; i < t.size(); ++i) {
+    std::size_t i = 0;
+    for (; i < t.size(); ++i) {
       const char c = t[i];
       if (quote) {
         if (c == quote) quote = 0;
@@ -87,9 +90,17 @@ class YamlReader {
       if (c == '"' || c == '\'') quote = c;
       if (c == '[' || c == '{') ++depth;
       if (c == ']' || c == '}') --depth;
-      if (c == ':' && depth == 0 && (i + 1 == t.size() || t[i + 1] == ' ')) return i;
+      if (stop(i, depth)) break;
     }
-    return std::string::npos;
+    if (end_depth) *end_depth = depth;
+    return i < t.size() ? i : std::string::npos;
+  }
+
+  // Finds "key:" at the top level of a line (not inside quotes or brackets). npos if none.
+  static std::size_t KeyColon(const std::string& t) {
+    return ScanUnquoted(t, [&t](std::size_t i, int depth) {
+      return t[i] == ':' && depth == 0 && (i + 1 == t.size() || t[i + 1] == ' ');
+    });
   }
 
   // A value without its leading node tag ("!!opencv-matrix", "!local"), if any.
@@ -212,16 +223,8 @@ class YamlReader {
 
   static bool Balanced(const std::string& t) {
     int depth = 0;
-    char quote = 0;
-    for (char c : t) {
-      if (quote) {
-        if (c == quote) quote = 0;
-        continue;
-      }
-      if (c == '"' || c == '\'') quote = c;
-      if (c == '[' || c == '{') ++depth;
-      if (c == ']' || c == '}') --depth;
-    }
+    ScanUnquoted(
+        t, [](std::size_t, int) { return false; }, &depth);
     return depth <= 0;
   }
 
