@@ -1,9 +1,12 @@
 #include "scancam/camera/camera_model.h"
 
+#include <ceres/jet.h>
+
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <locale>
 #include <sstream>
 
 #include "scancam/camera/camera_projector.h"
@@ -76,9 +79,10 @@ CameraModel CameraModel::Pinhole(double fx, double fy, double cx, double cy,
         "[k3 [k4 k5 k6]]), got " +
         std::to_string(dist.size()));
   }
-  std::vector<double> p(PinholeModel::kNumParams, 0.0);
-  p[0] = fx, p[1] = fy, p[2] = cx, p[3] = cy;
-  for (std::size_t i = 0; i < dist.size(); ++i) p[4 + i] = dist[i];
+  using M = PinholeModel;
+  std::vector<double> p(M::kNumParams, 0.0);
+  p[M::kIdxFx] = fx, p[M::kIdxFy] = fy, p[M::kIdxCx] = cx, p[M::kIdxCy] = cy;
+  for (std::size_t i = 0; i < dist.size(); ++i) p[M::kIdxDist + i] = dist[i];
   return CameraModel(CameraType::kPinhole, std::move(p), width, height, std::move(name));
 }
 
@@ -109,7 +113,9 @@ CameraModel CameraModel::OCam(const OCamParams& o, int width, int height, std::s
                 std::to_string(o.invpol.size()));
   }
   std::vector<double> p(OCamModel::kNumParams, 0.0);
-  p[0] = o.center_u, p[1] = o.center_v, p[2] = o.c, p[3] = o.d, p[4] = o.e;
+  p[OCamModel::kIdxCu] = o.center_u, p[OCamModel::kIdxCv] = o.center_v;
+  p[OCamModel::kIdxAffine] = o.c, p[OCamModel::kIdxAffine + 1] = o.d;
+  p[OCamModel::kIdxAffine + 2] = o.e;
   p[OCamModel::kIdxNPol] = static_cast<double>(o.pol.size());
   std::copy(o.pol.begin(), o.pol.end(), p.begin() + OCamModel::kIdxPol);
   p[OCamModel::kIdxNInv] = static_cast<double>(o.invpol.size());
@@ -128,8 +134,9 @@ OCamParams CameraModel::ocam_params() const {
     throw Error(Where(*this) + ": ocam_params() asked of a " + CameraTypeName(type_) + " camera");
   }
   OCamParams o;
-  o.center_u = params_[0], o.center_v = params_[1];
-  o.c = params_[2], o.d = params_[3], o.e = params_[4];
+  o.center_u = params_[OCamModel::kIdxCu], o.center_v = params_[OCamModel::kIdxCv];
+  o.c = params_[OCamModel::kIdxAffine], o.d = params_[OCamModel::kIdxAffine + 1];
+  o.e = params_[OCamModel::kIdxAffine + 2];
   const int n = static_cast<int>(params_[OCamModel::kIdxNPol]);
   const int ni = static_cast<int>(params_[OCamModel::kIdxNInv]);
   o.pol.assign(params_.begin() + OCamModel::kIdxPol, params_.begin() + OCamModel::kIdxPol + n);
@@ -166,8 +173,17 @@ std::string ParamName(CameraType type, int i) {
   return "invpol coefficient " + std::to_string(i - OCamModel::kIdxInv);
 }
 
+// Pinhole, fisheye and omni share the first four parameters (Init checks them together).
+static_assert(
+    PinholeModel::kIdxFx == FisheyeModel::kIdxFx && PinholeModel::kIdxFx == OmniModel::kIdxFx &&
+        PinholeModel::kIdxFy == FisheyeModel::kIdxFy && PinholeModel::kIdxFy == OmniModel::kIdxFy &&
+        PinholeModel::kIdxCx == FisheyeModel::kIdxCx && PinholeModel::kIdxCx == OmniModel::kIdxCx &&
+        PinholeModel::kIdxCy == FisheyeModel::kIdxCy && PinholeModel::kIdxCy == OmniModel::kIdxCy,
+    "fx fy cx cy first");
+
 std::string Num(double v) {
   std::ostringstream s;
+  s.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   s.precision(10);
   s << v;
   return s.str();
@@ -230,15 +246,16 @@ void CameraModel::Init() {
   };
   if (type_ == CameraType::kPinhole || type_ == CameraType::kFisheye ||
       type_ == CameraType::kOmni) {
-    positive(0);
-    positive(1);
-    focal(0);
-    focal(1);
-    centre(2, 3);
+    // The three share the layout fx fy cx cy first (static_asserts below).
+    positive(PinholeModel::kIdxFx);
+    positive(PinholeModel::kIdxFy);
+    focal(PinholeModel::kIdxFx);
+    focal(PinholeModel::kIdxFy);
+    centre(PinholeModel::kIdxCx, PinholeModel::kIdxCy);
   }
   switch (type_) {
     case CameraType::kPinhole: {
-      const double* k = params_.data() + 4;
+      const double* k = params_.data() + PinholeModel::kIdxDist;
       // The radial map g(r) = r * radial(r) must increase and its denominator stay positive.
       auto ok = [k](double r) {
         using J = ceres::Jet<double, 1>;
@@ -258,7 +275,7 @@ void CameraModel::Init() {
       break;
     }
     case CameraType::kFisheye: {
-      const double* k = params_.data() + 4;
+      const double* k = params_.data() + FisheyeModel::kIdxDist;
       auto ok = [k](double t) {
         const double t2 = t * t;
         return 1.0 + t2 * (3 * k[0] + t2 * (5 * k[1] + t2 * (7 * k[2] + t2 * 9 * k[3]))) > 0.0;
@@ -268,14 +285,15 @@ void CameraModel::Init() {
       break;
     }
     case CameraType::kOmni: {
-      const double xi = params_[5];
-      if (!(xi >= 0.0)) fail(5, "xi = " + Num(xi) + " must be >= 0 (Mei's unified model)");
-      if (std::abs(params_[4]) > std::max(params_[0], params_[1])) {
-        fail(4, "skew s = " + Num(params_[4]) + " px exceeds the focal length");
+      using M = OmniModel;
+      const double xi = params_[M::kIdxXi];
+      if (!(xi >= 0.0)) fail(M::kIdxXi, "xi = " + Num(xi) + " must be >= 0 (Mei's unified model)");
+      if (std::abs(params_[M::kIdxSkew]) > std::max(params_[M::kIdxFx], params_[M::kIdxFy])) {
+        fail(M::kIdxSkew, "skew s = " + Num(params_[M::kIdxSkew]) + " px exceeds the focal length");
       }
       const double w = xi > 1.0 ? 1.0 / xi : xi;
       const double a_w = std::acos(-w);  // Xs.z = -w
-      const double k1 = params_[6], k2 = params_[7];
+      const double k1 = params_[M::kIdxDist], k2 = params_[M::kIdxDist + 1];
       // Unified-plane radius r_u(a) = sin a / (cos a + xi) increases on [0, a_w); the radial
       // distortion r (1 + k1 r^2 + k2 r^4) must increase too.
       auto ok = [&](double a) {
@@ -303,19 +321,22 @@ void CameraModel::Init() {
         fail(OCamModel::kIdxPol,
              "pol a0 = " + Num(pol[0]) + " must be negative (OCamCalib's z axis points backwards)");
       }
-      const double c = params_[2], d = params_[3], e = params_[4];
+      using M = OCamModel;
+      const double c = params_[M::kIdxAffine], d = params_[M::kIdxAffine + 1];
+      const double e = params_[M::kIdxAffine + 2];
       const double det = c - d * e;
       if (!(std::abs(d) <= 0.5 && std::abs(e) <= 0.5 && det >= 0.5 && det <= 2.0)) {
-        fail(2, "affine c d e = " + Num(c) + " " + Num(d) + " " + Num(e) +
-                    " is far from OCamCalib's near-identity [c d; e 1] (expected |d|, |e| <= 0.5 "
-                    "and c - d e in [0.5, 2])");
+        fail(M::kIdxAffine,
+             "affine c d e = " + Num(c) + " " + Num(d) + " " + Num(e) +
+                 " is far from OCamCalib's near-identity [c d; e 1] (expected |d|, |e| <= 0.5 "
+                 "and c - d e in [0.5, 2])");
       }
-      centre(0, 1);
+      centre(M::kIdxCu, M::kIdxCv);
       // Sensor radius of the farthest image corner.
       double r_img = 0.0;
       for (double u : {-0.5, width_ - 0.5}) {
         for (double v : {-0.5, height_ - 0.5}) {
-          const double dr = v - params_[1], dc = u - params_[0];
+          const double dr = v - params_[M::kIdxCv], dc = u - params_[M::kIdxCu];
           const double mr = (dr - d * dc) / det, mc = (-e * dr + c * dc) / det;
           r_img = std::max(r_img, std::hypot(mr, mc));
         }
@@ -333,16 +354,17 @@ void CameraModel::Init() {
       break;
     }
     case CameraType::kEquirect: {
-      focal(0);
-      focal(1);
+      using M = EquirectModel;
+      focal(M::kIdxFx);
+      focal(M::kIdxFy);
       // Longitudes [-pi, pi] and latitudes [-pi/2, pi/2] must overlap the image.
-      const double fu = std::abs(params_[0]), fv = std::abs(params_[1]);
-      const double cu = params_[2], cv = params_[3];
+      const double fu = std::abs(params_[M::kIdxFx]), fv = std::abs(params_[M::kIdxFy]);
+      const double cu = params_[M::kIdxCx], cv = params_[M::kIdxCy];
       if (cu + M_PI * fu < -0.5 || cu - M_PI * fu > width_ - 0.5) {
-        fail(2, "cu = " + Num(cu) + " px: the panorama's longitudes miss the image");
+        fail(M::kIdxCx, "cu = " + Num(cu) + " px: the panorama's longitudes miss the image");
       }
       if (cv + M_PI / 2 * fv < -0.5 || cv - M_PI / 2 * fv > height_ - 0.5) {
-        fail(3, "cv = " + Num(cv) + " px: the panorama's latitudes miss the image");
+        fail(M::kIdxCy, "cv = " + Num(cv) + " px: the panorama's latitudes miss the image");
       }
       model_max_angle_rad_ = M_PI;
       r_max_ = 0.0;
@@ -543,6 +565,7 @@ std::vector<double> FitOCamInvPol(const CameraModel& ocam, double max_error_px) 
 
 std::string CameraModel::Describe() const {
   std::ostringstream s;
+  s.imbue(std::locale::classic());  // "1920", "0.5" in any locale
   s.precision(10);
   s << CameraTypeName(type_) << " " << width_ << "x" << height_;
   if (!name_.empty()) s << " '" << name_ << "'";
@@ -553,17 +576,17 @@ std::string CameraModel::Describe() const {
   };
   switch (type_) {
     case CameraType::kPinhole:
-      list("f,c", 0, 4);
-      list("k1 k2 p1 p2 k3 k4 k5 k6", 4, 12);
+      list("f,c", PinholeModel::kIdxFx, PinholeModel::kIdxDist);
+      list("k1 k2 p1 p2 k3 k4 k5 k6", PinholeModel::kIdxDist, PinholeModel::kNumParams);
       break;
     case CameraType::kFisheye:
-      list("f,c", 0, 4);
-      list("k1..k4", 4, 8);
+      list("f,c", FisheyeModel::kIdxFx, FisheyeModel::kIdxDist);
+      list("k1..k4", FisheyeModel::kIdxDist, FisheyeModel::kNumParams);
       break;
     case CameraType::kOmni:
-      list("f,c,s", 0, 5);
-      s << " xi=" << params_[5];
-      list("k1 k2 p1 p2", 6, 10);
+      list("f,c,s", OmniModel::kIdxFx, OmniModel::kIdxXi);
+      s << " xi=" << params_[OmniModel::kIdxXi];
+      list("k1 k2 p1 p2", OmniModel::kIdxDist, OmniModel::kNumParams);
       break;
     case CameraType::kOCam: {
       const OCamParams o = ocam_params();
@@ -579,6 +602,18 @@ std::string CameraModel::Describe() const {
   }
   s << " max_angle=" << max_angle_rad_ * 180.0 / M_PI << "deg";
   return s.str();
+}
+
+void CheckImageSize(const CameraModel& camera, int width, int height,
+                    const std::string& image_path) {
+  if (width == camera.width() && height == camera.height()) return;
+  const std::string cam = camera.source().empty() ? "'" + camera.name() + "'" : camera.source();
+  throw FileError(image_path, "",
+                  "image is " + std::to_string(width) + "x" + std::to_string(height) +
+                      " px but camera " + cam + " is calibrated for " +
+                      std::to_string(camera.width()) + "x" + std::to_string(camera.height()) +
+                      " px (images are never rescaled: use the camera file made for this image "
+                      "size)");
 }
 
 }  // namespace scancam

@@ -109,11 +109,12 @@ ValidRegion FindValidRegion(const CameraModel& camera, const cv::Mat& image,
   const std::vector<double>& prm = camera.params();
   // The centre c and its bearing.
   if (type == CameraType::kOCam) {
-    res.centre_u = prm[0], res.centre_v = prm[1];
+    res.centre_u = prm[OCamModel::kIdxCu], res.centre_v = prm[OCamModel::kIdxCv];
   } else if (type == CameraType::kEquirect) {
     res.centre_u = (w - 1) / 2.0, res.centre_v = (h - 1) / 2.0;
   } else {
-    res.centre_u = prm[2], res.centre_v = prm[3];
+    // Pinhole, fisheye and omni: the principal point (same index in the three layouts).
+    res.centre_u = prm[PinholeModel::kIdxCx], res.centre_v = prm[PinholeModel::kIdxCy];
   }
   const double cu = res.centre_u, cv_ = res.centre_v;
   Eigen::Vector3d axis(0.0, 0.0, 1.0);

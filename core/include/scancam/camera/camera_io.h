@@ -87,9 +87,6 @@ CameraFileFormat DetectCameraFileFormat(const std::string& path);
 void SaveCamera(const CameraModel& camera, const std::string& path,
                 CameraFileFormat format = CameraFileFormat::kOpenCv);
 
-/// Throws scancam::Error when an image of width x height does not match the camera's image size
-/// ("IMAGE: image is WxH px but camera CAMFILE is W'xH' px ..."). Never rescales.
-void CheckImageSize(const CameraModel& camera, int width, int height,
-                    const std::string& image_path);
+// CheckImageSize (an image's size against the camera's) is in camera_model.h.
 
 }  // namespace scancam

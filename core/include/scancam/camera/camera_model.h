@@ -199,4 +199,9 @@ class CameraModel {
   double r_max_ = 0.0;          // pinhole / omni: max undistorted radius; fisheye: theta_max
 };
 
+/// Throws scancam::Error when an image of width x height does not match the camera's image size
+/// ("IMAGE: image is WxH px but camera CAMFILE is W'xH' px ..."). Never rescales.
+void CheckImageSize(const CameraModel& camera, int width, int height,
+                    const std::string& image_path);
+
 }  // namespace scancam

@@ -6,9 +6,10 @@
 //     camera-frame point (any scale) -> pixel;
 //   - template <typename T> static bool Unproject(const T* params, const T* uv, T* bearing):
 //     pixel -> unit bearing in the camera frame.
-// T is double or ceres::Jet<...> (both intrinsics and points may carry derivatives). A return of
-// false means "outside the model's analytic domain" (behind the camera for models that cannot see
-// there, beyond the OCam polynomial's valid radius, a zero vector, an undistortion that did not
+// T is double or an autodiff number such as ceres::Jet<...> (both intrinsics and points may
+// carry derivatives; this header does not include Ceres: callers that differentiate do). A return
+// of false means "outside the model's analytic domain" (behind the camera for models that cannot
+// see there, beyond the OCam polynomial's valid radius, a zero vector, an undistortion that did not
 // converge). These functions do NOT know the image size and do NOT check for fold-back of the
 // distortion polynomials of the pinhole / fisheye / omni models: scancam::CameraModel
 // (camera_model.h) adds both checks at run time with precomputed limits. Use CameraModel for
@@ -21,8 +22,6 @@
 // and then finished with one Newton step evaluated in T. The value is unchanged (to rounding)
 // and the derivatives are those of the implicit function theorem, i.e. exact.
 #pragma once
-
-#include <ceres/jet.h>
 
 #include <algorithm>
 #include <cmath>
@@ -43,10 +42,11 @@ enum class CameraType {
 
 namespace camera_internal {
 
-/// The value part of a double or a (nested) ceres::Jet.
+/// The value part of a double or of a (nested) autodiff number whose value member is `a`
+/// (ceres::Jet).
 inline double ScalarPart(double x) { return x; }
-template <typename T, int N>
-inline double ScalarPart(const ceres::Jet<T, N>& x) {
+template <typename T>
+inline double ScalarPart(const T& x) {
   return ScalarPart(x.a);
 }
 
@@ -93,37 +93,13 @@ inline void DistortRadTan4(const P* k, const T& x, const T& y, T* xd, T* yd) {
   *yd = y * radial + k[2] * (r2 + 2.0 * y * y) + 2.0 * k[3] * xy;
 }
 
-/// Solves F(x) = target for x in R^2 by Newton's method from the start value in x (double).
-/// F is a generic callable F(const S* in, S* out) for S = ceres::Jet<double, 2>; its Jacobian
-/// comes from that Jet. Returns false when it does not converge to |F(x) - target| <= 1e-13
-/// (relative to 1 + |target|).
-template <typename F>
-inline bool SolveNewton2(const F& f, const double target[2], double x[2], double jac[4]) {
-  using J = ceres::Jet<double, 2>;
-  const double tol = 1e-13 * (1.0 + std::abs(target[0]) + std::abs(target[1]));
-  for (int it = 0; it < 100; ++it) {
-    J in[2] = {J(x[0], 0), J(x[1], 1)};
-    J out[2];
-    f(in, out);
-    const double r0 = out[0].a - target[0];
-    const double r1 = out[1].a - target[1];
-    const double a = out[0].v[0], b = out[0].v[1], c = out[1].v[0], d = out[1].v[1];
-    jac[0] = a, jac[1] = b, jac[2] = c, jac[3] = d;
-    if (!std::isfinite(r0) || !std::isfinite(r1)) return false;
-    if (std::abs(r0) + std::abs(r1) <= tol) return true;
-    const double det = a * d - b * c;
-    if (!(std::abs(det) > 1e-300) || !std::isfinite(det)) return false;
-    const double dx = (d * r0 - b * r1) / det;
-    const double dy = (-c * r0 + a * r1) / det;
-    // Damping: never let one step more than double the radius (keeps far starts sane).
-    const double step = std::hypot(dx, dy);
-    const double lim = 1.0 + 2.0 * std::hypot(x[0], x[1]);
-    const double s = step > lim ? lim / step : 1.0;
-    x[0] -= s * dx;
-    x[1] -= s * dy;
-  }
-  return false;
-}
+/// Inverts DistortRadTan8 (k: 8 values) / DistortRadTan4 (k: 4 values): solves
+/// Distort(k, x) = target for x in R^2 by damped Newton's method from the start value in x, in
+/// double. jac receives the Jacobian of Distort at the solution (row-major 2x2). Returns false
+/// when it does not converge to |Distort(x) - target| <= 1e-13 (relative to 1 + |target|).
+/// Out of line (models.cpp), so that this header needs no autodiff library.
+bool UndistortRadTan8(const double* k, const double target[2], double x[2], double jac[4]);
+bool UndistortRadTan4(const double* k, const double target[2], double x[2], double jac[4]);
 
 /// One Newton step in T at the converged double solution x0 of F(x; params) = target:
 /// x_T = x0 - J^-1 (F_T(x0) - target_T). Values stay x0 (to rounding); derivatives follow the
@@ -151,7 +127,14 @@ inline void ImplicitStep2(const double x0[2], const double jac[4], const T fx[2]
 struct PinholeModel {
   static constexpr CameraType kType = CameraType::kPinhole;
   static constexpr const char* kName = "pinhole";
-  static constexpr int kNumParams = 12;
+  // Parameter layout (named indices, as COLMAP's models).
+  static constexpr int kIdxFx = 0;  ///< focal lengths fx, fy (px)
+  static constexpr int kIdxFy = 1;
+  static constexpr int kIdxCx = 2;  ///< principal point cx, cy (px)
+  static constexpr int kIdxCy = 3;
+  static constexpr int kIdxDist = 4;  ///< k1 k2 p1 p2 k3 k4 k5 k6 (DistortRadTan8 order)
+  static constexpr int kNumDist = 8;
+  static constexpr int kNumParams = kIdxDist + kNumDist;  // 12
 
   template <typename T>
   static bool Project(const T* params, const T* p, T* uv) {
@@ -159,9 +142,9 @@ struct PinholeModel {
     const T x = p[0] / p[2];
     const T y = p[1] / p[2];
     T xd, yd;
-    camera_internal::DistortRadTan8(params + 4, x, y, &xd, &yd);
-    uv[0] = params[0] * xd + params[2];
-    uv[1] = params[1] * yd + params[3];
+    camera_internal::DistortRadTan8(params + kIdxDist, x, y, &xd, &yd);
+    uv[0] = params[kIdxFx] * xd + params[kIdxCx];
+    uv[1] = params[kIdxFy] * yd + params[kIdxCy];
     return true;
   }
 
@@ -169,18 +152,16 @@ struct PinholeModel {
   template <typename T>
   static bool UnprojectNormalized(const T* params, const T* uv, T* xy) {
     using camera_internal::ScalarPart;
-    const T target[2] = {(uv[0] - params[2]) / params[0], (uv[1] - params[3]) / params[1]};
-    double k[8];
-    for (int i = 0; i < 8; ++i) k[i] = ScalarPart(params[4 + i]);
+    const T target[2] = {(uv[0] - params[kIdxCx]) / params[kIdxFx],
+                         (uv[1] - params[kIdxCy]) / params[kIdxFy]};
+    double k[kNumDist];
+    for (int i = 0; i < kNumDist; ++i) k[i] = ScalarPart(params[kIdxDist + i]);
     const double ts[2] = {ScalarPart(target[0]), ScalarPart(target[1])};
     double x0[2] = {ts[0], ts[1]};
     double jac[4];
-    auto f = [&k](const auto* in, auto* out) {
-      camera_internal::DistortRadTan8(k, in[0], in[1], &out[0], &out[1]);
-    };
-    if (!camera_internal::SolveNewton2(f, ts, x0, jac)) return false;
+    if (!camera_internal::UndistortRadTan8(k, ts, x0, jac)) return false;
     T fx[2];
-    camera_internal::DistortRadTan8(params + 4, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
+    camera_internal::DistortRadTan8(params + kIdxDist, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
     camera_internal::ImplicitStep2(x0, jac, fx, target, xy);
     return true;
   }
@@ -210,7 +191,14 @@ struct PinholeModel {
 struct FisheyeModel {
   static constexpr CameraType kType = CameraType::kFisheye;
   static constexpr const char* kName = "fisheye";
-  static constexpr int kNumParams = 8;
+  // Parameter layout (named indices, as COLMAP's models).
+  static constexpr int kIdxFx = 0;  ///< focal lengths fx, fy (px)
+  static constexpr int kIdxFy = 1;
+  static constexpr int kIdxCx = 2;  ///< principal point cx, cy (px)
+  static constexpr int kIdxCy = 3;
+  static constexpr int kIdxDist = 4;  ///< k1 k2 k3 k4 (the theta_d polynomial)
+  static constexpr int kNumDist = 4;
+  static constexpr int kNumParams = kIdxDist + kNumDist;  // 8
 
   template <typename T, typename P>
   static T ThetaD(const P* k, const T& theta) {
@@ -234,12 +222,12 @@ struct FisheyeModel {
     } else {
       const T r = sqrt(p[0] * p[0] + p[1] * p[1]);
       const T theta = atan2(r, p[2]);
-      const T s = ThetaD(params + 4, theta) / r;
+      const T s = ThetaD(params + kIdxDist, theta) / r;
       xd = p[0] * s;
       yd = p[1] * s;
     }
-    uv[0] = params[0] * xd + params[2];
-    uv[1] = params[1] * yd + params[3];
+    uv[0] = params[kIdxFx] * xd + params[kIdxCx];
+    uv[1] = params[kIdxFy] * yd + params[kIdxCy];
     return true;
   }
 
@@ -277,8 +265,8 @@ struct FisheyeModel {
     using std::cos;
     using std::sin;
     using std::sqrt;
-    const T xd = (uv[0] - params[2]) / params[0];
-    const T yd = (uv[1] - params[3]) / params[1];
+    const T xd = (uv[0] - params[kIdxCx]) / params[kIdxFx];
+    const T yd = (uv[1] - params[kIdxCy]) / params[kIdxFy];
     const double xs = ScalarPart(xd), ys = ScalarPart(yd);
     const double rd_s = std::hypot(xs, ys);
     if (rd_s == 0.0) {
@@ -287,8 +275,8 @@ struct FisheyeModel {
       bearing[2] = T(1.0);
       return true;
     }
-    double k[4];
-    for (int i = 0; i < 4; ++i) k[i] = ScalarPart(params[4 + i]);
+    double k[kNumDist];
+    for (int i = 0; i < kNumDist; ++i) k[i] = ScalarPart(params[kIdxDist + i]);
     // Bracket the first crossing theta_d(theta) = rd on a coarse grid (pi/64 steps), stopping
     // where theta_d stops increasing (fold-back): the root is then unique in the bracket.
     double theta_hi = -1.0;
@@ -308,7 +296,7 @@ struct FisheyeModel {
     const T rd = sqrt(xd * xd + yd * yd);
     const double t2 = theta0 * theta0;
     const double dtd = 1.0 + t2 * (3 * k[0] + t2 * (5 * k[1] + t2 * (7 * k[2] + t2 * 9 * k[3])));
-    const T theta = theta0 - (ThetaD(params + 4, T(theta0)) - rd) / dtd;
+    const T theta = theta0 - (ThetaD(params + kIdxDist, T(theta0)) - rd) / dtd;
     const T s = sin(theta) / rd;
     bearing[0] = xd * s;
     bearing[1] = yd * s;
@@ -329,26 +317,35 @@ struct FisheyeModel {
 struct OmniModel {
   static constexpr CameraType kType = CameraType::kOmni;
   static constexpr const char* kName = "omni";
-  static constexpr int kNumParams = 10;
+  // Parameter layout (named indices, as COLMAP's models).
+  static constexpr int kIdxFx = 0;  ///< focal lengths fx, fy (px)
+  static constexpr int kIdxFy = 1;
+  static constexpr int kIdxCx = 2;  ///< principal point cx, cy (px)
+  static constexpr int kIdxCy = 3;
+  static constexpr int kIdxSkew = 4;  ///< s = K(0,1) (px)
+  static constexpr int kIdxXi = 5;    ///< Mei's xi (>= 0)
+  static constexpr int kIdxDist = 6;  ///< k1 k2 p1 p2 (DistortRadTan4 order)
+  static constexpr int kNumDist = 4;
+  static constexpr int kNumParams = kIdxDist + kNumDist;  // 10
 
   template <typename T>
   static bool Project(const T* params, const T* p, T* uv) {
     using camera_internal::ScalarPart;
     using std::sqrt;
-    const double xi = ScalarPart(params[5]);
+    const double xi = ScalarPart(params[kIdxXi]);
     const double w = xi > 1.0 ? 1.0 / xi : xi;
     const double ns =
         std::sqrt(ScalarPart(p[0]) * ScalarPart(p[0]) + ScalarPart(p[1]) * ScalarPart(p[1]) +
                   ScalarPart(p[2]) * ScalarPart(p[2]));
     if (!(ns > 0.0) || !(ScalarPart(p[2]) > -w * ns)) return false;
     const T n = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-    const T den = p[2] / n + params[5];
+    const T den = p[2] / n + params[kIdxXi];
     const T x = p[0] / n / den;
     const T y = p[1] / n / den;
     T xd, yd;
-    camera_internal::DistortRadTan4(params + 6, x, y, &xd, &yd);
-    uv[0] = params[0] * xd + params[4] * yd + params[2];
-    uv[1] = params[1] * yd + params[3];
+    camera_internal::DistortRadTan4(params + kIdxDist, x, y, &xd, &yd);
+    uv[0] = params[kIdxFx] * xd + params[kIdxSkew] * yd + params[kIdxCx];
+    uv[1] = params[kIdxFy] * yd + params[kIdxCy];
     return true;
   }
 
@@ -356,20 +353,17 @@ struct OmniModel {
   template <typename T>
   static bool UnprojectNormalized(const T* params, const T* uv, T* xy) {
     using camera_internal::ScalarPart;
-    const T yd = (uv[1] - params[3]) / params[1];
-    const T xd = (uv[0] - params[2] - params[4] * yd) / params[0];
+    const T yd = (uv[1] - params[kIdxCy]) / params[kIdxFy];
+    const T xd = (uv[0] - params[kIdxCx] - params[kIdxSkew] * yd) / params[kIdxFx];
     const T target[2] = {xd, yd};
-    double k[4];
-    for (int i = 0; i < 4; ++i) k[i] = ScalarPart(params[6 + i]);
+    double k[kNumDist];
+    for (int i = 0; i < kNumDist; ++i) k[i] = ScalarPart(params[kIdxDist + i]);
     const double ts[2] = {ScalarPart(xd), ScalarPart(yd)};
     double x0[2] = {ts[0], ts[1]};
     double jac[4];
-    auto f = [&k](const auto* in, auto* out) {
-      camera_internal::DistortRadTan4(k, in[0], in[1], &out[0], &out[1]);
-    };
-    if (!camera_internal::SolveNewton2(f, ts, x0, jac)) return false;
+    if (!camera_internal::UndistortRadTan4(k, ts, x0, jac)) return false;
     T fx[2];
-    camera_internal::DistortRadTan4(params + 6, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
+    camera_internal::DistortRadTan4(params + kIdxDist, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
     camera_internal::ImplicitStep2(x0, jac, fx, target, xy);
     return true;
   }
@@ -379,7 +373,7 @@ struct OmniModel {
     using std::sqrt;
     T xy[2];
     if (!UnprojectNormalized(params, uv, xy)) return false;
-    const T& xi = params[5];
+    const T& xi = params[kIdxXi];
     const T r2 = xy[0] * xy[0] + xy[1] * xy[1];
     const T disc = 1.0 + (1.0 - xi * xi) * r2;
     if (!(camera_internal::ScalarPart(disc) >= 0.0)) return false;
@@ -422,6 +416,10 @@ struct OCamModel {
   static constexpr const char* kName = "ocam";
   static constexpr int kMaxPol = 12;
   static constexpr int kMaxInv = 32;
+  // Parameter layout (named indices, as COLMAP's models; see the table above).
+  static constexpr int kIdxCu = 0;      ///< column of the distortion centre (px)
+  static constexpr int kIdxCv = 1;      ///< row of the distortion centre (px)
+  static constexpr int kIdxAffine = 2;  ///< c d e
   static constexpr int kIdxRhoMax = 5;
   static constexpr int kIdxNPol = 6;
   static constexpr int kIdxPol = 7;
@@ -439,7 +437,8 @@ struct OCamModel {
     return std::atan2(rho, -p);
   }
 
-  /// Valid radius when params[5] is unset: first rho where alpha stops increasing (<= 1e5 px).
+  /// Valid radius when params[kIdxRhoMax] is unset: first rho where alpha stops increasing (<= 1e5
+  /// px).
   static double FoldBackRadius(const double* pol, int n) {
     double prev = 0.0;
     const double step = 0.25;
@@ -557,8 +556,8 @@ struct OCamModel {
       c_off = m_col * s;
     }
     // [row - cv; col - cu] = [c d; e 1] [r_off; c_off]
-    uv[1] = params[2] * r_off + params[3] * c_off + params[1];
-    uv[0] = params[4] * r_off + c_off + params[0];
+    uv[1] = params[kIdxAffine] * r_off + params[kIdxAffine + 1] * c_off + params[kIdxCv];
+    uv[0] = params[kIdxAffine + 2] * r_off + c_off + params[kIdxCu];
     return true;
   }
 
@@ -568,11 +567,11 @@ struct OCamModel {
     using std::sqrt;
     const int n = static_cast<int>(ScalarPart(params[kIdxNPol]));
     if (n < 1 || n > kMaxPol) return false;
-    const T dr = uv[1] - params[1];
-    const T dc = uv[0] - params[0];
-    const T& c = params[2];
-    const T& d = params[3];
-    const T& e = params[4];
+    const T dr = uv[1] - params[kIdxCv];
+    const T dc = uv[0] - params[kIdxCu];
+    const T& c = params[kIdxAffine];
+    const T& d = params[kIdxAffine + 1];
+    const T& e = params[kIdxAffine + 2];
     const T invdet = 1.0 / (c - d * e);
     const T m_row = invdet * (dr - d * dc);
     const T m_col = invdet * (-e * dr + c * dc);
@@ -607,6 +606,11 @@ struct OCamModel {
 struct EquirectModel {
   static constexpr CameraType kType = CameraType::kEquirect;
   static constexpr const char* kName = "equirect";
+  // Parameter layout (named indices, as COLMAP's models).
+  static constexpr int kIdxFx = 0;  ///< fu, fv (px per radian)
+  static constexpr int kIdxFy = 1;
+  static constexpr int kIdxCx = 2;  ///< cu, cv: the pixel of longitude = latitude = 0 (px)
+  static constexpr int kIdxCy = 3;
   static constexpr int kNumParams = 4;
 
   template <typename T>
@@ -623,8 +627,8 @@ struct EquirectModel {
     } else {
       lat = atan2(p[1], sqrt(p[0] * p[0] + p[2] * p[2]));
     }
-    uv[0] = params[2] + params[0] * lon;
-    uv[1] = params[3] + params[1] * lat;
+    uv[0] = params[kIdxCx] + params[kIdxFx] * lon;
+    uv[1] = params[kIdxCy] + params[kIdxFy] * lat;
     return true;
   }
 
@@ -634,8 +638,8 @@ struct EquirectModel {
     using camera_internal::ScalarPart;
     using std::cos;
     using std::sin;
-    const T lon = (uv[0] - params[2]) / params[0];
-    const T lat = (uv[1] - params[3]) / params[1];
+    const T lon = (uv[0] - params[kIdxCx]) / params[kIdxFx];
+    const T lat = (uv[1] - params[kIdxCy]) / params[kIdxFy];
     if (std::abs(ScalarPart(lon)) > M_PI || std::abs(ScalarPart(lat)) > M_PI / 2) return false;
     const T cl = cos(lat);
     bearing[0] = cl * sin(lon);
