@@ -18,6 +18,7 @@
 #include "scancam/output_file.h"
 #include "scancam/pick/snap.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibration_json.h"
 #include "valid_region_options.h"
 
 namespace scancam::cli {

@@ -21,6 +21,7 @@
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibration_json.h"
 
 namespace scancam_cc {
 

@@ -47,6 +47,7 @@
 #include "scancam/io/pairs_csv.h"
 #include "scancam/pick/snap.h"
 #include "scancam/rotation_rpy.h"
+#include "scancam/solve/calibration_json.h"
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
 

@@ -34,6 +34,7 @@
 #include "scancam/pick/snap.h"
 #include "scancam/scan_view.h"
 #include "scancam/sim/simulate.h"
+#include "scancam/solve/calibration_json.h"
 #include "ui/calibration_window.h"
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
