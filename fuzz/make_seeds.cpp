@@ -46,6 +46,7 @@
 #include "scancam/io/rotating_log.h"
 #include "scancam/sim/simulate.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibration_json.h"
 
 namespace fs = std::filesystem;
 using namespace scancam;

@@ -21,6 +21,7 @@
 #include "scancam/pick/snap.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/calibrate_options_io.h"
+#include "scancam/solve/calibration_json.h"
 #include "valid_region_options.h"
 
 namespace scancam::cli {

@@ -15,6 +15,7 @@
 #include "scancam/refine/dense_refine.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibration_json.h"
 #include "valid_region_options.h"
 
 namespace scancam::cli {

@@ -2,6 +2,7 @@
 
 #include "scancam/scan_view.h"
 
+#include <Eigen/Geometry>  // cross()
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

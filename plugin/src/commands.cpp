@@ -20,6 +20,7 @@
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/calibrate_options_io.h"
+#include "scancam/solve/calibration_json.h"
 
 namespace scancam_cc {
 

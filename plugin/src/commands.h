@@ -5,7 +5,7 @@
 //                  [-GRID_STEP deg] [-ORIGIN ZERO|BOX_CENTER]
 //       Calibrates the camera against the LAST loaded cloud (the scan the pairs' scan_row /
 //       scan_col refer to; pairs with x,y,z need none) and writes the calibration JSON
-//       (solve/calibrate.h CalibrationToJson). -IMAGE checks the image size against the
+//       (solve/calibration_json.h CalibrationToJson). -IMAGE checks the image size against the
 //       camera file. Prints the summary (T_cam_scan, errors, flagged pairs).
 //
 //   -SCANCAM_COLORIZE -CAMERA cam_file -IMAGE image_file -CALIB calib.json

@@ -20,6 +20,7 @@
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/rotation_rpy.h"
+#include "scancam/solve/calibration_json.h"
 #include "ui/pairs_model.h"
 
 namespace scancam::ui {

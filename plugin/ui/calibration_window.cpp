@@ -26,6 +26,8 @@
 #include "scancam/pick/snap.h"
 #include "ui/calibration_session.h"
 #include "ui/calibration_summary_html.h"
+#include "scancam/rotation_rpy.h"
+#include "scancam/solve/calibration_json.h"
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
 

@@ -14,6 +14,7 @@
 #include "scancam/rotation_rpy.h"
 #include "scancam/sim/simulate.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibration_json.h"
 #include "sim_test_util.h"
 #include "test_util.h"
 

@@ -1,7 +1,9 @@
 // Calibration entry point (solve/calibrate.h) and `scancam calibrate`: recovers
 // a known transform through real camera models, flags a wrong pair, refuses
 // unusable input with messages naming the file and line.
+#include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibration_json.h"
 
 #include <gtest/gtest.h>
 

@@ -17,6 +17,7 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
+#include "scancam/io/pose_json.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
 #include "test_util.h"

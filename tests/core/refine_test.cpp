@@ -18,6 +18,7 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
+#include "scancam/io/pose_json.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/refine/alignment.h"
 #include "scancam/refine/dense_refine.h"

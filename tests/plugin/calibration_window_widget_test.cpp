@@ -3,6 +3,7 @@
 // the simulator's pairs fills the residual column (and flags a planted wrong pair), and a
 // camera / image size mismatch is an error message, not a crash; the regrid dialog.
 #include "calibration_window_test_support.h"
+#include "scancam/solve/calibration_json.h"
 
 using namespace scancam::test_window;  // NOLINT: the shared test helpers
 

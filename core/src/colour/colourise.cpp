@@ -40,7 +40,7 @@
 #include "scancam/camera/kitti_calib.h"
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
-#include "scancam/solve/calibrate.h"
+#include "scancam/io/pose_json.h"
 
 namespace scancam::colour {
 namespace internal {
@@ -298,22 +298,7 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
 
 Eigen::Isometry3d LoadExtrinsic(const std::string& path) {
   if (IsKittiCalibFile(path)) return KittiVeloToCam2(ReadKittiCalib(path), path);
-  const nlohmann::json j = ReadJsonFile(path);
-  if (!j.is_object()) throw FileError(path, "", "expected a JSON object at the top level");
-  if (j.contains("T_cam_scan")) return ReadCalibrationPose(path);
-  // OpenCalib: { "<name>": { ..., "param": { "sensor_calib": { "data": 4x4 } } } }
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    const nlohmann::json& o = it.value();
-    if (!o.is_object() || !o.contains("param") || !o["param"].is_object()) continue;
-    const nlohmann::json& p = o["param"];
-    if (!p.contains("sensor_calib")) continue;
-    const std::string parent = it.key() + ".param.sensor_calib";
-    const nlohmann::json& sc = JsonField(p, "sensor_calib", path, it.key() + ".param");
-    return PoseFromJson(JsonField(sc, "data", path, parent), path, parent + ".data");
-  }
-  throw FileError(path, "",
-                  "no pose found: expected a 4x4 'T_cam_scan' (scancam calib.json, simulator "
-                  "ground_truth.json) or an OpenCalib extrinsic '<name>.param.sensor_calib.data'");
+  return ReadExtrinsicJson(path);
 }
 
 }  // namespace scancam::colour

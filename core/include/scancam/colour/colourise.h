@@ -283,12 +283,10 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
 /// exact same sampling as Colourise.
 Rgb8 SampleBilinear(const cv::Mat& bgr, float u, float v);
 
-/// The 4x4 pose of one image in a file: this tool's calib.json or any JSON with a 4x4
-/// "T_cam_scan" (ReadCalibrationPose), or an OpenCalib extrinsic file, whose only top-level
-/// object holds param.sensor_calib.data (4x4, mapping the lidar frame into the camera frame,
-/// e.g. shared/datasets/road-pinhole/reference-extrinsic.json), or a KITTI calib.txt (camera 2
-/// from the Velodyne: camera/kitti_calib.h KittiVeloToCam2). Throws scancam::Error naming the
-/// file and the field.
+/// The 4x4 pose of one image in a file: a JSON file (this tool's calib.json, any JSON with a 4x4
+/// "T_cam_scan", or an OpenCalib extrinsic: io/pose_json.h ReadExtrinsicJson), or a KITTI
+/// calib.txt (camera 2 from the Velodyne: camera/kitti_calib.h KittiVeloToCam2). Throws
+/// scancam::Error naming the file and the field.
 Eigen::Isometry3d LoadExtrinsic(const std::string& path);
 
 namespace detail {

@@ -1,8 +1,9 @@
 // ScanCam: calibration from picked pairs — the one entry point shared by the CLI
 // and the plugin.
 //
-// Input: pairs (image pixel <-> laser point, io/pairs_csv.h), the ordered scan the
-// scan cells refer to (may be null when every pair gives x,y,z), and the camera.
+// Input: pairs (image pixel <-> laser point, scancam/point_pair.h; the file: io/pairs_csv.h),
+// the ordered scan the scan cells refer to (may be null when every pair gives x,y,z), and the
+// camera.
 // Several scenes of one rig (CalibrateScenes): each scene is its own pairs + scan (the rig
 // moved between them, or the same rig recorded twice); one T_cam_scan for all of them, every
 // pair keeping its own scene's noise model (its scan's angular steps). Each scene is also
@@ -51,18 +52,19 @@
 // result): fewer than 6 pairs, pairs clustered in one part of the image or the scan (the
 // paper's Figs. 6-7 show the bias this causes), weak geometry (above), pitch near +-90 deg,
 // flagged outliers, a scene that disagrees with the joint result by more than 3 sigma.
+//
+// The result as JSON: solve/calibration_json.h; its pose read back: io/pose_json.h.
 #pragma once
 
 #include <Eigen/Geometry>
-#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "scancam/camera/camera_model.h"
-#include "scancam/io/pairs_csv.h"
 #include "scancam/ordered_scan.h"
+#include "scancam/point_pair.h"
 #include "scancam/solve/ransac_pose.h"
 #include "scancam/solve/refine.h"
 
@@ -223,18 +225,6 @@ Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* sc
 /// says whose); errors name the scene's pairs source.
 Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes, const CameraModel& camera,
                             const CalibrateOptions& options = {});
-
-/// The calibration as JSON: T_cam_scan (4x4 row-major), rotation_rpy_deg,
-/// translation_m, errors, parameter std (std.rotation_std_deg_cam_xyz, std.rotation_rpy_deg,
-/// std.translation_m; and rotation_std_deg_cam_xyz at the top level), variance_factor,
-/// reduced_chi_square, noise_prior_dof, geometry, per-pair table (with "scene" when there are
-/// several), suggested picks (with "reason"), "scenes" (>= 2 scenes: each alone vs the joint
-/// result), method, and `inputs` (free-form: file names the caller adds).
-nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inputs = {});
-
-/// T_cam_scan from a calibration JSON (this tool's, or any JSON with a 4x4
-/// "T_cam_scan"; also the simulator's ground_truth.json). Throws naming the file.
-Eigen::Isometry3d ReadCalibrationPose(const std::string& path);
 
 /// A readable multi-line summary (what `scancam calibrate` prints).
 std::string FormatCalibrationSummary(const Calibration& c);
