@@ -483,14 +483,14 @@ TEST(HostileImage, DamagedJpegImageDataIsRefusedInPlainWords) {
   // The image data cut in the middle, the end marker kept: libjpeg decodes it "successfully"
   // (grey blocks) and prints "Corrupt JPEG data: premature end of data segment" to stderr.
   const std::string cut = jpg.substr(0, jpg.size() / 2) + jpg.substr(jpg.size() - 2);
-  std::string p = Write(dir, "cut_middle.jpg", cut);
+  std::string p = WriteFileIn(dir, "cut_middle.jpg", cut);
   testing::internal::CaptureStderr();
   ExpectError([&] { ReadImage(p); }, {p, "byte", "image data is damaged", "copy or export"});
   EXPECT_EQ(testing::internal::GetCapturedStderr(), "");  // nothing printed by libjpeg
   // Extra bytes before the end marker (some cameras write them) leave the pixels intact.
   const std::string extra =
       jpg.substr(0, jpg.size() - 2) + std::string("\x01\x02\x03") + jpg.substr(jpg.size() - 2);
-  p = Write(dir, "extra.jpg", extra);
+  p = WriteFileIn(dir, "extra.jpg", extra);
   const cv::Mat read = ReadImage(p);
   const cv::Mat direct = cv::imdecode(buf, cv::IMREAD_COLOR);
   ASSERT_EQ(read.size(), direct.size());
