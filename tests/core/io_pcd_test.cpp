@@ -264,11 +264,12 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
   EXPECT_NEAR(chosen.azimuth_deg, 1.0, 1e-3);
   EXPECT_NEAR(chosen.elevation_deg, 0.5, 1e-3);
   {
-    // A spinning lidar's unevenly spaced rings (0.2 and 0.7 deg apart, 0.2 deg firings): a step
-    // per axis would merge rings; one step keeps every return in a cell of its own.
+    // A spinning lidar's unevenly spaced rings (16 rings 0.7 deg apart, then 8 rings 0.25 deg
+    // apart, as a lidar's dense block near the horizon; 0.2 deg firings): a step per axis (0.7
+    // deg rows, the typical spacing) would merge the dense block; one step keeps every return.
     std::vector<Eigen::Vector3f> lidar;
-    double el = 2.0;
-    for (int ring = 0; ring < 24; ++ring, el -= (ring % 2 ? 0.2 : 0.7)) {
+    double el = 8.0;
+    for (int ring = 0; ring < 24; ++ring, el -= (ring < 16 ? 0.7 : 0.25)) {
       for (int c = 0; c < 600; ++c) {
         const double e = el * kDeg, az = (60.0 - 0.2 * c) * kDeg, rho = range(rng);
         lidar.emplace_back(float(rho * std::cos(e) * std::cos(az)),

@@ -188,16 +188,14 @@ class CloudAdapterTest : public QObject {
     QCOMPARE(gui.scan->valid_count(), cli.valid_count());
     for (std::size_t k = 0; k < cli.size(); ++k)
       if (cli.valid(k)) QVERIFY(gui.scan->point_m[k] == cli.point_m[k]);
-    // On this anisotropic scan the policy takes a step per axis (one 2 deg step would keep the
-    // same points with every other column empty), and it keeps every point.
+    // The policy's choice between one step and a step per axis keeps at least as many points
+    // as the per-axis grid (the window's former default) on this scan.
     const scancam::AngularSteps separate = scancam::EstimateAngularStepsDeg(pts, zero);
     scancam::RegridOptions per_axis;
     per_axis.step_deg = separate.azimuth_deg;
     per_axis.elevation_step_deg = separate.elevation_deg;
-    const scancam::OrderedScan expected = scancam::RegridSpherical(pts, nullptr, zero, per_axis);
-    QCOMPARE(cli.rows, expected.rows);
-    QCOMPARE(cli.cols, expected.cols);
-    QCOMPARE(cli.valid_count(), expected.valid_count());
+    const scancam::OrderedScan former = scancam::RegridSpherical(pts, nullptr, zero, per_axis);
+    QVERIFY(cli.valid_count() >= former.valid_count());
     // A step given (-GRID_STEP, --grid-step-deg) is used by both for both axes.
     scancam::RegridOptions given;
     given.step_deg = 3.0;
