@@ -11,7 +11,7 @@
 
 class ccGLWindow;  // 2.12+: ccGLWindowInterface (the picking modes moved there)
 
-namespace scancam_cc {
+namespace scancam::plugin {
 namespace cclib = ::CCLib;  // 2.12+: ::CCCoreLib
 
 using GenericProgressCallback = cclib::GenericProgressCallback;
@@ -25,4 +25,4 @@ bool AddPointPickingListener(Hub& hub, Listener* listener) {
   return hub.addListener(listener, /*exclusive=*/false, /*autoStartPicking=*/true,
                          GlWindow::POINT_PICKING);
 }
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <memory>
 
-namespace scancam_cc {
+namespace scancam::plugin {
 
 scancam::Progress ToProgress(GenericProgressCallback* cb) {
   if (!cb) return {};
@@ -47,4 +47,4 @@ void RunWithCcProgress(QWidget* parent, const QString& title,
   dlg.stop();
 }
 
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

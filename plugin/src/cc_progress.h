@@ -12,7 +12,7 @@
 
 class QWidget;
 
-namespace scancam_cc {
+namespace scancam::plugin {
 
 /// Reports to `cb` (percent and stage text); asks the work to stop when the user cancels.
 /// `cb` may be null (no progress shown).
@@ -24,4 +24,4 @@ scancam::Progress ToProgress(GenericProgressCallback* cb);
 void RunWithCcProgress(QWidget* parent, const QString& title,
                        const std::function<void(const scancam::Progress&)>& work);
 
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

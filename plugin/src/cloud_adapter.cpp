@@ -15,7 +15,7 @@
 #include "scancam/io/ptx.h"
 #include "scancam/io/regrid.h"
 
-namespace scancam_cc {
+namespace scancam::plugin {
 
 namespace {
 
@@ -387,4 +387,4 @@ void RestoreColours(ccPointCloud& cloud) {
   cloud.removeMetaData(kOriginalStateKey);
 }
 
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

@@ -41,7 +41,7 @@
 class ccPointCloud;
 class ccGBLSensor;
 
-namespace scancam_cc {
+namespace scancam::plugin {
 
 inline constexpr const char* kVisibilitySfName = "ScanCam visibility";
 inline constexpr const char* kQualitySfName = "ScanCam quality";
@@ -118,4 +118,4 @@ bool HasOriginalColours(const ccPointCloud& cloud);
 /// nothing to restore or the cloud no longer has the same number of points.
 void RestoreColours(ccPointCloud& cloud);
 
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

@@ -22,7 +22,7 @@
 #include "scancam/solve/calibrate_options_io.h"
 #include "scancam/solve/calibration_json.h"
 
-namespace scancam_cc {
+namespace scancam::plugin {
 
 namespace {
 
@@ -208,4 +208,4 @@ void RegisterCommands(ccCommandLineInterface* cmd) {
   cmd->registerCommand(ccCommandLineInterface::Command::Shared(new ColorizeCommand));
 }
 
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

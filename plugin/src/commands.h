@@ -37,8 +37,8 @@
 
 class ccCommandLineInterface;
 
-namespace scancam_cc {
+namespace scancam::plugin {
 
 void RegisterCommands(ccCommandLineInterface* cmd);
 
-}  // namespace scancam_cc
+}  // namespace scancam::plugin

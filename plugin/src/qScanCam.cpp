@@ -23,9 +23,9 @@ namespace {
 
 ccMainAppInterface::ConsoleMessageLevel ToCcLevel(int level) {
   switch (level) {
-    case scancam::ui::CalibrationWindow::kError:
+    case scancam::plugin::ui::CalibrationWindow::kError:
       return ccMainAppInterface::ERR_CONSOLE_MESSAGE;
-    case scancam::ui::CalibrationWindow::kWarning:
+    case scancam::plugin::ui::CalibrationWindow::kWarning:
       return ccMainAppInterface::WRN_CONSOLE_MESSAGE;
     default:
       return ccMainAppInterface::STD_CONSOLE_MESSAGE;
@@ -90,20 +90,21 @@ void qScanCam::guarded(const QString& what, F&& f) {
   try {
     f();
   } catch (const scancam::Cancelled&) {
-    log(what + ": cancelled", scancam::ui::CalibrationWindow::kWarning);
+    log(what + ": cancelled", scancam::plugin::ui::CalibrationWindow::kWarning);
   } catch (const std::bad_alloc&) {
-    log(what + ": not enough memory", scancam::ui::CalibrationWindow::kError);
+    log(what + ": not enough memory", scancam::plugin::ui::CalibrationWindow::kError);
   } catch (const std::exception& e) {
-    log(what + ": " + QString::fromStdString(e.what()), scancam::ui::CalibrationWindow::kError);
+    log(what + ": " + QString::fromStdString(e.what()),
+        scancam::plugin::ui::CalibrationWindow::kError);
   } catch (...) {
-    log(what + ": unknown error", scancam::ui::CalibrationWindow::kError);
+    log(what + ": unknown error", scancam::plugin::ui::CalibrationWindow::kError);
   }
 }
 
 void qScanCam::log(const QString& text, int level) {
   if (window_) {
     // The window shows it in its status line and forwards it to the console.
-    if (level == scancam::ui::CalibrationWindow::kError)
+    if (level == scancam::plugin::ui::CalibrationWindow::kError)
       window_->reportError(text);
     else
       window_->reportInfo(text, level);
@@ -116,7 +117,7 @@ void qScanCam::onNewSelection(const ccHObject::Container& selectedEntities) {
   ccPointCloud* cloud = SingleSelectedCloud(selectedEntities);
   if (calibrate_action_) calibrate_action_->setEnabled(cloud != nullptr);
   if (restore_action_)
-    restore_action_->setEnabled(cloud != nullptr && scancam_cc::HasOriginalColours(*cloud));
+    restore_action_->setEnabled(cloud != nullptr && scancam::plugin::HasOriginalColours(*cloud));
 }
 
 QList<QAction*> qScanCam::getActions() {
@@ -140,7 +141,9 @@ QList<QAction*> qScanCam::getActions() {
   return {calibrate_action_, restore_action_};
 }
 
-void qScanCam::registerCommands(ccCommandLineInterface* cmd) { scancam_cc::RegisterCommands(cmd); }
+void qScanCam::registerCommands(ccCommandLineInterface* cmd) {
+  scancam::plugin::RegisterCommands(cmd);
+}
 
 ccPointCloud* qScanCam::windowCloud() const {
   if (!m_app || cloud_id_ == 0 || !m_app->dbRootObject()) return nullptr;
@@ -148,24 +151,24 @@ ccPointCloud* qScanCam::windowCloud() const {
   return obj && obj->isA(CC_TYPES::POINT_CLOUD) ? static_cast<ccPointCloud*>(obj) : nullptr;
 }
 
-bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
+bool qScanCam::buildScan(ccPointCloud* cloud, scancam::plugin::CloudScan* out) {
   QWidget* parent = m_app->getMainWindow();
-  if (scancam_cc::HasScanGrid(*cloud)) {
-    scancam_cc::RunWithCcProgress(
+  if (scancam::plugin::HasScanGrid(*cloud)) {
+    scancam::plugin::RunWithCcProgress(
         parent, tr("ScanCam: scan grid"),
-        [&](const scancam::Progress& p) { *out = scancam_cc::ScanFromGrid(*cloud, 0, p); });
+        [&](const scancam::Progress& p) { *out = scancam::plugin::ScanFromGrid(*cloud, 0, p); });
     if (cloud->gridCount() > 1)
       log(QString("%1 has %2 scan grids: only the first is used")
               .arg(cloud->getName())
               .arg(cloud->gridCount()),
-          scancam::ui::CalibrationWindow::kWarning);
+          scancam::plugin::ui::CalibrationWindow::kWarning);
     return true;
   }
-  if (scancam_cc::FindGblSensor(*cloud)) {
+  if (scancam::plugin::FindGblSensor(*cloud)) {
     // About the sensor, with its own steps (the same grid as -SCANCAM_COLORIZE builds).
-    scancam_cc::RunWithCcProgress(
+    scancam::plugin::RunWithCcProgress(
         parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
-          *out = scancam_cc::ScanOfUngriddedCloud(*cloud, Eigen::Vector3d::Zero(), {}, p);
+          *out = scancam::plugin::ScanOfUngriddedCloud(*cloud, Eigen::Vector3d::Zero(), {}, p);
         });
     return true;
   }
@@ -181,8 +184,9 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
       scancam::ChooseGridSteps(pts, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), {});
   // A spinning lidar without a ring field (KITTI, many drivers' PCDs): offer its lasers.
   const scancam::RecoveredRings rings = scancam::RecoverRings(pts, Eigen::Vector3d::Zero());
-  scancam::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg, estimated.elevation_deg,
-                                parent, QString::fromStdString(rings.summary), rings.count > 0);
+  scancam::plugin::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg,
+                                        estimated.elevation_deg, parent,
+                                        QString::fromStdString(rings.summary), rings.count > 0);
   if (dlg.exec() != QDialog::Accepted) return false;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   if (dlg.useBoxCentre()) {
@@ -196,11 +200,11 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out) {
       std::abs(requested.elevation_deg - estimated.elevation_deg) <= 0.5e-4)
     requested = {};
   const bool recover = dlg.recoverRings();
-  scancam_cc::RunWithCcProgress(
+  scancam::plugin::RunWithCcProgress(
       parent, tr("ScanCam: gridding the cloud"), [&](const scancam::Progress& p) {
-        *out = recover ? scancam_cc::ScanByRingRecovery(*cloud, Eigen::Isometry3d::Identity(),
-                                                        origin, p)
-                       : scancam_cc::ScanOfUngriddedCloud(*cloud, origin, requested, p);
+        *out = recover ? scancam::plugin::ScanByRingRecovery(*cloud, Eigen::Isometry3d::Identity(),
+                                                             origin, p)
+                       : scancam::plugin::ScanOfUngriddedCloud(*cloud, origin, requested, p);
       });
   return true;
 }
@@ -216,7 +220,7 @@ void qScanCam::openCalibration() {
   } done{opening_};
   ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
   if (!cloud) {
-    log("select one point cloud first", scancam::ui::CalibrationWindow::kError);
+    log("select one point cloud first", scancam::plugin::ui::CalibrationWindow::kError);
     return;
   }
   if (window_ && cloud->getUniqueID() == cloud_id_ && windowCloud() == cloud) {
@@ -230,7 +234,7 @@ void qScanCam::openCalibration() {
     window_.clear();
   }
 
-  scancam_cc::CloudScan cs;
+  scancam::plugin::CloudScan cs;
   if (!buildScan(cloud, &cs)) return;
   cloud_scan_ = std::move(cs);
   cloud_id_ = cloud->getUniqueID();
@@ -250,10 +254,10 @@ void qScanCam::openCalibration() {
                              "a smaller angular step avoids that)")
                          .arg(cloud_scan_.points_not_in_grid)
                    : QString()),
-      cloud_scan_.points_not_in_grid > 0 ? scancam::ui::CalibrationWindow::kWarning
-                                         : scancam::ui::CalibrationWindow::kInfo);
+      cloud_scan_.points_not_in_grid > 0 ? scancam::plugin::ui::CalibrationWindow::kWarning
+                                         : scancam::plugin::ui::CalibrationWindow::kInfo);
 
-  auto* w = new scancam::ui::CalibrationWindow(m_app->getMainWindow());
+  auto* w = new scancam::plugin::ui::CalibrationWindow(m_app->getMainWindow());
   w->setWindowFlag(Qt::Window, true);
   w->setErrorDialogsEnabled(false);  // CloudCompare's console pops up errors itself
   w->setAttribute(Qt::WA_DeleteOnClose);
@@ -262,17 +266,17 @@ void qScanCam::openCalibration() {
   QWidget* main_window = m_app->getMainWindow();
   w->setProgressRunner([main_window](const QString& title,
                                      const std::function<void(const scancam::Progress&)>& work) {
-    scancam_cc::RunWithCcProgress(main_window, title, work);
+    scancam::plugin::RunWithCcProgress(main_window, title, work);
   });
-  connect(w, &scancam::ui::CalibrationWindow::logMessage, this,
+  connect(w, &scancam::plugin::ui::CalibrationWindow::logMessage, this,
           [this](const QString& text, int level) {
             if (m_app) m_app->dispToConsole(text, ToCcLevel(level));
           });
-  connect(w, &scancam::ui::CalibrationWindow::applyColoursRequested, this,
+  connect(w, &scancam::plugin::ui::CalibrationWindow::applyColoursRequested, this,
           [this] { guarded("Apply colours", [this] { applyColours(); }); });
-  connect(w, &scancam::ui::CalibrationWindow::restoreColoursRequested, this,
+  connect(w, &scancam::plugin::ui::CalibrationWindow::restoreColoursRequested, this,
           [this] { guarded("Restore colours", [this] { restoreColours(); }); });
-  connect(w, &scancam::ui::CalibrationWindow::pick3dToggled, this,
+  connect(w, &scancam::plugin::ui::CalibrationWindow::pick3dToggled, this,
           [this](bool on) { guarded("Picking in the 3D view", [this, on] { setPicking(on); }); });
   connect(w, &QObject::destroyed, this, [this] {
     // A window replaced by one on another cloud is destroyed later: then window_ is already
@@ -284,7 +288,7 @@ void qScanCam::openCalibration() {
   });
   window_ = w;
   w->setPick3dAvailable(m_app->pickingHub() != nullptr);
-  w->setRestoreAvailable(scancam_cc::HasOriginalColours(*cloud));
+  w->setRestoreAvailable(scancam::plugin::HasOriginalColours(*cloud));
   w->show();
   if (!w->setScan(cloud_scan_.scan, cloud->getName())) return;
 
@@ -300,11 +304,12 @@ void qScanCam::applyColours() {
   if (!problem.isEmpty()) throw scancam::Error(problem.toStdString());
   const scancam::colour::ColourView view = window_->colourView();
   scancam::colour::ColouredScan coloured;
-  scancam_cc::RunWithCcProgress(
+  scancam::plugin::RunWithCcProgress(
       m_app->getMainWindow(), tr("ScanCam: colouring"), [&](const scancam::Progress& p) {
         coloured = scancam::colour::Colourise(*cloud_scan_.scan, {view}, {}, p);
       });
-  const scancam_cc::ApplyStats st = scancam_cc::ApplyColours(*cloud, cloud_scan_, coloured);
+  const scancam::plugin::ApplyStats st =
+      scancam::plugin::ApplyColours(*cloud, cloud_scan_, coloured);
   cloud->prepareDisplayForRefresh_recursive();
   m_app->refreshAll();
   m_app->updateUI();
@@ -329,13 +334,14 @@ void qScanCam::applyColours() {
                                  ? QString(" (original colours kept: Restore colours)")
                                  : QString()));
   for (const std::string& w : coloured.warnings)
-    window_->reportInfo(QString::fromStdString(w), scancam::ui::CalibrationWindow::kWarning);
+    window_->reportInfo(QString::fromStdString(w),
+                        scancam::plugin::ui::CalibrationWindow::kWarning);
 }
 
 void qScanCam::restoreColours() {
   ccPointCloud* cloud = windowCloud();
   if (!cloud) throw scancam::Error("the cloud of the calibration window is no longer loaded");
-  scancam_cc::RestoreColours(*cloud);
+  scancam::plugin::RestoreColours(*cloud);
   cloud->prepareDisplayForRefresh_recursive();
   m_app->refreshAll();
   m_app->updateUI();
@@ -350,28 +356,28 @@ void qScanCam::restoreSelected() {
   if (!m_app) return;
   ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
   if (!cloud) throw scancam::Error("select one point cloud first");
-  scancam_cc::RestoreColours(*cloud);
+  scancam::plugin::RestoreColours(*cloud);
   cloud->prepareDisplayForRefresh_recursive();
   m_app->refreshAll();
   m_app->updateUI();
   if (restore_action_) restore_action_->setEnabled(false);
   if (window_ && cloud->getUniqueID() == cloud_id_) window_->setRestoreAvailable(false);
   log(QString("Restored the original colours of %1").arg(cloud->getName()),
-      scancam::ui::CalibrationWindow::kInfo);
+      scancam::plugin::ui::CalibrationWindow::kInfo);
 }
 
 void qScanCam::setPicking(bool on) {
   ccPickingHub* hub = m_app ? m_app->pickingHub() : nullptr;
   if (!hub) return;
   if (on && !picking_) {
-    if (!scancam_cc::AddPointPickingListener(*hub, static_cast<ccPickingListener*>(this))) {
+    if (!scancam::plugin::AddPointPickingListener(*hub, static_cast<ccPickingListener*>(this))) {
       if (window_) window_->setPick3dAvailable(true);  // unchecks the toggle
       throw scancam::Error(
           "CloudCompare's point picking is busy (another tool uses it): close that tool first");
     }
     picking_ = true;
     log("pick a point of the cloud in the 3D view (it becomes the scan half of the pair)",
-        scancam::ui::CalibrationWindow::kInfo);
+        scancam::plugin::ui::CalibrationWindow::kInfo);
   } else if (!on && picking_) {
     hub->removeListener(this);
     picking_ = false;
@@ -384,14 +390,14 @@ void qScanCam::onItemPicked(const PickedItem& pi) {
     ccPointCloud* cloud = windowCloud();
     if (!cloud || pi.entity != cloud) {
       window_->reportInfo("the picked point is not on the cloud of the calibration window",
-                          scancam::ui::CalibrationWindow::kWarning);
+                          scancam::plugin::ui::CalibrationWindow::kWarning);
       return;
     }
     if (pi.itemIndex >= cloud_scan_.point_to_cell.size()) return;
     const int cell = cloud_scan_.point_to_cell[pi.itemIndex];
     if (cell < 0) {
       window_->reportInfo("the picked point has no cell in the scan grid: pick a neighbour",
-                          scancam::ui::CalibrationWindow::kWarning);
+                          scancam::plugin::ui::CalibrationWindow::kWarning);
       return;
     }
     const int cols = cloud_scan_.scan->cols;

@@ -29,7 +29,7 @@ class QAction;
 class ccPointCloud;
 class CloudWatcher;
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 class CalibrationWindow;
 }
 
@@ -62,16 +62,16 @@ class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingLi
   ccPointCloud* windowCloud() const;
   /// Builds the scan of `cloud` (its grid, its sensor's re-gridding, or asks the user).
   /// Returns false when the user cancels.
-  bool buildScan(ccPointCloud* cloud, scancam_cc::CloudScan* out);
+  bool buildScan(ccPointCloud* cloud, scancam::plugin::CloudScan* out);
   template <typename F>
   void guarded(const QString& what, F&& f);
 
   QAction* calibrate_action_ = nullptr;
   QAction* restore_action_ = nullptr;
-  QPointer<scancam::ui::CalibrationWindow> window_;
+  QPointer<scancam::plugin::ui::CalibrationWindow> window_;
   unsigned cloud_id_ = 0;
   std::unique_ptr<CloudWatcher> watcher_;
-  scancam_cc::CloudScan cloud_scan_;
+  scancam::plugin::CloudScan cloud_scan_;
   bool picking_ = false;
   bool opening_ = false;  // openCalibration is running
 };

@@ -23,7 +23,7 @@
 #include "scancam/solve/calibration_json.h"
 #include "ui/pairs_model.h"
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 namespace {
 constexpr char kScanTag[] = "# scancam-scan:";
@@ -562,4 +562,4 @@ QString CalibrationSession::exportModel(const QString& path) {
   return summary;
 }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

@@ -39,7 +39,7 @@
 
 class QUndoStack;
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 class PairsModel;
 
@@ -191,4 +191,4 @@ class CalibrationSession : public QObject {
   QString alignment_text_;
 };
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

@@ -3,7 +3,7 @@
 #include <QCoreApplication>
 #include <QStringList>
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 namespace {
 QString tr(const char* text) { return QCoreApplication::translate("CalibrationSummaryHtml", text); }
@@ -84,4 +84,4 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
   return html;
 }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

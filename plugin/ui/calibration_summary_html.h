@@ -7,7 +7,7 @@
 
 #include "scancam/solve/calibration_summary.h"
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 /// The summary as HTML. `loaded_from`: the calibration file the pose was read from (then the
 /// solve's figures, flagged pairs and suggestions are not shown: there was no solve); empty
@@ -16,4 +16,4 @@ namespace scancam::ui {
 QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loaded_from = {},
                                const QString& edge_alignment = {});
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

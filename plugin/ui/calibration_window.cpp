@@ -24,14 +24,14 @@
 #include "scancam/colour/overlay.h"
 #include "scancam/error.h"
 #include "scancam/pick/snap.h"
-#include "ui/calibration_session.h"
-#include "ui/calibration_summary_html.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/calibration_json.h"
+#include "ui/calibration_session.h"
+#include "ui/calibration_summary_html.h"
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 // ---- scan view orientation ----------------------------------------------------------------
 
@@ -677,8 +677,8 @@ void CalibrationWindow::refreshOverlay() {
     // visibility result, not occluded), at most kMaxEdgePoints of them.
     const auto& visibility = session_->visibility();
     const std::vector<colour::ProjectedPoint> seen =
-        colour::ProjectSeen(*session_->scan(), colourView(), 0,
-                            visibility ? &*visibility : nullptr, &session_->edgeCells());
+        colour::ProjectSeen(*session_->scan(), colourView(), 0, visibility ? &*visibility : nullptr,
+                            &session_->edgeCells());
     const std::size_t stride =
         std::max<std::size_t>(1, (seen.size() + kMaxEdgePoints - 1) / kMaxEdgePoints);
     px.reserve(static_cast<int>(seen.size() / stride + 1));
@@ -705,4 +705,4 @@ void CalibrationWindow::refreshOverlay() {
 
 void CalibrationWindow::setAutoValidRegion(bool on) { act_auto_region_->setChecked(on); }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

@@ -81,7 +81,7 @@ class QTableView;
 class QTextEdit;
 class QToolButton;
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 class ImageView;
 class PairsModel;
@@ -379,4 +379,4 @@ class CalibrationWindow : public QMainWindow {
   QString status_text_;
 };
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

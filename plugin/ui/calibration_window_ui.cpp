@@ -29,7 +29,7 @@
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 namespace {
 const char* const kTraceTitles[4] = {"BA horizontal", "BA vertical", "BA +45\u00b0",
@@ -695,4 +695,4 @@ void CalibrationWindow::closeEvent(QCloseEvent* event) {
   QMainWindow::closeEvent(event);
 }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

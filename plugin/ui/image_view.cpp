@@ -14,7 +14,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 namespace {
 // A press that moves less than this (widget px) is a click, not a pan.
@@ -259,4 +259,4 @@ void ImageView::mouseReleaseEvent(QMouseEvent* event) {
   QGraphicsView::mouseReleaseEvent(event);
 }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

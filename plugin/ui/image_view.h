@@ -17,7 +17,7 @@
 class QGraphicsPixmapItem;
 class QGraphicsItemGroup;
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 struct Marker {
   int id = 0;  ///< the pair number shown beside the marker
@@ -91,4 +91,4 @@ class ImageView : public QGraphicsView {
   QPoint last_pos_;
 };
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

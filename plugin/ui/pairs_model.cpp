@@ -9,7 +9,7 @@
 #include <sstream>
 #include <type_traits>
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 namespace {
 QString Number(double v, int decimals) {
@@ -411,4 +411,4 @@ void PairsModel::clearResults() {
   if (size() > 0) emit dataChanged(index(0, 0), index(size() - 1, kColumnCount - 1));
 }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

@@ -47,7 +47,7 @@
 
 class QUndoStack;
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 struct EditablePair {
   std::optional<QPointF> image_px;         ///< (u, v), OpenCV pixel convention
@@ -151,4 +151,4 @@ class PairsModel : public QAbstractTableModel {
   std::shared_ptr<const OrderedScan> scan_;
 };
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

@@ -7,7 +7,7 @@
 #include <QRadioButton>
 #include <QVBoxLayout>
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 RegridDialog::RegridDialog(const QString& cloud_name, double estimated_azimuth_step_deg,
                            double estimated_elevation_step_deg, QWidget* parent,
@@ -95,4 +95,4 @@ double RegridDialog::azimuthStepDeg() const { return azimuth_step_->value(); }
 
 double RegridDialog::elevationStepDeg() const { return elevation_step_->value(); }
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

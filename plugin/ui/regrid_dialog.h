@@ -11,7 +11,7 @@
 class QDoubleSpinBox;
 class QRadioButton;
 
-namespace scancam::ui {
+namespace scancam::plugin::ui {
 
 class RegridDialog : public QDialog {
   Q_OBJECT
@@ -40,4 +40,4 @@ class RegridDialog : public QDialog {
   QDoubleSpinBox* elevation_step_ = nullptr;
 };
 
-}  // namespace scancam::ui
+}  // namespace scancam::plugin::ui

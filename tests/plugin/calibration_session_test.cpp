@@ -21,8 +21,8 @@
 namespace scancam::test_window {
 namespace {
 
-using ui::CalibrationSession;
-using ui::EditablePair;
+using plugin::ui::CalibrationSession;
+using plugin::ui::EditablePair;
 
 // A session with the simulation's scan and camera, and a fresh copy of its image.
 std::unique_ptr<CalibrationSession> MakeSession(const QString& image,
@@ -168,7 +168,7 @@ TEST(CalibrationSummaryHtml, ShowsTheSolveAndEscapesWhatCameFromFiles) {
   s->solve("ransac");
   CalibrationSummary summary = SummariseCalibration(*s->calibration());
   summary.warnings.push_back("a <b>bold</b> claim");
-  const QString html = ui::CalibrationSummaryHtml(summary, {}, "edges & more");
+  const QString html = plugin::ui::CalibrationSummaryHtml(summary, {}, "edges & more");
   EXPECT_TRUE(html.contains("<b>Method</b> ransac + refinement")) << html.toStdString();
   EXPECT_TRUE(html.contains(
       QString("<b>%1</b> of %2 pairs inliers").arg(summary.inlier_count).arg(summary.pair_count)));
@@ -177,7 +177,7 @@ TEST(CalibrationSummaryHtml, ShowsTheSolveAndEscapesWhatCameFromFiles) {
   EXPECT_TRUE(html.contains("a &lt;b&gt;bold&lt;/b&gt; claim"));
   EXPECT_TRUE(html.contains("edges &amp; more"));
   // A loaded pose: no solve figures, no suggestions, the file named (escaped).
-  const QString loaded = ui::CalibrationSummaryHtml(summary, "/tmp/a<b>.json");
+  const QString loaded = plugin::ui::CalibrationSummaryHtml(summary, "/tmp/a<b>.json");
   EXPECT_TRUE(loaded.contains("<b>Loaded</b> from /tmp/a&lt;b&gt;.json"));
   EXPECT_FALSE(loaded.contains("Reprojection error"));
   EXPECT_FALSE(loaded.contains("Flagged pairs"));

@@ -3,8 +3,8 @@
 // undo and redo; a snapped point is shown before it is kept; loading pairs over pairs asks;
 // nothing of another scan or image carries over; pairs that do not fit the scan are marked; a
 // closed cloud stops the window.
-#include "scancam/colour/colour_options_io.h"
 #include "calibration_window_test_support.h"
+#include "scancam/colour/colour_options_io.h"
 
 using namespace scancam::test_window;  // NOLINT: the shared test helpers
 
@@ -171,7 +171,7 @@ class CalibrationWindowDataTest : public QObject {
     QVERIFY(w->snapPending());
     QCOMPARE(m->size(), 0);
     QCOMPARE(w->cameraView()->markers().size(), 2);
-    const scancam::ui::Marker shown = w->cameraView()->markers()[1];
+    const scancam::plugin::ui::Marker shown = w->cameraView()->markers()[1];
     QVERIFY(shown.text.startsWith("snap"));
     // The widget click lands on a whole screen pixel: the window snaps the click it received
     // (the grey "click" marker), which the core must snap to the green marker.
@@ -222,7 +222,7 @@ class CalibrationWindowDataTest : public QObject {
       ClickPixel(w->scanView(0), view_px);
       QVERIFY(w->snapPending());
       QCOMPARE(w->scanView(3)->markers().size(), 2);
-      const scancam::ui::Marker green = w->scanView(0)->markers()[1];
+      const scancam::plugin::ui::Marker green = w->scanView(0)->markers()[1];
       QVERIFY(green.text.startsWith("snap"));
       // What the window received (the grey marker) snaps to the green one.
       const QPointF got = w->scanView(0)->markers()[0].px;

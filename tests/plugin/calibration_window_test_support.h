@@ -38,9 +38,9 @@
 
 namespace scancam::test_window {
 
-using scancam::ui::CalibrationWindow;
-using scancam::ui::ImageView;
-using scancam::ui::PairsModel;
+using scancam::plugin::ui::CalibrationWindow;
+using scancam::plugin::ui::ImageView;
+using scancam::plugin::ui::PairsModel;
 
 inline void ClickPixel(ImageView* view, const QPointF& px) {
   QTest::mouseClick(view->viewport(), Qt::LeftButton, Qt::NoModifier, view->pixelToWidget(px));

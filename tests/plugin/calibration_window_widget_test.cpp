@@ -12,21 +12,21 @@ class CalibrationWindowTest : public QObject {
  private slots:
   void orientationMapsRoundTrip() {
     for (int k = 0; k < 8; ++k) {
-      scancam::ui::ScanViewOrientation o;
+      scancam::plugin::ui::ScanViewOrientation o;
       o.transpose = k & 1;
       o.flip_horizontal = k & 2;
       o.flip_vertical = k & 4;
       const QPointF cell(7.25, 3.5);  // col, row of a 10 x 20 grid
-      const QPointF px = scancam::ui::CellToViewPixel(cell, 10, 20, o);
-      const QPointF back = scancam::ui::ViewPixelToCell(px, 10, 20, o);
+      const QPointF px = scancam::plugin::ui::CellToViewPixel(cell, 10, 20, o);
+      const QPointF back = scancam::plugin::ui::ViewPixelToCell(px, 10, 20, o);
       QVERIFY(std::abs(back.x() - cell.x()) < 1e-12 && std::abs(back.y() - cell.y()) < 1e-12);
       // The view is 20 wide x 10 high, or 10 x 20 transposed: the pixel lies inside.
       const double w = o.transpose ? 10 : 20, h = o.transpose ? 20 : 10;
       QVERIFY(px.x() >= 0 && px.x() <= w - 1 && px.y() >= 0 && px.y() <= h - 1);
     }
-    scancam::ui::ScanViewOrientation t;
+    scancam::plugin::ui::ScanViewOrientation t;
     t.transpose = true;
-    QCOMPARE(scancam::ui::CellToViewPixel(QPointF(7, 3), 10, 20, t), QPointF(3, 7));
+    QCOMPARE(scancam::plugin::ui::CellToViewPixel(QPointF(7, 3), 10, 20, t), QPointF(3, 7));
   }
 
   // Issue 14 items 2-3: the Intensity tab, true angular aspect (picks stay cells), hover.
@@ -454,7 +454,7 @@ class CalibrationWindowTest : public QObject {
   // ---- the user's data (issue 13) ---------------------------------------------------------
 
   void regridDialogShowsBothSteps() {
-    scancam::ui::RegridDialog d("cloud", 1.0, 0.5);
+    scancam::plugin::ui::RegridDialog d("cloud", 1.0, 0.5);
     QCOMPARE(d.azimuthStepDeg(), 1.0);
     QCOMPARE(d.elevationStepDeg(), 0.5);
     auto* label = d.findChild<QLabel*>("estimateLabel");
@@ -470,8 +470,8 @@ class CalibrationWindowTest : public QObject {
   }
 
   void regridDialogOffersRingRecoveryForASpinningLidar() {
-    scancam::ui::RegridDialog d("kitti", 0.18, 0.4, nullptr,
-                                "64 lasers from the firing order (...)", true);
+    scancam::plugin::ui::RegridDialog d("kitti", 0.18, 0.4, nullptr,
+                                        "64 lasers from the firing order (...)", true);
     QVERIFY(d.recoverRings());
     QVERIFY(d.findChild<QLabel*>("ringsLabel")->text().contains("64 lasers"));
     auto* az = d.findChild<QDoubleSpinBox*>("azimuthStepSpin");

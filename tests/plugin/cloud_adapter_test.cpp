@@ -19,7 +19,7 @@
 #include "scancam/sim/simulate.h"
 #include "sim_test_util.h"
 
-using scancam_cc::CloudScan;
+using scancam::plugin::CloudScan;
 
 namespace {
 
@@ -110,8 +110,8 @@ class CloudAdapterTest : public QObject {
         T.translation() = Eigen::Vector3d(12.5, -3.25, 1.5);
       }
       auto cloud = CloudFromPtx(Ptx(), T);
-      QVERIFY(scancam_cc::HasScanGrid(*cloud));
-      const CloudScan cs = scancam_cc::ScanFromGrid(*cloud, 0);
+      QVERIFY(scancam::plugin::HasScanGrid(*cloud));
+      const CloudScan cs = scancam::plugin::ScanFromGrid(*cloud, 0);
       const scancam::OrderedScan& s = *cs.scan;
       QCOMPARE(s.rows, ref.rows);
       QCOMPARE(s.cols, ref.cols);
@@ -138,15 +138,15 @@ class CloudAdapterTest : public QObject {
   void inconsistentGridIsAnError() {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     cloud->grid(0)->indexes[5] = static_cast<int>(cloud->size()) + 10;
-    QVERIFY_EXCEPTION_THROWN(scancam_cc::ScanFromGrid(*cloud, 0), scancam::Error);
-    QVERIFY_EXCEPTION_THROWN(scancam_cc::ScanFromGrid(*cloud, 3), scancam::Error);
+    QVERIFY_EXCEPTION_THROWN(scancam::plugin::ScanFromGrid(*cloud, 0), scancam::Error);
+    QVERIFY_EXCEPTION_THROWN(scancam::plugin::ScanFromGrid(*cloud, 3), scancam::Error);
   }
 
   void regriddedCellsMapToTheirPoints() {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     cloud->removeGrids();
-    const CloudScan cs = scancam_cc::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(),
-                                                      Eigen::Vector3d::Zero(), {2.0, 0.0});
+    const CloudScan cs = scancam::plugin::ScanByRegridding(*cloud, Eigen::Isometry3d::Identity(),
+                                                           Eigen::Vector3d::Zero(), {2.0, 0.0});
     const scancam::OrderedScan& s = *cs.scan;
     std::size_t mapped = 0;
     for (std::size_t k = 0; k < s.size(); ++k) {
@@ -182,7 +182,7 @@ class CloudAdapterTest : public QObject {
     const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
     const scancam::OrderedScan cli = scancam::RegridUnordered(
         pts, nullptr, zero, scancam::UnorderedGrid::kSpherical, scancam::RegridOptions{});
-    const CloudScan gui = scancam_cc::ScanOfUngriddedCloud(*cloud, zero, {});
+    const CloudScan gui = scancam::plugin::ScanOfUngriddedCloud(*cloud, zero, {});
     QCOMPARE(gui.scan->rows, cli.rows);
     QCOMPARE(gui.scan->cols, cli.cols);
     QCOMPARE(gui.scan->valid_count(), cli.valid_count());
@@ -201,7 +201,7 @@ class CloudAdapterTest : public QObject {
     given.step_deg = 3.0;
     const scancam::OrderedScan cli3 =
         scancam::RegridUnordered(pts, nullptr, zero, scancam::UnorderedGrid::kSpherical, given);
-    const CloudScan gui3 = scancam_cc::ScanOfUngriddedCloud(*cloud, zero, {3.0, 0.0});
+    const CloudScan gui3 = scancam::plugin::ScanOfUngriddedCloud(*cloud, zero, {3.0, 0.0});
     QCOMPARE(gui3.scan->rows, cli3.rows);
     QCOMPARE(gui3.scan->cols, cli3.cols);
     // With a GBL sensor: its own steps (yaw = azimuth, pitch = elevation), in the window and the
@@ -211,11 +211,11 @@ class CloudAdapterTest : public QObject {
     sensor->setPitchStep(static_cast<PointCoordinateType>(2.5 * M_PI / 180.0));
     cloud->addChild(sensor);
     scancam::RegridOptions sensor_steps;
-    sensor_steps.step_deg = scancam_cc::SensorSteps(*sensor).azimuth_deg;
-    sensor_steps.elevation_step_deg = scancam_cc::SensorSteps(*sensor).elevation_deg;
+    sensor_steps.step_deg = scancam::plugin::SensorSteps(*sensor).azimuth_deg;
+    sensor_steps.elevation_step_deg = scancam::plugin::SensorSteps(*sensor).elevation_deg;
     QVERIFY(std::abs(sensor_steps.step_deg - 5.0) < 1e-5);
     const scancam::OrderedScan ref = scancam::RegridSpherical(pts, nullptr, zero, sensor_steps);
-    const CloudScan with_sensor = scancam_cc::ScanOfUngriddedCloud(*cloud, zero, {});
+    const CloudScan with_sensor = scancam::plugin::ScanOfUngriddedCloud(*cloud, zero, {});
     QCOMPARE(with_sensor.scan->rows, ref.rows);
     QCOMPARE(with_sensor.scan->cols, ref.cols);
     QVERIFY(ref.rows != cli.rows || ref.cols != cli.cols);  // the sensor's steps were used
@@ -238,8 +238,8 @@ class CloudAdapterTest : public QObject {
     ccPointCloud cloud("lidar");
     cloud.reserve(static_cast<unsigned>(pts.size()));
     for (const auto& p : pts) cloud.addPoint(CCVector3(p.x(), p.y() + 5.f, p.z()));
-    const CloudScan cs = scancam_cc::ScanByRingRecovery(cloud, Eigen::Isometry3d::Identity(),
-                                                        Eigen::Vector3d(0, 5, 0));
+    const CloudScan cs = scancam::plugin::ScanByRingRecovery(cloud, Eigen::Isometry3d::Identity(),
+                                                             Eigen::Vector3d(0, 5, 0));
     const scancam::OrderedScan& s = *cs.scan;
     QCOMPARE(s.rows, 12);
     QCOMPARE(s.cols, 360);
@@ -258,8 +258,8 @@ class CloudAdapterTest : public QObject {
     auto ptx_cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     ptx_cloud->removeGrids();
     QVERIFY_EXCEPTION_THROWN(
-        scancam_cc::ScanByRingRecovery(*ptx_cloud, Eigen::Isometry3d::Identity(),
-                                       Eigen::Vector3d(0.3, 0.2, 0.1)),
+        scancam::plugin::ScanByRingRecovery(*ptx_cloud, Eigen::Isometry3d::Identity(),
+                                            Eigen::Vector3d(0.3, 0.2, 0.1)),
         scancam::Error);
   }
 
@@ -271,17 +271,17 @@ class CloudAdapterTest : public QObject {
     cloud->showSF(true);
     cloud->setCurrentDisplayedScalarField(0);
     const unsigned sf_count = cloud->getNumberOfScalarFields();
-    const CloudScan cs = scancam_cc::ScanFromGrid(*cloud, 0);
+    const CloudScan cs = scancam::plugin::ScanFromGrid(*cloud, 0);
 
-    QVERIFY(!scancam_cc::HasOriginalColours(*cloud));
-    const auto first = scancam_cc::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0));
+    QVERIFY(!scancam::plugin::HasOriginalColours(*cloud));
+    const auto first = scancam::plugin::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0));
     QVERIFY(first.stored_original);
-    QVERIFY(scancam_cc::HasOriginalColours(*cloud));
+    QVERIFY(scancam::plugin::HasOriginalColours(*cloud));
     QVERIFY(cloud->colorsShown());
     QVERIFY(!cloud->sfShown());
-    const int vis = cloud->getScalarFieldIndexByName(scancam_cc::kVisibilitySfName);
+    const int vis = cloud->getScalarFieldIndexByName(scancam::plugin::kVisibilitySfName);
     QVERIFY(vis >= 0);
-    QVERIFY(cloud->getScalarFieldIndexByName(scancam_cc::kQualitySfName) >= 0);
+    QVERIFY(cloud->getScalarFieldIndexByName(scancam::plugin::kQualitySfName) >= 0);
     std::size_t coloured = 0;
     for (unsigned i = 0; i < cloud->size(); ++i) {
       const std::size_t k = static_cast<std::size_t>(cs.point_to_cell[i]);
@@ -299,47 +299,47 @@ class CloudAdapterTest : public QObject {
     QCOMPARE(first.coloured_points, coloured);
 
     // A second application must not overwrite the stored originals with ScanCam's colours.
-    const auto second = scancam_cc::ApplyColours(*cloud, cs, Pattern(*cs.scan, 77));
+    const auto second = scancam::plugin::ApplyColours(*cloud, cs, Pattern(*cs.scan, 77));
     QVERIFY(!second.stored_original);
 
-    scancam_cc::RestoreColours(*cloud);
-    QVERIFY(!scancam_cc::HasOriginalColours(*cloud));
+    scancam::plugin::RestoreColours(*cloud);
+    QVERIFY(!scancam::plugin::HasOriginalColours(*cloud));
     QVERIFY(cloud->hasColors());
     for (unsigned i = 0; i < cloud->size(); ++i)
       QVERIFY2(SameColour(cloud->getPointColor(i), OriginalColour(i)),
                qPrintable(QString("point %1").arg(i)));
     QCOMPARE(cloud->getNumberOfScalarFields(), sf_count);
-    QCOMPARE(cloud->getScalarFieldIndexByName(scancam_cc::kVisibilitySfName), -1);
+    QCOMPARE(cloud->getScalarFieldIndexByName(scancam::plugin::kVisibilitySfName), -1);
     QVERIFY(!cloud->colorsShown());
     QVERIFY(cloud->sfShown());
     QCOMPARE(cloud->getCurrentDisplayedScalarFieldIndex(), 0);
     // Nothing left to restore.
-    QVERIFY_EXCEPTION_THROWN(scancam_cc::RestoreColours(*cloud), scancam::Error);
+    QVERIFY_EXCEPTION_THROWN(scancam::plugin::RestoreColours(*cloud), scancam::Error);
   }
 
   void restoreRemovesColoursTheCloudDidNotHave() {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
     QVERIFY(!cloud->hasColors());
-    const CloudScan cs = scancam_cc::ScanFromGrid(*cloud, 0);
-    scancam_cc::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0));
+    const CloudScan cs = scancam::plugin::ScanFromGrid(*cloud, 0);
+    scancam::plugin::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0));
     QVERIFY(cloud->hasColors());
     // Points the camera does not see get a neutral grey.
     for (unsigned i = 0; i < cloud->size(); ++i)
       if (cs.point_to_cell[i] % 3 != 0) QCOMPARE(cloud->getPointColor(i).r, ColorCompType(128));
-    scancam_cc::RestoreColours(*cloud);
+    scancam::plugin::RestoreColours(*cloud);
     QVERIFY(!cloud->hasColors());
     QCOMPARE(cloud->getNumberOfScalarFields(), 1u);
   }
 
   void changedCloudIsRefused() {
     auto cloud = CloudFromPtx(Ptx(), Eigen::Isometry3d::Identity());
-    const CloudScan cs = scancam_cc::ScanFromGrid(*cloud, 0);
-    scancam_cc::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0));
+    const CloudScan cs = scancam::plugin::ScanFromGrid(*cloud, 0);
+    scancam::plugin::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0));
     cloud->addPoint(CCVector3(1, 2, 3));  // the user edited the cloud meanwhile
     cloud->resizeTheRGBTable(false);
-    QVERIFY_EXCEPTION_THROWN(scancam_cc::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0)),
+    QVERIFY_EXCEPTION_THROWN(scancam::plugin::ApplyColours(*cloud, cs, Pattern(*cs.scan, 0)),
                              scancam::Error);
-    QVERIFY_EXCEPTION_THROWN(scancam_cc::RestoreColours(*cloud), scancam::Error);
+    QVERIFY_EXCEPTION_THROWN(scancam::plugin::RestoreColours(*cloud), scancam::Error);
   }
 };
 

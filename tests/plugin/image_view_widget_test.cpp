@@ -5,7 +5,7 @@
 
 #include "ui/image_view.h"
 
-using scancam::ui::ImageView;
+using scancam::plugin::ui::ImageView;
 
 class ImageViewTest : public QObject {
   Q_OBJECT

@@ -82,13 +82,9 @@ inline void LoadDepthPair(const std::uint16_t* zb, int W, I8 x, I8 y, I8* lo, I8
 SCANCAM_SIMD_AVX2_END
 #endif
 
-bool UseAvx2() {
 #if SCANCAM_SIMD_AVX2
-  return ColourIsa().Uses(simd::Isa::kAvx2);
-#else
-  return false;
+bool UseAvx2() { return ColourIsa().Uses(simd::Isa::kAvx2); }
 #endif
-}
 
 }  // namespace
 
