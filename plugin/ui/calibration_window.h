@@ -144,6 +144,15 @@ class CalibrationWindow : public QMainWindow {
   /// Takes T_cam_scan from a calibration JSON (scancam's, the simulator's truth, or an
   /// OpenCalib extrinsic: colour::LoadExtrinsic).
   bool loadCalibration(const QString& path);
+  /// Refine (calibration_session.h): DenseRefine of the current pose with progress and Cancel;
+  /// the verdict, the figures before and after and the std go to the calibration panel; an
+  /// accepted result becomes the calibration as one undo step. False when it failed or was
+  /// cancelled (a rejected refinement returns true: it ran, the pose is kept).
+  bool refine();
+  /// Refine's before/after toggle: the overlay shows the start pose (orange) instead of the
+  /// current one.
+  QAction* showStartAction() const { return act_show_start_; }
+  QAction* refineAction() const { return act_refine_; }
   /// Writes the colour options this window colours with (the defaults) as the JSON parameter
   /// file that `-SCANCAM_COLORIZE -PARAMS` and `scancam colorize --params` read
   /// (colour/colour_options_io.h).
@@ -314,6 +323,7 @@ class CalibrationWindow : public QMainWindow {
   void choosePairsToSave();
   void chooseCalibrationToSave();
   void chooseCalibrationToLoad();
+  void chooseRefineOptions();
   void chooseColourOptionsToSave();
   void chooseMask();
   void chooseExport();
@@ -356,6 +366,9 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_calibrate_ = nullptr;
   QAction* act_save_calib_ = nullptr;
   QAction* act_load_calib_ = nullptr;
+  QAction* act_refine_ = nullptr;
+  QAction* act_refine_options_ = nullptr;
+  QAction* act_show_start_ = nullptr;
   QAction* act_apply_ = nullptr;
   QAction* act_restore_ = nullptr;
   QAction* act_export_ = nullptr;
