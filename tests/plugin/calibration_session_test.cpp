@@ -18,7 +18,6 @@
 #include <iostream>
 
 #include "plugin_sim_fixture.h"
-#include "scancam/io/json_util.h"
 #include "scancam/solve/calibration_summary.h"
 #include "ui/calibration_summary_html.h"
 #include "ui/pairs_model.h"
@@ -194,30 +193,6 @@ double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
 }
 double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
   return (a * b.inverse()).translation().norm();
-}
-
-// The truth turned by `deg` about a fixed oblique axis and moved `m` (camera frame), written as
-// a calibration JSON that the session loads.
-QString PerturbedCalibration(const QString& name, double deg, double m) {
-  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-  d.linear() =
-      Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d(1, -2, 1).normalized()).matrix();
-  d.translation() = m * Eigen::Vector3d(-1, 1, 2).normalized();
-  const QString path = QString(SCANCAM_TEST_TMP) + "/" + name + ".json";
-  WriteJsonFile(path.toStdString(), {{"T_cam_scan", PoseToJson(d * Sim().sim.T_cam_scan)}});
-  return path;
-}
-
-// Small options: one start, a coarse search (the test's budget, not the tool's defaults).
-refine::DenseRefineOptions SmallRefine() {
-  refine::DenseRefineOptions o;
-  o.starts = 1;
-  o.hops = 0;
-  o.resamples = 2;
-  o.final_step_deg = 0.05;
-  o.final_step_m = 0.005;
-  o.max_evaluations = 600;
-  return o;
 }
 
 TEST(CalibrationSession, RefineImprovesAPerturbedPoseAsOneUndoStep) {
