@@ -644,7 +644,12 @@ bool CalibrationWindow::loadCalibration(const QString& path) {
 }
 
 bool CalibrationWindow::refine() {
-  return guarded(tr("Refine"), [&] { session_->refinePose(); });
+  // The progress dialog is not modal: no second Refine while this one runs (anything else that
+  // changes the scan, image or pose meanwhile makes the session discard the result).
+  act_refine_->setEnabled(false);
+  const bool ok = guarded(tr("Refine"), [&] { session_->refinePose(); });
+  updateActions();
+  return ok;
 }
 
 bool CalibrationWindow::saveColourOptions(const QString& path) {
