@@ -87,19 +87,27 @@ bool SamePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
 // calibration since then is left alone).
 class CalibrationSession::PoseCommand : public QUndoCommand {
  public:
+  /// `before_rows`: the table rows of `before`'s pairs (solve()'s return); the pairs' residuals
+  /// come back with `before` while the complete pairs are still `pairs_csv`.
   PoseCommand(CalibrationSession* session, Calibration before, QString before_source,
-              Calibration after, QString after_source, const QString& text)
+              std::vector<int> before_rows, std::string pairs_csv, Calibration after,
+              QString after_source, const QString& text)
       : QUndoCommand(text),
         session_(session),
         before_(std::move(before)),
         after_(std::move(after)),
         before_source_(std::move(before_source)),
-        after_source_(std::move(after_source)) {}
+        after_source_(std::move(after_source)),
+        before_rows_(std::move(before_rows)),
+        pairs_csv_(std::move(pairs_csv)) {}
   void redo() override {
-    if (is(before_)) session_->setCalibration(after_, after_source_);
+    if (is(before_)) session_->setCalibration(after_, after_source_, {});
   }
   void undo() override {
-    if (is(after_)) session_->setCalibration(before_, before_source_);
+    if (!is(after_)) return;
+    const bool same_pairs = FormatPairsCsv(session_->pairs_->completePointPairs()) == pairs_csv_;
+    session_->setCalibration(before_, before_source_,
+                             same_pairs ? before_rows_ : std::vector<int>());
   }
 
  private:
@@ -109,6 +117,8 @@ class CalibrationSession::PoseCommand : public QUndoCommand {
   CalibrationSession* session_;
   Calibration before_, after_;
   QString before_source_, after_source_;
+  std::vector<int> before_rows_;
+  std::string pairs_csv_;
 };
 
 CalibrationSession::CalibrationSession(QObject* parent) : QObject(parent) {
@@ -509,6 +519,7 @@ std::vector<int> CalibrationSession::solve(const std::string& method) {
     opt.image_mask = mask;
   Calibration cal = Calibrate(pairs, scan_.get(), camera_, opt);
   pairs_->setResults(cal, rows);
+  solve_rows_ = rows;
   calibration_ = std::move(cal);
   calibration_source_.clear();
   refinement_.reset();
@@ -524,6 +535,7 @@ void CalibrationSession::loadCalibration(const QString& path) {
   c.method = "loaded";
   calibration_ = c;
   calibration_source_ = path;
+  solve_rows_.clear();
   refinement_.reset();
   pairs_->clearResults();
   poseChanged();
@@ -541,11 +553,15 @@ void CalibrationSession::saveCalibration(const QString& path) const {
   WriteJsonFile(path.toStdString(), CalibrationToJson(*calibration_, inputs));
 }
 
-void CalibrationSession::setCalibration(const std::optional<Calibration>& c,
-                                        const QString& source) {
+void CalibrationSession::setCalibration(const std::optional<Calibration>& c, const QString& source,
+                                        const std::vector<int>& rows) {
   calibration_ = c;
   calibration_source_ = source;
-  pairs_->clearResults();  // the pairs' residuals belonged to the solve's pose
+  solve_rows_ = rows;
+  if (c && !rows.empty())
+    pairs_->setResults(*c, rows);
+  else
+    pairs_->clearResults();  // residuals of another pose
   poseChanged();
   emit changed();
 }
@@ -580,7 +596,8 @@ const CalibrationSession::Refinement& CalibrationSession::refinePose() {
     const QString from = before_source.isEmpty()
                              ? tr("the %1 solve").arg(QString::fromStdString(before.method))
                              : before_source;
-    undo_->push(new PoseCommand(this, before, before_source, after, from,
+    undo_->push(new PoseCommand(this, before, before_source, solve_rows_,
+                                FormatPairsCsv(pairs_->completePointPairs()), after, from,
                                 tr("Refine (%1)").arg(QString::fromStdString(result.verdict))));
   } else {
     emit changed();  // the panel shows the verdict; the pose stays

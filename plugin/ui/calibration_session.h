@@ -187,8 +187,10 @@ class CalibrationSession : public QObject {
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   void checkImageSize();
   class PoseCommand;
-  /// Makes `c` the calibration (from `source`) and recomputes what depends on the pose.
-  void setCalibration(const std::optional<Calibration>& c, const QString& source);
+  /// Makes `c` the calibration (from `source`; `rows`: its pairs' table rows, for their
+  /// residuals, or empty) and recomputes what depends on the pose.
+  void setCalibration(const std::optional<Calibration>& c, const QString& source,
+                      const std::vector<int>& rows);
 
   ProgressRunner runner_;
   PairsModel* pairs_ = nullptr;
@@ -212,6 +214,7 @@ class CalibrationSession : public QObject {
   QString autosave_path_;
   std::optional<Calibration> calibration_;
   QString calibration_source_;
+  std::vector<int> solve_rows_;  // the table rows of calibration_->pairs (solve's return)
   std::optional<colour::ColouredScan> coloured_;
   QString alignment_text_;
   refine::DenseRefineOptions refine_options_;

@@ -233,6 +233,26 @@ TEST(CalibrationSession, RefineImprovesAPerturbedPoseAsOneUndoStep) {
   EXPECT_FALSE(s->lastRefinement().has_value());
 }
 
+TEST(CalibrationSession, RefineAfterSolveUndoBringsThePairsResidualsBack) {
+  auto s = MakeSession(FreshImage("session_refine_solve"));
+  s->loadPairs(Sim().pairs, CalibrationSession::PairsLoad::kReplace);
+  s->solve("ransac");
+  const Calibration solved = *s->calibration();
+  const double err0 = s->pairs()->pairs()[0].error_px;
+  ASSERT_TRUE(s->pairs()->pairs()[0].solved);
+  s->setRefineOptions(SmallRefine());
+  const CalibrationSession::Refinement& r = s->refinePose();
+  ASSERT_TRUE(r.result.accepted) << r.result.reason;
+  EXPECT_FALSE(s->pairs()->pairs()[0].solved);  // the solve's residuals are not the new pose's
+  EXPECT_TRUE(s->calibrationSource().contains("ransac")) << s->calibrationSource().toStdString();
+  s->undoStack()->undo();
+  EXPECT_EQ(s->pose()->matrix(), solved.T_cam_scan.matrix());
+  EXPECT_EQ(s->calibration()->inlier_count, solved.inlier_count);
+  EXPECT_TRUE(s->calibrationSource().isEmpty());  // a solve again: its figures are shown
+  ASSERT_TRUE(s->pairs()->pairs()[0].solved);
+  EXPECT_DOUBLE_EQ(s->pairs()->pairs()[0].error_px, err0);
+}
+
 TEST(CalibrationSession, CancelledRefineChangesNothing) {
   auto s = MakeSession(FreshImage("session_refine_cancel"));
   s->loadCalibration(PerturbedCalibration("session_refine_cancel_start", 1.0, 0.05));
