@@ -47,6 +47,12 @@
 // Where no corner is found ("no corner here", too far), the click is kept at once and the
 // status line says why.
 //
+// Refine (Calibration panel button, Calibration menu, Ctrl+R): the session's dense refinement of
+// the current pose (calibration_session.h), with progress and Cancel; its verdict, figures
+// before and after and std head the Calibration panel; "Before Refine" (Ctrl+B) draws the
+// overlay with the start pose (orange) instead of the current one (green); "Refine options..."
+// edits the session's refine::DenseRefineOptions (refine_options_dialog.h).
+//
 // Messages: everything the user should read goes to the status line and to logMessage()
 // (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
 // message box. No slot lets an exception escape.

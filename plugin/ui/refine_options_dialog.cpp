@@ -13,47 +13,44 @@ RefineOptionsDialog::RefineOptionsDialog(const refine::DenseRefineOptions& optio
   setWindowTitle(tr("Refine options"));
   auto* form = new QFormLayout;
   // The ranges are those `scancam refine` accepts.
-  starts_ = new QSpinBox(this);
-  starts_->setObjectName("startsSpin");
-  starts_->setRange(1, 100);
-  starts_->setValue(options.starts);
-  starts_->setToolTip(tr("Searches: the start and N-1 random starts around it (--starts)"));
-  form->addRow(tr("Starts"), starts_);
-  spread_deg_ = new QDoubleSpinBox(this);
-  spread_deg_->setObjectName("spreadDegSpin");
-  spread_deg_->setRange(0.0, 30.0);
-  spread_deg_->setDecimals(2);
-  spread_deg_->setSuffix(tr(" deg"));
-  spread_deg_->setValue(options.start_spread_deg);
-  spread_deg_->setToolTip(tr("Random starts: rotation about a random axis (--spread-deg)"));
-  form->addRow(tr("Start spread, rotation"), spread_deg_);
-  spread_m_ = new QDoubleSpinBox(this);
-  spread_m_->setObjectName("spreadMSpin");
-  spread_m_->setRange(0.0, 10.0);
-  spread_m_->setDecimals(3);
-  spread_m_->setSuffix(tr(" m"));
-  spread_m_->setValue(options.start_spread_m);
-  spread_m_->setToolTip(tr("Random starts: offset in a random direction (--spread-m)"));
-  form->addRow(tr("Start spread, translation"), spread_m_);
-  edge_weight_ = new QDoubleSpinBox(this);
-  edge_weight_->setObjectName("edgeWeightSpin");
-  edge_weight_->setRange(0.0, 10.0);
-  edge_weight_->setDecimals(3);
-  edge_weight_->setValue(options.edge_weight);
-  edge_weight_->setToolTip(tr("Weight of the depth-edge term against NID (--edge-weight)"));
-  form->addRow(tr("Edge weight"), edge_weight_);
-  max_evaluations_ = new QSpinBox(this);
-  max_evaluations_->setObjectName("maxEvaluationsSpin");
-  max_evaluations_->setRange(1, 1000000);
-  max_evaluations_->setValue(options.max_evaluations);
-  max_evaluations_->setToolTip(tr("Budget of objective evaluations over all searches"));
-  form->addRow(tr("Max. evaluations"), max_evaluations_);
-  seed_ = new QSpinBox(this);
-  seed_->setObjectName("seedSpin");
-  seed_->setRange(0, 1000000000);
-  seed_->setValue(static_cast<int>(options.seed));
-  seed_->setToolTip(tr("Random seed: starts and held-out split (--seed)"));
-  form->addRow(tr("Seed"), seed_);
+  auto add_int = [&](const char* name, const QString& label, int lo, int hi, int value,
+                     const QString& tip) {
+    auto* box = new QSpinBox(this);
+    box->setObjectName(name);
+    box->setRange(lo, hi);
+    box->setValue(value);
+    box->setToolTip(tip);
+    form->addRow(label, box);
+    return box;
+  };
+  auto add_double = [&](const char* name, const QString& label, double hi, int decimals,
+                        const QString& suffix, double value, const QString& tip) {
+    auto* box = new QDoubleSpinBox(this);
+    box->setObjectName(name);
+    box->setRange(0.0, hi);
+    box->setDecimals(decimals);
+    box->setSuffix(suffix);
+    box->setValue(value);
+    box->setToolTip(tip);
+    form->addRow(label, box);
+    return box;
+  };
+  starts_ = add_int("startsSpin", tr("Starts"), 1, 100, options.starts,
+                    tr("Searches: the start and N-1 random starts around it (--starts)"));
+  spread_deg_ = add_double("spreadDegSpin", tr("Start spread, rotation"), 30.0, 2, tr(" deg"),
+                           options.start_spread_deg,
+                           tr("Random starts: rotation about a random axis (--spread-deg)"));
+  spread_m_ = add_double("spreadMSpin", tr("Start spread, translation"), 10.0, 3, tr(" m"),
+                         options.start_spread_m,
+                         tr("Random starts: offset in a random direction (--spread-m)"));
+  edge_weight_ =
+      add_double("edgeWeightSpin", tr("Edge weight"), 10.0, 3, QString(), options.edge_weight,
+                 tr("Weight of the depth-edge term against NID (--edge-weight)"));
+  max_evaluations_ =
+      add_int("maxEvaluationsSpin", tr("Max. evaluations"), 1, 1000000, options.max_evaluations,
+              tr("Budget of objective evaluations over all searches"));
+  seed_ = add_int("seedSpin", tr("Seed"), 0, 1000000000, static_cast<int>(options.seed),
+                  tr("Random seed: starts and held-out split (--seed)"));
   auto* buttons = new QDialogButtonBox(QDialogButtonBox::Ok | QDialogButtonBox::Cancel, this);
   connect(buttons, &QDialogButtonBox::accepted, this, &QDialog::accept);
   connect(buttons, &QDialogButtonBox::rejected, this, &QDialog::reject);

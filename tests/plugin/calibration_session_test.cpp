@@ -188,13 +188,6 @@ TEST(CalibrationSummaryHtml, ShowsTheSolveAndEscapesWhatCameFromFiles) {
   EXPECT_FALSE(loaded.contains("To tighten"));
 }
 
-double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
-}
-double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a * b.inverse()).translation().norm();
-}
-
 TEST(CalibrationSession, RefineImprovesAPerturbedPoseAsOneUndoStep) {
   auto s = MakeSession(FreshImage("session_refine"));
   s->loadCalibration(PerturbedCalibration("session_refine_start", 1.0, 0.05));

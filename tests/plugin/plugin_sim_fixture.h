@@ -87,6 +87,14 @@ inline QString FileText(const QString& path) {
   return f.open(QIODevice::ReadOnly) ? QString::fromUtf8(f.readAll()) : QString();
 }
 
+// Rotation angle (deg) and offset (m) between two poses.
+inline double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
+}
+inline double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a * b.inverse()).translation().norm();
+}
+
 // The truth turned by `deg` about a fixed oblique axis and moved `m` (camera frame), written as
 // a calibration JSON that the session loads.
 inline QString PerturbedCalibration(const QString& name, double deg, double m) {

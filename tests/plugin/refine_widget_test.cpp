@@ -3,17 +3,17 @@
 // the verdict, the figures before and after and the std; the before/after toggle draws the
 // start pose's edges (orange, elsewhere on the image) and back; Ctrl+Z returns to the start
 // pose exactly. Cancel in the progress dialog stops the worker and leaves the pose as it was.
+// The options dialog edits refine::DenseRefineOptions and keeps the fields it does not show.
 #include <QProgressDialog>
+#include <QSpinBox>
 #include <QToolBar>
 
 #include "calibration_window_test_support.h"
+#include "ui/refine_options_dialog.h"
 
 using namespace scancam::test_window;  // NOLINT: the shared test helpers
 
 namespace {
-double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
-}
 // Mean distance between two overlays' points, pairing the i-th of each (same edge cells, in
 // the same order, when both poses see the same cells; a large value either way).
 double MeanShift(const QVector<QPointF>& a, const QVector<QPointF>& b) {
@@ -103,6 +103,22 @@ class RefineWindowTest : public QObject {
     QCOMPARE(w->undoStack()->count(), undo_count);
     QVERIFY(!w->session()->lastRefinement().has_value());
     QVERIFY2(w->statusText().contains("cancelled"), qPrintable(w->statusText()));
+  }
+
+  void optionsDialogEditsTheSharedOptions() {
+    const scancam::refine::DenseRefineOptions base = SmallRefine();
+    scancam::plugin::ui::RefineOptionsDialog dlg(base);
+    auto* starts = dlg.findChild<QSpinBox*>("startsSpin");
+    auto* spread = dlg.findChild<QDoubleSpinBox*>("spreadDegSpin");
+    QVERIFY(starts && spread);
+    QCOMPARE(starts->value(), base.starts);
+    starts->setValue(3);
+    spread->setValue(2.5);
+    const scancam::refine::DenseRefineOptions o = dlg.options();
+    QCOMPARE(o.starts, 3);
+    QCOMPARE(o.start_spread_deg, 2.5);
+    QCOMPARE(o.hops, base.hops);  // fields the dialog does not show are kept
+    QCOMPARE(o.max_evaluations, base.max_evaluations);
   }
 };
 
