@@ -6,7 +6,8 @@
 #
 # Usage: scripts/screenshots.sh [BUILD_DIR [OUT_DIR]]   (defaults: build, docs/images)
 # Needs: Xvfb, openbox, xdotool, xwd, ImageMagick's convert, CloudCompare 2.11.3, and the built
-# `scancam` CLI and plugin in BUILD_DIR. Takes about a minute.
+# `scancam` CLI and plugin in BUILD_DIR. Takes about a minute, plus Refine's (2-3 min on a
+# shared 2-core machine).
 #
 # Screen positions below are those of a fresh CloudCompare profile on a 1600x1000 screen
 # (CloudCompare's default layout); every step checks that the window it expects appeared.
@@ -130,5 +131,12 @@ sleep 2
 xdotool windowminimize "$win"
 sleep 1
 shot_root "$out/cloudcompare_restored.png"
+echo "[shots] Refine (dense refinement of the pose; a few minutes on a busy machine)"
+xdotool windowactivate --sync "$win"
+xdotool key ctrl+r
+wait_window "^Refine$" >/dev/null
+while xdotool search --onlyvisible --name "^Refine$" >/dev/null 2>&1; do sleep 0.5; done
+sleep 3
+shot_window "$win" "$out/scancam_refined.png"
 grep -F "[ScanCam]" "$work/cc.log" | tail -n 20 || true
 echo "[shots] wrote: $(cd "$out" && ls *.png | tr '\n' ' ')"

@@ -1,13 +1,19 @@
 #include "ui/calibration_session.h"
 
+#include <QCoreApplication>
 #include <QCryptographicHash>
 #include <QDir>
 #include <QFileInfo>
 #include <QSaveFile>
 #include <QStringList>
+#include <QUndoCommand>
 #include <QUndoStack>
 #include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <fstream>
+#include <future>
+#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 
 #include "scancam/camera/camera_io.h"
@@ -27,7 +33,93 @@ namespace scancam::plugin::ui {
 
 namespace {
 constexpr char kScanTag[] = "# scancam-scan:";
+
+// Runs `work` in a worker thread; this (the GUI) thread passes the worker's progress on to
+// `ui` (the progress runner's Progress: the dialog) and keeps the event loop going. When `ui`
+// throws Cancelled (the user cancelled), the worker is asked to stop, waited for, and
+// Cancelled is rethrown; the worker's own exceptions are rethrown here.
+template <typename R>
+R RunInWorker(const Progress& ui, const std::function<R(const Progress&)>& work) {
+  struct Shared {
+    std::mutex m;
+    double fraction = 0.0;
+    std::string stage;
+    std::atomic<bool> cancel{false};
+  };
+  auto shared = std::make_shared<Shared>();
+  std::future<R> done = std::async(std::launch::async, [shared, &work] {
+    return work(Progress([shared](double f, const std::string& stage) {
+      {
+        std::lock_guard<std::mutex> lock(shared->m);
+        shared->fraction = f;
+        shared->stage = stage;
+      }
+      return !shared->cancel.load();
+    }));
+  });
+  while (done.wait_for(std::chrono::milliseconds(20)) != std::future_status::ready) {
+    double f;
+    std::string stage;
+    {
+      std::lock_guard<std::mutex> lock(shared->m);
+      f = shared->fraction;
+      stage = shared->stage;
+    }
+    try {
+      ui(f, stage);
+    } catch (...) {
+      shared->cancel = true;
+      done.wait();
+      throw;
+    }
+    if (QCoreApplication::instance()) QCoreApplication::processEvents(QEventLoop::AllEvents, 20);
+  }
+  return done.get();
+}
+
+bool SamePose(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return a.matrix() == b.matrix();
+}
 }  // namespace
+
+// One undoable change of the calibration (Refine): redo sets `after`, undo brings `before`
+// back; each only when the calibration is still the one it replaced (a solve or a loaded
+// calibration since then is left alone).
+class CalibrationSession::PoseCommand : public QUndoCommand {
+ public:
+  /// `before_rows`: the table rows of `before`'s pairs (solve()'s return); the pairs' residuals
+  /// come back with `before` while the complete pairs are still `pairs_csv`.
+  PoseCommand(CalibrationSession* session, Calibration before, QString before_source,
+              std::vector<int> before_rows, std::string pairs_csv, Calibration after,
+              QString after_source, const QString& text)
+      : QUndoCommand(text),
+        session_(session),
+        before_(std::move(before)),
+        after_(std::move(after)),
+        before_source_(std::move(before_source)),
+        after_source_(std::move(after_source)),
+        before_rows_(std::move(before_rows)),
+        pairs_csv_(std::move(pairs_csv)) {}
+  void redo() override {
+    if (is(before_)) session_->setCalibration(after_, after_source_, {});
+  }
+  void undo() override {
+    if (!is(after_)) return;
+    const bool same_pairs = FormatPairsCsv(session_->pairs_->completePointPairs()) == pairs_csv_;
+    session_->setCalibration(before_, before_source_,
+                             same_pairs ? before_rows_ : std::vector<int>());
+  }
+
+ private:
+  bool is(const Calibration& c) const {
+    return session_->calibration_ && SamePose(session_->calibration_->T_cam_scan, c.T_cam_scan);
+  }
+  CalibrationSession* session_;
+  Calibration before_, after_;
+  QString before_source_, after_source_;
+  std::vector<int> before_rows_;
+  std::string pairs_csv_;
+};
 
 CalibrationSession::CalibrationSession(QObject* parent) : QObject(parent) {
   pairs_ = new PairsModel(this);
@@ -66,6 +158,7 @@ void CalibrationSession::setScan(std::shared_ptr<const OrderedScan> scan, const 
   pairs_->setScan(scan_);
   edge_cells_ = edge_cells;
   coloured_.reset();
+  refinement_.reset();
   emit changed();
 }
 
@@ -84,6 +177,7 @@ void CalibrationSession::loadCamera(const QString& path) {
   camera_path_ = path;
   calibration_.reset();
   coloured_.reset();
+  refinement_.reset();
   pairs_->clearResults();
   refreshValidRegion();
   emit changed();
@@ -153,6 +247,7 @@ void CalibrationSession::loadImage(const QString& path) {
     calibration_.reset();
     calibration_source_.clear();
     coloured_.reset();
+    refinement_.reset();
   }
   refreshValidRegion();
   emit changed();
@@ -424,8 +519,10 @@ std::vector<int> CalibrationSession::solve(const std::string& method) {
     opt.image_mask = mask;
   Calibration cal = Calibrate(pairs, scan_.get(), camera_, opt);
   pairs_->setResults(cal, rows);
+  solve_rows_ = rows;
   calibration_ = std::move(cal);
   calibration_source_.clear();
+  refinement_.reset();
   poseChanged();
   emit changed();
   return rows;
@@ -438,6 +535,8 @@ void CalibrationSession::loadCalibration(const QString& path) {
   c.method = "loaded";
   calibration_ = c;
   calibration_source_ = path;
+  solve_rows_.clear();
+  refinement_.reset();
   pairs_->clearResults();
   poseChanged();
   emit changed();
@@ -452,6 +551,65 @@ void CalibrationSession::saveCalibration(const QString& path) const {
   if (!autosave_path_.isEmpty()) inputs["pairs"] = autosave_path_.toStdString();
   if (!scan_name_.isEmpty()) inputs["scan"] = scan_name_.toStdString();
   WriteJsonFile(path.toStdString(), CalibrationToJson(*calibration_, inputs));
+}
+
+void CalibrationSession::setCalibration(const std::optional<Calibration>& c, const QString& source,
+                                        const std::vector<int>& rows) {
+  calibration_ = c;
+  calibration_source_ = source;
+  solve_rows_ = rows;
+  if (c && !rows.empty())
+    pairs_->setResults(*c, rows);
+  else
+    pairs_->clearResults();  // residuals of another pose
+  poseChanged();
+  emit changed();
+}
+
+const CalibrationSession::Refinement& CalibrationSession::refinePose() {
+  const QString problem = colouringProblem();
+  if (!problem.isEmpty()) throw Error("cannot refine: " + problem.toStdString());
+  // Everything the worker reads is its own (copies; the scan is shared and immutable), so
+  // that nothing the event loop does meanwhile can pull it away.
+  const std::shared_ptr<const OrderedScan> scan = scan_;
+  const Calibration before = *calibration_;
+  const QString before_source = calibration_source_;
+  const std::vector<refine::RefineScene> scenes = {{scan.get(), colourView()}};
+  const refine::DenseRefineOptions options = refine_options_;
+  const cv::Mat image = image_bgr_;
+  refine::DenseRefineResult result;
+  runWithProgress(tr("Refine"), [&](const Progress& ui) {
+    result = RunInWorker<refine::DenseRefineResult>(ui, [&](const Progress& p) {
+      return refine::DenseRefine(scenes, before.T_cam_scan, options, p);
+    });
+  });
+  if (scan_ != scan || image_bgr_.data != image.data || !calibration_ ||
+      !SamePose(calibration_->T_cam_scan, before.T_cam_scan))
+    throw Error("the scan, image or pose changed while refining: the result is not used");
+  refinement_ = Refinement{before.T_cam_scan, result};
+  if (result.accepted) {
+    Calibration after;
+    after.T_cam_scan = result.T_cam_scan;
+    after.rotation_rpy_deg = RotationToRpyDeg(after.T_cam_scan.linear());
+    after.method = "dense refinement";
+    after.refined = true;
+    const QString from = before_source.isEmpty()
+                             ? tr("the %1 solve").arg(QString::fromStdString(before.method))
+                             : before_source;
+    undo_->push(new PoseCommand(this, before, before_source, solve_rows_,
+                                FormatPairsCsv(pairs_->completePointPairs()), after, from,
+                                tr("Refine (%1)").arg(QString::fromStdString(result.verdict))));
+  } else {
+    emit changed();  // the panel shows the verdict; the pose stays
+  }
+  emit report(
+      result.accepted
+          ? tr("Refine: %1, %2 (Ctrl+Z brings the start pose back)")
+                .arg(QString::fromStdString(result.verdict), QString::fromStdString(result.reason))
+          : tr("Refine: %1, the pose is unchanged: %2")
+                .arg(QString::fromStdString(result.verdict), QString::fromStdString(result.reason)),
+      result.accepted ? kInfo : kWarning);
+  return *refinement_;
 }
 
 std::optional<Eigen::Isometry3d> CalibrationSession::pose() const {

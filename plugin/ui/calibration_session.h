@@ -16,6 +16,13 @@
 // pairs_model.h). A new image drops the previous image's mask, calibration and undo history.
 // An unreadable pairs file is never overwritten (autosave stops until savePairs).
 //
+// Refine: DenseRefine (refine/dense_refine.h) of the current pose on the current scan, image and
+// mask, run in a worker thread while the progress runner shows progress (Cancel stops it). An
+// accepted result becomes the calibration as ONE step of the undo stack ("Refine"; Ctrl+Z
+// brings the start pose back); a rejected or cancelled one changes nothing. The last
+// refinement (start pose and result) is kept for the result panel and the before/after
+// overlay until the image, scan or camera changes.
+//
 // Errors: operations throw scancam::Error (or Cancelled) with a message in plain words and leave
 // the state as it was; what the user should read besides is sent with report() (kError for
 // problems found after the operation succeeded, e.g. an image of another size than the camera
@@ -35,6 +42,7 @@
 #include "scancam/colour/colourise.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
+#include "scancam/refine/dense_refine.h"
 #include "scancam/solve/calibrate.h"
 
 class QUndoStack;
@@ -119,6 +127,20 @@ class CalibrationSession : public QObject {
   /// Camera + image + mask + pose as one colour::ColourView.
   colour::ColourView colourView() const;
 
+  // ---- dense refinement ----------------------------------------------------------------------
+  /// The options of Refine: the struct `scancam refine` fills from its command line.
+  const refine::DenseRefineOptions& refineOptions() const { return refine_options_; }
+  void setRefineOptions(const refine::DenseRefineOptions& o) { refine_options_ = o; }
+  struct Refinement {
+    Eigen::Isometry3d start = Eigen::Isometry3d::Identity();  ///< T_cam_scan refined from
+    refine::DenseRefineResult result;
+  };
+  /// Refines the current pose (see Refine above) and returns the refinement. Throws when
+  /// colouringProblem() is not empty, Cancelled when the user cancels (nothing changes).
+  const Refinement& refinePose();
+  /// The last refinement (empty before any, and after a new image, scan or camera).
+  const std::optional<Refinement>& lastRefinement() const { return refinement_; }
+
   // ---- state -------------------------------------------------------------------------------
   std::shared_ptr<const OrderedScan> scan() const { return scan_; }
   QString scanName() const { return scan_name_; }
@@ -164,6 +186,11 @@ class CalibrationSession : public QObject {
   void measureEdgeAlignment();
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   void checkImageSize();
+  class PoseCommand;
+  /// Makes `c` the calibration (from `source`; `rows`: its pairs' table rows, for their
+  /// residuals, or empty) and recomputes what depends on the pose.
+  void setCalibration(const std::optional<Calibration>& c, const QString& source,
+                      const std::vector<int>& rows);
 
   ProgressRunner runner_;
   PairsModel* pairs_ = nullptr;
@@ -187,8 +214,11 @@ class CalibrationSession : public QObject {
   QString autosave_path_;
   std::optional<Calibration> calibration_;
   QString calibration_source_;
+  std::vector<int> solve_rows_;  // the table rows of calibration_->pairs (solve's return)
   std::optional<colour::ColouredScan> coloured_;
   QString alignment_text_;
+  refine::DenseRefineOptions refine_options_;
+  std::optional<Refinement> refinement_;
 };
 
 }  // namespace scancam::plugin::ui

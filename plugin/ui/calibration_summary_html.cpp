@@ -16,7 +16,9 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
   const bool solved = loaded_from.isEmpty();
   QString html;
   if (!solved) {
-    html += tr("<b>Loaded</b> from %1<br>").arg(loaded_from.toHtmlEscaped());
+    html += (s.method == "dense refinement" ? tr("<b>Refined</b> (Refine) from %1<br>")
+                                            : tr("<b>Loaded</b> from %1<br>"))
+                .arg(loaded_from.toHtmlEscaped());
   } else {
     html += tr("<b>Method</b> %1%2 &nbsp; <b>%3</b> of %4 pairs inliers<br>")
                 .arg(Escaped(s.method))
@@ -81,6 +83,42 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
   }
   for (const std::string& w : s.warnings)
     html += tr("<br><span style='color:#a05000'>warning: %1</span>").arg(Escaped(w));
+  return html;
+}
+
+QString RefinementSummaryHtml(const refine::DenseRefineResult& r, bool current) {
+  const QString colour = r.verdict == "converged"   ? "#007000"
+                         : r.verdict == "ambiguous" ? "#a05000"
+                                                    : "#c00000";
+  QString html = tr("<b>Refine</b>: <b><span style='color:%1'>%2</span></b> &mdash; %3<br>")
+                     .arg(colour, Escaped(r.verdict), Escaped(r.reason));
+  html += r.accepted ? (current ? tr("The refined pose is the calibration (Ctrl+Z brings the "
+                                     "start pose back).<br>")
+                                : tr("The refinement was undone: the start pose is the "
+                                     "calibration.<br>"))
+                     : tr("The start pose is kept.<br>");
+  html += tr("<b>before &rarr; after</b> (lower is better): NID %1 &rarr; %2; held-out half "
+             "%3 &rarr; %4; edge field at depth edges (higher is better) %5 &rarr; %6<br>")
+              .arg(Num(r.nid_start, 4), Num(r.nid_best, 4), Num(r.heldout_start, 4),
+                   Num(r.heldout_best, 4), Num(r.edge_start, 3), Num(r.edge_best, 3));
+  const Eigen::Vector3d& w = r.rotation_change_deg_cam_xyz;
+  const Eigen::Vector3d& v = r.translation_change_m_cam_xyz;
+  html += tr("<b>change</b> about / along the camera's x / y / z: %1 %2 %3 deg, %4 %5 %6 m<br>")
+              .arg(Num(w.x(), 3), Num(w.y(), 3), Num(w.z(), 3), Num(v.x(), 3), Num(v.y(), 3),
+                   Num(v.z(), 3));
+  const Eigen::Vector3d& sw = r.rotation_std_deg_cam_xyz;
+  const Eigen::Vector3d& sv = r.translation_std_m_cam_xyz;
+  html += tr("<b>std</b> about / along the camera's x / y / z: %1 %2 %3 deg, %4 %5 %6 m "
+             "(sampling noise of the objective only)")
+              .arg(Num(sw.x(), 3), Num(sw.y(), 3), Num(sw.z(), 3), Num(sv.x(), 3), Num(sv.y(), 3),
+                   Num(sv.z(), 3));
+  if (!r.unconstrained.empty())
+    html += tr("<br><span style='color:#a05000'>weakly constrained: %1</span>")
+                .arg(Escaped(r.unconstrained));
+  html += tr("<br>%1 evaluations over %2 points (%3 on depth edges)")
+              .arg(r.evaluations)
+              .arg(r.points)
+              .arg(r.edge_points);
   return html;
 }
 

@@ -5,6 +5,7 @@
 
 #include <QString>
 
+#include "scancam/refine/dense_refine.h"
 #include "scancam/solve/calibration_summary.h"
 
 namespace scancam::plugin::ui {
@@ -15,5 +16,10 @@ namespace scancam::plugin::ui {
 /// string from the data (file name, labels, reasons, warnings) is HTML-escaped.
 QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loaded_from = {},
                                const QString& edge_alignment = {});
+
+/// A refinement (Refine) as HTML: verdict and reason, figures before and after, the change and
+/// the std about the camera's axes. `current`: whether its result is the calibration now (an
+/// accepted refinement that was not undone).
+QString RefinementSummaryHtml(const refine::DenseRefineResult& r, bool current);
 
 }  // namespace scancam::plugin::ui

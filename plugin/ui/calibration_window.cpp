@@ -643,6 +643,15 @@ bool CalibrationWindow::loadCalibration(const QString& path) {
   return guarded(tr("Load calibration"), [&] { session_->loadCalibration(path); });
 }
 
+bool CalibrationWindow::refine() {
+  // The progress dialog is not modal: no second Refine while this one runs (anything else that
+  // changes the scan, image or pose meanwhile makes the session discard the result).
+  act_refine_->setEnabled(false);
+  const bool ok = guarded(tr("Refine"), [&] { session_->refinePose(); });
+  updateActions();
+  return ok;
+}
+
 bool CalibrationWindow::saveColourOptions(const QString& path) {
   return guarded(tr("Save colour options"), [&] {
     colour::WriteColourOptions(path.toStdString(), colour::ColourOptions{});
@@ -665,27 +674,36 @@ void CalibrationWindow::showResult() {
     result_view_->clear();
     return;
   }
-  result_view_->setHtml(CalibrationSummaryHtml(
-      SummariseCalibration(*c), session_->calibrationSource(), session_->alignmentText()));
+  QString html = CalibrationSummaryHtml(SummariseCalibration(*c), session_->calibrationSource(),
+                                        session_->alignmentText());
+  if (const auto& r = session_->lastRefinement()) {
+    const bool current = r->result.accepted && c->method == "dense refinement";
+    html = RefinementSummaryHtml(r->result, current) + "<hr>" + html;
+  }
+  result_view_->setHtml(html);
 }
 
 void CalibrationWindow::refreshOverlay() {
   QVector<QPointF> px;
+  // Before/after Refine: the start pose's edges (orange; occlusion not tested for it).
+  const bool show_start = act_show_start_->isChecked() && session_->lastRefinement();
   if (act_overlay_->isChecked() && session_->calibration() && session_->camera().valid() &&
       session_->scan() && !session_->edgeCells().empty() && !session_->imageBgr().empty()) {
     // The BA edge points the camera sees (colour/overlay.h ProjectSeen: in the mask; with a
     // visibility result, not occluded), at most kMaxEdgePoints of them.
     const auto& visibility = session_->visibility();
-    const std::vector<colour::ProjectedPoint> seen =
-        colour::ProjectSeen(*session_->scan(), colourView(), 0, visibility ? &*visibility : nullptr,
-                            &session_->edgeCells());
+    colour::ColourView view = colourView();
+    if (show_start) view.T_cam_scan = session_->lastRefinement()->start;
+    const std::vector<colour::ProjectedPoint> seen = colour::ProjectSeen(
+        *session_->scan(), view, 0, visibility && !show_start ? &*visibility : nullptr,
+        &session_->edgeCells());
     const std::size_t stride =
         std::max<std::size_t>(1, (seen.size() + kMaxEdgePoints - 1) / kMaxEdgePoints);
     px.reserve(static_cast<int>(seen.size() / stride + 1));
     for (std::size_t i = 0; i < seen.size(); i += stride)
       px.push_back(QPointF(seen[i].u, seen[i].v));
   }
-  camera_view_->setOverlayPoints(px, QColor(0, 255, 80));
+  camera_view_->setOverlayPoints(px, show_start ? QColor(255, 140, 0) : QColor(0, 255, 80));
   // The pixels the mask in use excludes (the mask file, else the automatic valid region) are
   // tinted: nothing is coloured, suggested or textured from them.
   const cv::Mat& mask = effectiveMask();

@@ -47,6 +47,12 @@
 // Where no corner is found ("no corner here", too far), the click is kept at once and the
 // status line says why.
 //
+// Refine (Calibration panel button, Calibration menu, Ctrl+R): the session's dense refinement of
+// the current pose (calibration_session.h), with progress and Cancel; its verdict, figures
+// before and after and std head the Calibration panel; "Before Refine" (Ctrl+B) draws the
+// overlay with the start pose (orange) instead of the current one (green); "Refine options..."
+// edits the session's refine::DenseRefineOptions (refine_options_dialog.h).
+//
 // Messages: everything the user should read goes to the status line and to logMessage()
 // (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
 // message box. No slot lets an exception escape.
@@ -144,6 +150,15 @@ class CalibrationWindow : public QMainWindow {
   /// Takes T_cam_scan from a calibration JSON (scancam's, the simulator's truth, or an
   /// OpenCalib extrinsic: colour::LoadExtrinsic).
   bool loadCalibration(const QString& path);
+  /// Refine (calibration_session.h): DenseRefine of the current pose with progress and Cancel;
+  /// the verdict, the figures before and after and the std go to the calibration panel; an
+  /// accepted result becomes the calibration as one undo step. False when it failed or was
+  /// cancelled (a rejected refinement returns true: it ran, the pose is kept).
+  bool refine();
+  /// Refine's before/after toggle: the overlay shows the start pose (orange) instead of the
+  /// current one.
+  QAction* showStartAction() const { return act_show_start_; }
+  QAction* refineAction() const { return act_refine_; }
   /// Writes the colour options this window colours with (the defaults) as the JSON parameter
   /// file that `-SCANCAM_COLORIZE -PARAMS` and `scancam colorize --params` read
   /// (colour/colour_options_io.h).
@@ -314,6 +329,7 @@ class CalibrationWindow : public QMainWindow {
   void choosePairsToSave();
   void chooseCalibrationToSave();
   void chooseCalibrationToLoad();
+  void chooseRefineOptions();
   void chooseColourOptionsToSave();
   void chooseMask();
   void chooseExport();
@@ -356,6 +372,9 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_calibrate_ = nullptr;
   QAction* act_save_calib_ = nullptr;
   QAction* act_load_calib_ = nullptr;
+  QAction* act_refine_ = nullptr;
+  QAction* act_refine_options_ = nullptr;
+  QAction* act_show_start_ = nullptr;
   QAction* act_apply_ = nullptr;
   QAction* act_restore_ = nullptr;
   QAction* act_export_ = nullptr;

@@ -23,11 +23,13 @@
 #include <QTextEdit>
 #include <QToolBar>
 #include <QUndoStack>
+#include <QVBoxLayout>
 
 #include "ui/calibration_session.h"
 #include "ui/calibration_window.h"
 #include "ui/image_view.h"
 #include "ui/pairs_model.h"
+#include "ui/refine_options_dialog.h"
 
 namespace scancam::plugin::ui {
 
@@ -119,9 +121,19 @@ void CalibrationWindow::buildDocks() {
   result_view_->setPlaceholderText(
       tr("Pick at least 4 pairs (6 or more, spread over the image and the scan), then "
          "Calibrate."));
+  // The calibration panel: Refine and its options, the before/after toggle, the result.
+  auto* result_panel = new QWidget(this);
+  auto* result_layout = new QVBoxLayout(result_panel);
+  result_layout->setContentsMargins(0, 0, 0, 0);
+  result_layout->setSpacing(0);
+  auto* refine_bar = new QToolBar(result_panel);
+  refine_bar->setObjectName("refineBar");
+  refine_bar->setToolButtonStyle(Qt::ToolButtonTextOnly);
+  result_layout->addWidget(refine_bar);
+  result_layout->addWidget(result_view_);
   auto* result_dock = new QDockWidget(tr("Calibration"), this);
   result_dock->setObjectName("resultDock");
-  result_dock->setWidget(result_view_);
+  result_dock->setWidget(result_panel);
   result_dock->setFeatures(QDockWidget::DockWidgetMovable | QDockWidget::DockWidgetFloatable);
   addDockWidget(Qt::BottomDockWidgetArea, result_dock);
   splitDockWidget(table_dock, result_dock, Qt::Horizontal);
@@ -150,6 +162,17 @@ void CalibrationWindow::buildFileActions() {
   act_load_calib_ =
       makeAction(tr("Load calibration..."), tr("Use T_cam_scan from a calibration JSON file"),
                  [this] { chooseCalibrationToLoad(); });
+  act_refine_ = makeAction(
+      tr("Refine"),
+      tr("Dense refinement of the current pose: the scan's intensity and depth edges against "
+         "the photo, over every point the camera sees (scancam refine); kept only when the "
+         "held-out half of the scan confirms it, one undo step (Ctrl+Z)"),
+      [this] { refine(); });
+  act_refine_->setObjectName("refineAction");
+  act_refine_options_ =
+      makeAction(tr("Refine options..."),
+                 tr("Starts, spread, edge weight, budget and seed of Refine (as scancam refine)"),
+                 [this] { chooseRefineOptions(); });
   act_apply_ =
       makeAction(tr("Apply colours"),
                  tr("Colour the cloud from the camera image with this calibration"), [this] {
@@ -180,6 +203,7 @@ void CalibrationWindow::buildFileActions() {
   act_load_pairs_->setShortcut(QKeySequence(tr("Ctrl+L")));
   act_save_pairs_->setShortcut(QKeySequence::SaveAs);
   act_calibrate_->setShortcut(QKeySequence(tr("Ctrl+Return")));
+  act_refine_->setShortcut(QKeySequence(tr("Ctrl+R")));
   act_apply_->setShortcut(QKeySequence(tr("Ctrl+Shift+A")));
   act_export_->setShortcut(QKeySequence(tr("Ctrl+E")));
   act_mask_->setShortcut(QKeySequence(tr("Ctrl+M")));
@@ -251,6 +275,14 @@ void CalibrationWindow::buildToggleActions() {
   act_overlay_->setCheckable(true);
   act_overlay_->setChecked(true);
   connect(act_overlay_, &QAction::toggled, this, [this] { refreshOverlay(); });
+  act_show_start_ = new QAction(tr("Before Refine"), this);
+  act_show_start_->setObjectName("showStartAction");
+  act_show_start_->setCheckable(true);
+  act_show_start_->setToolTip(
+      tr("Overlay: the laser edges with the pose Refine started from (orange) instead of the "
+         "current pose (green): toggle to compare before and after (Ctrl+B)"));
+  act_show_start_->setShortcut(QKeySequence(tr("Ctrl+B")));
+  connect(act_show_start_, &QAction::toggled, this, [this] { refreshOverlay(); });
   auto orient_action = [this](const QString& text) {
     auto* a = new QAction(text, this);
     a->setCheckable(true);
@@ -291,6 +323,11 @@ void CalibrationWindow::buildToolBars() {
   method_combo_->addItem(tr("UPnP + refinement"), "upnp");
   method_combo_->setToolTip(tr("Solver for the initial pose (then Ceres refinement, eq. 7)"));
 
+  if (auto* refine_bar = findChild<QToolBar*>("refineBar")) {
+    refine_bar->addAction(act_refine_);
+    refine_bar->addAction(act_refine_options_);
+    refine_bar->addAction(act_show_start_);
+  }
   auto* tb = addToolBar(tr("ScanCam"));
   tb->setObjectName("scancamToolbar");
   tb->addAction(act_camera_);
@@ -348,10 +385,14 @@ void CalibrationWindow::buildMenus() {
   pairs->addAction(tr("Deselect"), this, [this] { table_->clearSelection(); });
   QMenu* calib = menuBar()->addMenu(tr("&Calibration"));
   calib->addAction(act_calibrate_);
+  calib->addAction(act_refine_);
+  calib->addAction(act_refine_options_);
+  calib->addAction(act_show_start_);
   calib->addAction(act_apply_);
   calib->addAction(act_restore_);
   QMenu* view = menuBar()->addMenu(tr("&View"));
   view->addAction(act_overlay_);
+  view->addAction(act_show_start_);
   view->addSeparator();
   view->addAction(act_transpose_);
   view->addAction(act_flip_h_);
@@ -427,6 +468,11 @@ void CalibrationWindow::chooseCalibrationToSave() {
   const QString path = QFileDialog::getSaveFileName(this, tr("Save calibration"), suggestion,
                                                     tr("JSON (*.json);;All files (*)"));
   if (!path.isEmpty()) saveCalibration(path);
+}
+
+void CalibrationWindow::chooseRefineOptions() {
+  RefineOptionsDialog dlg(session_->refineOptions(), this);
+  if (dlg.exec() == QDialog::Accepted) session_->setRefineOptions(dlg.options());
 }
 
 void CalibrationWindow::chooseCalibrationToLoad() {
@@ -674,6 +720,10 @@ bool CalibrationWindow::handleKey(QKeyEvent* event) {
 }
 
 void CalibrationWindow::updateActions() {
+  act_refine_->setEnabled(colouringProblem().isEmpty());
+  act_show_start_->setEnabled(session_->lastRefinement().has_value());
+  if (!session_->lastRefinement() && act_show_start_->isChecked())
+    act_show_start_->setChecked(false);
   act_calibrate_->setEnabled(pairs_->completeCount() >= 4 && session_->camera().valid());
   act_save_calib_->setEnabled(session_->calibration().has_value());
   act_apply_->setEnabled(colouringProblem().isEmpty());

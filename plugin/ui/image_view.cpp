@@ -147,6 +147,8 @@ void ImageView::setOverlayPoints(const QVector<QPointF>& px, const QColor& colou
     delete item;
   }
   overlay_count_ = px.size();
+  overlay_px_ = px;
+  overlay_colour_ = colour;
   if (px.isEmpty()) return;
   auto* dots = new OverlayPointsItem(px, colour);
   overlay_group_->addToGroup(dots);

@@ -42,6 +42,8 @@ class ImageView : public QGraphicsView {
   /// Small dots drawn over the image (e.g. reprojected laser edge points).
   void setOverlayPoints(const QVector<QPointF>& px, const QColor& colour);
   int overlayPointCount() const { return overlay_count_; }
+  const QVector<QPointF>& overlayPoints() const { return overlay_px_; }
+  QColor overlayColour() const { return overlay_colour_; }
   /// A semi-transparent image of the same size drawn over the photo (e.g. the pixels outside
   /// the camera's valid region tinted); a null image removes it.
   void setShade(const QImage& shade);
@@ -84,6 +86,8 @@ class ImageView : public QGraphicsView {
   QImage shade_;
   QVector<Marker> markers_;
   int overlay_count_ = 0;
+  QVector<QPointF> overlay_px_;
+  QColor overlay_colour_;
   QString placeholder_;
   bool auto_fit_ = true;
   bool dragging_ = false;

@@ -4,7 +4,10 @@
 // same scan gets its pairs back); loading pairs replaces or appends, one undo step each; a
 // solve on the simulator's pairs recovers its pose, flags the planted wrong pair and computes
 // the visibility. The summary's HTML (calibration_summary_html.h) shows the solve and escapes
-// what came from files.
+// what came from files. Refine (dense refinement) from a perturbed loaded pose comes closer to
+// the truth, as one undo step (undo gives the start pose back exactly, redo the result); a
+// cancelled Refine and a rejected one leave the pose and the undo history as they were, the
+// rejected one with its reason.
 #include "ui/calibration_session.h"
 
 #include <gtest/gtest.h>
@@ -12,6 +15,7 @@
 #include <QFileInfo>
 #include <QUndoStack>
 #include <cmath>
+#include <iostream>
 
 #include "plugin_sim_fixture.h"
 #include "scancam/solve/calibration_summary.h"
@@ -182,6 +186,114 @@ TEST(CalibrationSummaryHtml, ShowsTheSolveAndEscapesWhatCameFromFiles) {
   EXPECT_FALSE(loaded.contains("Reprojection error"));
   EXPECT_FALSE(loaded.contains("Flagged pairs"));
   EXPECT_FALSE(loaded.contains("To tighten"));
+}
+
+TEST(CalibrationSession, RefineImprovesAPerturbedPoseAsOneUndoStep) {
+  auto s = MakeSession(FreshImage("session_refine"));
+  s->loadCalibration(PerturbedCalibration("session_refine_start", 1.0, 0.05));
+  const Eigen::Isometry3d start = *s->pose();
+  const Eigen::Isometry3d& truth = Sim().sim.T_cam_scan;
+  s->setRefineOptions(SmallRefine());
+  const int undo_before = s->undoStack()->count();
+  const CalibrationSession::Refinement& r = s->refinePose();
+  ASSERT_TRUE(r.result.accepted) << r.result.verdict << ": " << r.result.reason;
+  EXPECT_NE(r.result.verdict, "diverged");
+  EXPECT_LT(r.result.nid_best, r.result.nid_start);
+  EXPECT_TRUE(r.start.isApprox(start));
+  const Eigen::Isometry3d refined = *s->pose();
+  std::cout << "refine: " << AngleDeg(start, truth) << " deg, " << OffsetM(start, truth) << " m -> "
+            << AngleDeg(refined, truth) << " deg, " << OffsetM(refined, truth)
+            << " m off the truth; " << r.result.verdict << ", " << r.result.evaluations
+            << " evaluations\n";
+  EXPECT_LT(AngleDeg(refined, truth), 0.5 * AngleDeg(start, truth))
+      << "from " << AngleDeg(start, truth) << " deg";
+  EXPECT_LT(OffsetM(refined, truth), OffsetM(start, truth));
+  EXPECT_EQ(s->calibration()->method, "dense refinement");
+  ASSERT_EQ(s->undoStack()->count(), undo_before + 1);  // one step
+  ASSERT_TRUE(s->visibility().has_value());             // recomputed for the new pose
+  s->undoStack()->undo();
+  EXPECT_EQ(s->pose()->matrix(), start.matrix());  // exactly the start pose
+  EXPECT_EQ(s->calibration()->method, "loaded");
+  s->undoStack()->redo();
+  EXPECT_EQ(s->pose()->matrix(), refined.matrix());
+  // The panel's text: verdict, reason, figures before and after, std.
+  const QString html = plugin::ui::RefinementSummaryHtml(r.result, true);
+  EXPECT_TRUE(html.contains(QString::fromStdString(r.result.verdict)));
+  EXPECT_TRUE(html.contains("before &rarr; after"));
+  EXPECT_TRUE(html.contains("<b>std</b> about"));
+  // A new image drops the refinement (it was about another photo).
+  s->loadImage(FreshImage("session_refine2"));
+  EXPECT_FALSE(s->lastRefinement().has_value());
+}
+
+TEST(CalibrationSession, RefineAfterSolveUndoBringsThePairsResidualsBack) {
+  auto s = MakeSession(FreshImage("session_refine_solve"));
+  s->loadPairs(Sim().pairs, CalibrationSession::PairsLoad::kReplace);
+  s->solve("ransac");
+  const Calibration solved = *s->calibration();
+  const double err0 = s->pairs()->pairs()[0].error_px;
+  ASSERT_TRUE(s->pairs()->pairs()[0].solved);
+  s->setRefineOptions(SmallRefine());
+  const CalibrationSession::Refinement& r = s->refinePose();
+  ASSERT_TRUE(r.result.accepted) << r.result.reason;
+  EXPECT_FALSE(s->pairs()->pairs()[0].solved);  // the solve's residuals are not the new pose's
+  EXPECT_TRUE(s->calibrationSource().contains("ransac")) << s->calibrationSource().toStdString();
+  s->undoStack()->undo();
+  EXPECT_EQ(s->pose()->matrix(), solved.T_cam_scan.matrix());
+  EXPECT_EQ(s->calibration()->inlier_count, solved.inlier_count);
+  EXPECT_TRUE(s->calibrationSource().isEmpty());  // a solve again: its figures are shown
+  ASSERT_TRUE(s->pairs()->pairs()[0].solved);
+  EXPECT_DOUBLE_EQ(s->pairs()->pairs()[0].error_px, err0);
+}
+
+TEST(CalibrationSession, CancelledRefineChangesNothing) {
+  auto s = MakeSession(FreshImage("session_refine_cancel"));
+  s->loadCalibration(PerturbedCalibration("session_refine_cancel_start", 1.0, 0.05));
+  const Eigen::Isometry3d start = *s->pose();
+  s->setRefineOptions(SmallRefine());
+  // The user presses Cancel once the search has started.
+  int calls = 0;
+  s->setProgressRunner([&](const QString&, const std::function<void(const Progress&)>& work) {
+    work(Progress([&](double, const std::string& stage) {
+      ++calls;
+      return stage != "refining";
+    }));
+  });
+  const int undo_before = s->undoStack()->count();
+  EXPECT_THROW(s->refinePose(), Cancelled);
+  EXPECT_GT(calls, 0);
+  EXPECT_EQ(s->pose()->matrix(), start.matrix());
+  EXPECT_EQ(s->undoStack()->count(), undo_before);
+  EXPECT_FALSE(s->lastRefinement().has_value());
+}
+
+TEST(CalibrationSession, RejectedRefineKeepsThePoseAndSaysWhy) {
+  auto s = MakeSession(FreshImage("session_refine_reject"));
+  // Started at the truth with coarse steps (1 deg, 10 cm): every step is worse, nothing better
+  // can be confirmed by the held-out half, and the refinement is rejected.
+  s->loadCalibration(PerturbedCalibration("session_refine_reject_start", 0.0, 0.0));
+  const Eigen::Isometry3d start = *s->pose();
+  refine::DenseRefineOptions o = SmallRefine();
+  o.initial_step_deg = o.final_step_deg = 1.0;
+  o.initial_step_m = o.final_step_m = 0.1;
+  s->setRefineOptions(o);
+  QStringList reports;
+  QObject::connect(s.get(), &CalibrationSession::report,
+                   [&](const QString& text, int) { reports << text; });
+  const int undo_before = s->undoStack()->count();
+  const CalibrationSession::Refinement& r = s->refinePose();
+  EXPECT_FALSE(r.result.accepted);
+  EXPECT_EQ(r.result.verdict, "diverged");
+  EXPECT_FALSE(r.result.reason.empty());
+  EXPECT_EQ(s->pose()->matrix(), start.matrix());
+  EXPECT_EQ(s->undoStack()->count(), undo_before);
+  EXPECT_EQ(s->calibration()->method, "loaded");
+  ASSERT_FALSE(reports.isEmpty());
+  EXPECT_TRUE(reports.back().contains(QString::fromStdString(r.result.reason)))
+      << reports.back().toStdString();
+  const QString html = plugin::ui::RefinementSummaryHtml(r.result, false);
+  EXPECT_TRUE(html.contains("The start pose is kept"));
+  EXPECT_TRUE(html.contains(QString::fromStdString(r.result.reason).toHtmlEscaped()));
 }
 
 }  // namespace

@@ -1,7 +1,8 @@
 // Shared by the plugin's tests of the calibration window and session: one small simulation
 // (a coarse rotating scan, omni camera, 10 pairs with one planted wrong pair) written to a
 // folder of each test executable's own (they may run at the same time), fresh image copies,
-// cells with a laser return, another scan of the same scene. Qt Core + core only.
+// cells with a laser return, another scan of the same scene, a perturbed calibration file and
+// small Refine options. Qt Core + core only.
 #pragma once
 
 #include <QFile>
@@ -12,7 +13,9 @@
 #include <memory>
 #include <string>
 
+#include "scancam/io/json_util.h"
 #include "scancam/ordered_scan.h"
+#include "scancam/refine/dense_refine.h"
 #include "scancam/sim/simulate.h"
 
 namespace scancam::test_window {
@@ -82,6 +85,38 @@ inline std::shared_ptr<scancam::OrderedScan> OtherScan() {
 inline QString FileText(const QString& path) {
   QFile f(path);
   return f.open(QIODevice::ReadOnly) ? QString::fromUtf8(f.readAll()) : QString();
+}
+
+// Rotation angle (deg) and offset (m) between two poses.
+inline double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
+}
+inline double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  return (a * b.inverse()).translation().norm();
+}
+
+// The truth turned by `deg` about a fixed oblique axis and moved `m` (camera frame), written as
+// a calibration JSON that the session loads.
+inline QString PerturbedCalibration(const QString& name, double deg, double m) {
+  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+  d.linear() =
+      Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d(1, -2, 1).normalized()).matrix();
+  d.translation() = m * Eigen::Vector3d(-1, 1, 2).normalized();
+  const QString path = QString(SCANCAM_TEST_TMP) + "/" + name + ".json";
+  WriteJsonFile(path.toStdString(), {{"T_cam_scan", PoseToJson(d * Sim().sim.T_cam_scan)}});
+  return path;
+}
+
+// Small options: one start, a coarse search (the test's budget, not the tool's defaults).
+inline refine::DenseRefineOptions SmallRefine() {
+  refine::DenseRefineOptions o;
+  o.starts = 1;
+  o.hops = 0;
+  o.resamples = 2;
+  o.final_step_deg = 0.05;
+  o.final_step_m = 0.005;
+  o.max_evaluations = 600;
+  return o;
 }
 
 }  // namespace scancam::test_window
