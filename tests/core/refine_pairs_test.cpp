@@ -12,6 +12,7 @@
 #include <random>
 #include <string>
 
+#include "pose_test_util.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/io/pose_json.h"
@@ -24,23 +25,9 @@
 namespace scancam {
 namespace {
 
-double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
-}
-double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a * b.inverse()).translation().norm();
-}
-
-Eigen::Isometry3d Perturb(const Eigen::Isometry3d& T, double angle_deg, double offset_m,
-                          std::mt19937* rng) {
-  std::normal_distribution<double> g;
-  const Eigen::Vector3d axis = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
-  const Eigen::Vector3d dir = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
-  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-  d.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis).toRotationMatrix();
-  d.translation() = offset_m * dir;
-  return d * T;
-}
+using test::AngleDeg;
+using test::OffsetM;
+using test::Perturb;
 
 // The simulated 64-ring lidar and pinhole camera with 12 picked pairs (the simulator's picking
 // noise: 0.5 px, 0.25 cell), once per test process.
