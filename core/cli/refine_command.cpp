@@ -5,16 +5,20 @@
 #include <sstream>
 
 #include "command.h"
+#include "params_options.h"
 #include "scan_options.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/view_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
+#include "scancam/io/pairs_csv.h"
 #include "scancam/output_file.h"
 #include "scancam/refine/dense_refine.h"
+#include "scancam/refine/pair_prior.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/calibrate.h"
+#include "scancam/solve/calibrate_options_io.h"
 #include "scancam/solve/calibration_json.h"
 #include "valid_region_options.h"
 
@@ -51,6 +55,13 @@ int RunRefine(const Args& args) {
   if (!masks.empty() && masks.size() != scans.size())
     throw Error("give one --mask per scene, or none");
   masks.resize(scans.size());
+  const std::vector<std::string> pairs_paths = args.all("--pairs");
+  if (!pairs_paths.empty() && pairs_paths.size() != scans.size()) {
+    throw Error("--pairs given " + std::to_string(pairs_paths.size()) + " time(s) but --scan " +
+                std::to_string(scans.size()) +
+                " time(s): give one --pairs per scene (the k-th --pairs, --scan and --image are "
+                "scene k) or none");
+  }
   const bool rpy = args.has("--init-rpy-deg"), tm = args.has("--init-t-m");
   if (args.has("--init") == (rpy || tm))
     throw Error("give the start as --init FILE or as --init-rpy-deg R,P,Y --init-t-m X,Y,Z");
@@ -63,6 +74,7 @@ int RunRefine(const Args& args) {
     ins.push_back({"--camera", cameras[k]});
     ins.push_back({"--mask", masks[k]});
   }
+  for (const auto& p : pairs_paths) ins.push_back({"--pairs", p});
   ins.push_back({"--init", args.get("--init")});
   CheckOutputs({{"--out", out_path}}, ins);
 
@@ -86,6 +98,19 @@ int RunRefine(const Args& args) {
     throw Error("option --spread-deg: must be in [0, 30]");
   if (!(o.start_spread_m >= 0.0 && o.start_spread_m <= 10.0))
     throw Error("option --spread-m: must be in [0, 10]");
+  refine::PairPriorOptions po;
+  po.weight = args.get_double("--pairs-weight", po.weight);
+  if (!(po.weight >= 0.0 && po.weight <= 1e6)) throw Error("option --pairs-weight: must be >= 0");
+  po.noise.sigma_px = args.get_double("--sigma-px", po.noise.sigma_px);
+  po.noise.sigma_cells = args.get_double("--sigma-cells", po.noise.sigma_cells);
+  po.noise.sigma_point_m = args.get_double("--sigma-point-m", po.noise.sigma_point_m);
+  ThrowFirstOptionProblem(ValidateCalibrateOptions(po.noise),
+                          {{"sigma_px", "--sigma-px"},
+                           {"sigma_cells", "--sigma-cells"},
+                           {"sigma_point_m", "--sigma-point-m"}});
+  // The pairs files first (small, fail fast).
+  std::vector<refine::ScenePairs> scene_pairs;
+  for (const auto& p : pairs_paths) scene_pairs.push_back({ReadPairsCsv(p), p});
 
   const Progress progress(StderrProgress(quiet));
   // The views first (small files, fail fast), then the scans.
@@ -106,7 +131,11 @@ int RunRefine(const Args& args) {
     }
     scenes[k].scan = &loaded[k];
   }
-  const refine::DenseRefineResult r = refine::DenseRefine(scenes, start, o, progress);
+  refine::PairCheck pc;
+  const refine::DenseRefineResult r =
+      scene_pairs.empty()
+          ? refine::DenseRefine(scenes, start, o, progress)
+          : refine::RefineWithPairs(scenes, scene_pairs, start, o, po, &pc, progress);
 
   Calibration c;
   c.T_cam_scan = r.T_cam_scan;
@@ -119,6 +148,7 @@ int RunRefine(const Args& args) {
   inputs["images"] = images;
   inputs["cameras"] = cameras;
   if (args.has("--init")) inputs["init"] = args.get("--init");
+  if (!pairs_paths.empty()) inputs["pairs"] = pairs_paths;
   nlohmann::json j = CalibrationToJson(c, inputs);
   nlohmann::json rj;
   rj["verdict"] = r.verdict;
@@ -140,6 +170,28 @@ int RunRefine(const Args& args) {
   rj["evaluations"] = r.evaluations;
   rj["points"] = r.points;
   rj["edge_points"] = r.edge_points;
+  if (!scene_pairs.empty()) {
+    auto figs = [](const refine::PairFigures& f) {
+      return nlohmann::json{{"chi2", f.chi2}, {"rms_px", f.rms_px}, {"max_px", f.max_px}};
+    };
+    rj["pairs"] = {{"count", pc.pairs},
+                   {"sigma_px", po.noise.sigma_px},
+                   {"sigma_cells", po.noise.sigma_cells},
+                   {"sigma_point_m", po.noise.sigma_point_m},
+                   {"variance_factor", pc.variance_factor},
+                   {"weight", po.weight},
+                   {"dense_scale", pc.dense_scale},
+                   {"prior_weight", pc.prior_weight},
+                   {"start", figs(pc.start)},
+                   {"best", figs(pc.best)},
+                   {"result", figs(pc.result)},
+                   {"delta_chi2", pc.delta_chi2},
+                   {"accept_delta_chi2", po.accept_delta_chi2},
+                   {"passed", pc.passed},
+                   {"reason", pc.reason},
+                   {"T_cam_scan_pairs", PoseToJson(pc.T_pairs)}};
+    if (!pc.prior_note.empty()) rj["pairs"]["prior_note"] = pc.prior_note;
+  }
   j["refinement"] = rj;
   WriteJsonFile(out_path, j);
 
@@ -154,6 +206,19 @@ int RunRefine(const Args& args) {
               << Fixed(r.heldout_best, 5) << "\n";
     const Eigen::Vector3d& w = r.rotation_change_deg_cam_xyz;
     const Eigen::Vector3d& v = r.translation_change_m_cam_xyz;
+    if (!scene_pairs.empty()) {
+      std::cout << "picked pairs (" << pc.pairs << ", held-out check "
+                << (pc.passed ? "passed" : "FAILED") << "): rms " << Fixed(pc.start.rms_px, 2)
+                << " px at the start -> " << Fixed(pc.best.rms_px, 2)
+                << " px at the search's best -> " << Fixed(pc.result.rms_px, 2)
+                << " px returned; chi-square / vf " << Fixed(pc.start.chi2 / pc.variance_factor, 1)
+                << " -> " << Fixed(pc.best.chi2 / pc.variance_factor, 1) << " (change "
+                << Fixed(pc.delta_chi2, 1) << ", limit " << Fixed(po.accept_delta_chi2, 2)
+                << "); prior "
+                << (pc.prior_weight > 0 ? "weight " + Fixed(pc.prior_weight, 6)
+                                        : "off (" + pc.prior_note + ")")
+                << "\n";
+    }
     std::cout << "change (camera axes x y z): rotation " << Fixed(w.x(), 3) << " "
               << Fixed(w.y(), 3) << " " << Fixed(w.z(), 3) << " deg, translation "
               << Fixed(v.x(), 3) << " " << Fixed(v.y(), 3) << " " << Fixed(v.z(), 3) << " m\n";
@@ -176,7 +241,8 @@ Command MakeRefineCommand() {
   c.summary = "Refine T_cam_scan from a rough start over every point the camera sees";
   c.usage =
       "scancam refine --camera C --scan S --image I [--scan S2 --image I2 ...] "
-      "(--init INIT.json | --init-rpy-deg R,P,Y --init-t-m X,Y,Z) --out OUT.json [options]";
+      "(--init INIT.json | --init-rpy-deg R,P,Y --init-t-m X,Y,Z) [--pairs P ...] --out OUT.json "
+      "[options]";
   c.description =
       "Dense refinement: from a rough T_cam_scan (a picks solve, an earlier result, an OpenCalib "
       "extrinsic or a tape-measured guess), search the pose that best aligns the scan with the "
@@ -203,6 +269,17 @@ Command MakeRefineCommand() {
           {"--spread-m", "M", "Random starts: translation spread, metres. Default 0.1."},
           {"--edge-weight", "W", "Weight of the depth-edge term against NID. Default 0.1."},
           {"--seed", "N", "Random seed (starts, held-out split). Default 1."},
+          {"--pairs", "FILE",
+           "Picked pairs of scene k (the k-th --pairs; one per scene or none): a prior in the "
+           "search and a held-out check of its result (refine/pair_prior.h).",
+           true},
+          {"--pairs-weight", "W",
+           "Strength of the pairs' prior relative to the balance of the two likelihoods; 0 = "
+           "held-out check only. Default 1."},
+          {"--sigma-px", "PX",
+           "Picking noise in the image, px per axis (as calibrate). Default 1."},
+          {"--sigma-cells", "CELLS", "Picking noise on the scan grid, cells. Default 0.5."},
+          {"--sigma-point-m", "M", "Noise of a pair given as x,y,z, metres. Default 0."},
           {"--quiet", "", "Print nothing but errors."},
       },
       Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));

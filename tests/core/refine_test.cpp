@@ -12,6 +12,7 @@
 #include <random>
 #include <string>
 
+#include "pose_test_util.h"
 #include "scancam/camera/camera_io.h"
 #include "scancam/camera/valid_region.h"
 #include "scancam/colour/colourise.h"
@@ -31,25 +32,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double AngleDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return Eigen::AngleAxisd((a * b.inverse()).linear()).angle() * 180.0 / M_PI;
-}
-double OffsetM(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
-  return (a * b.inverse()).translation().norm();
-}
-
-// A perturbation of `angle_deg` about a random axis and `offset_m` in a random direction, in
-// the camera frame.
-Eigen::Isometry3d Perturb(const Eigen::Isometry3d& T, double angle_deg, double offset_m,
-                          std::mt19937* rng) {
-  std::normal_distribution<double> g;
-  const Eigen::Vector3d axis = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
-  const Eigen::Vector3d dir = Eigen::Vector3d(g(*rng), g(*rng), g(*rng)).normalized();
-  Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-  d.linear() = Eigen::AngleAxisd(angle_deg * M_PI / 180.0, axis).toRotationMatrix();
-  d.translation() = offset_m * dir;
-  return d * T;
-}
+using test::AngleDeg;
+using test::OffsetM;
+using test::Perturb;
 
 // The simulated 64-ring lidar and pinhole camera, once per test process.
 struct LidarScene {

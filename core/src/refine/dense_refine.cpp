@@ -46,6 +46,7 @@ struct Objective {
   std::vector<AlignmentData> scenes;
   double edge_weight = 0.1;
   int* evaluations = nullptr;
+  const std::function<double(const Eigen::Isometry3d&)>* prior = nullptr;  // options.prior
   double operator()(const Eigen::Isometry3d& T) const {
     double f = 0.0;
     for (const AlignmentData& d : scenes) {
@@ -53,7 +54,8 @@ struct Objective {
       f += s.nid - edge_weight * s.edge;
     }
     if (evaluations) ++*evaluations;
-    return f / static_cast<double>(std::max<std::size_t>(1, scenes.size()));
+    f /= static_cast<double>(std::max<std::size_t>(1, scenes.size()));
+    return prior && *prior ? f + (*prior)(T) : f;
   }
 };
 
@@ -267,8 +269,9 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     L.min_step_deg = o.level_min_step_deg;
     return L;
   };
-  const Levels train_levels = subset(
+  Levels train_levels = subset(
       [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ split_seed) & 1) == 0; });
+  for (Objective& F : train_levels.objective) F.prior = &o.prior;  // the search's only
   const Levels held_levels = subset(
       [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ split_seed) & 1) == 1; });
   const Objective& train = train_levels.objective.back();
@@ -298,6 +301,9 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
                                  res.evaluations + budget_per_start, progress,
                                  0.05 + 0.75 * k / starts, 0.05 + 0.75 * (k + 1) / starts));
   }
+  for (const Eigen::Isometry3d& s : o.extra_starts)  // e.g. the picked pairs' own solve
+    ends.push_back(SimplexSearch(train_levels, s, o.initial_step_deg, o.initial_step_m, o,
+                                 res.evaluations + budget_per_start, progress, 0.8, 0.8));
   for (SearchResult& e : ends) e.f = train(e.T);  // all on the finest level
   // Basin hopping: restarts near the best end (a third of the start spread), kept when better.
   {

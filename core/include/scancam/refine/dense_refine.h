@@ -33,6 +33,7 @@
 
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,12 @@ struct DenseRefineOptions {
   double diverged_m = 0.10;
   double diverged_objective = 0.0005;
   std::uint64_t seed = 1;
+  /// Optional prior added to the SEARCH's objective (the training half; lower is better, in
+  /// the objective's units): refine/pair_prior.h builds one from picked pairs. The held-out
+  /// half, nid_*/edge_* and the uncertainty stay the scan's alone; train_* include it.
+  std::function<double(const Eigen::Isometry3d&)> prior;
+  /// Further starts searched like the start (e.g. the picked pairs' own solve).
+  std::vector<Eigen::Isometry3d> extra_starts;
 };
 
 struct DenseRefineResult {
