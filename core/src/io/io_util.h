@@ -52,7 +52,17 @@ class FileLineReader {
   FileLineReader(const FileLineReader&) = delete;
   FileLineReader& operator=(const FileLineReader&) = delete;
   /// Next line (valid until the next call); false at the end of the file.
-  bool Next(std::string_view& line);
+  bool Next(std::string_view& line) {
+    if (!NextUnchecked(line)) return false;
+    CheckText(line);
+    return true;
+  }
+  /// Next() without the binary-byte check, for parsers that reject such bytes anyway and
+  /// call CheckText() on the lines they do not accept (the message then names the byte).
+  bool NextUnchecked(std::string_view& line);
+  /// Throws FileError naming the byte if `line` (the current line) holds a control character
+  /// other than tab / CR.
+  void CheckText(std::string_view line) const;
   int line_number() const { return line_; }
   std::size_t line_offset() const { return line_start_; }
   std::size_t file_size() const { return file_size_; }
