@@ -118,6 +118,25 @@ bool FileLineReader::NextUnchecked(std::string_view& line) {
   return true;
 }
 
+std::string_view FileLineReader::PeekLines(std::size_t min_bytes) {
+  while (buf_.size() - begin_ < min_bytes && Fill()) {
+  }
+  const std::size_t avail = buf_.size() - begin_;
+  if (eof_) return std::string_view(buf_.data() + begin_, avail);
+  const char* first = buf_.data() + begin_;
+  const void* last_nl = avail ? ::memrchr(first, '\n', avail) : nullptr;
+  if (!last_nl) return std::string_view(first, 0);
+  return std::string_view(first,
+                          static_cast<std::size_t>(static_cast<const char*>(last_nl) - first) + 1);
+}
+
+void FileLineReader::Skip(std::size_t bytes, int lines) {
+  line_start_ = consumed_ + bytes;
+  consumed_ += bytes;
+  begin_ += bytes;
+  line_ += lines;
+}
+
 void FileLineReader::CheckText(std::string_view line) const {
   for (std::size_t i = 0; i < line.size(); ++i) {
     const unsigned char c = static_cast<unsigned char>(line[i]);
