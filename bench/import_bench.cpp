@@ -9,16 +9,21 @@
 // B_per_point: resident memory at the peak of one import above the resident memory before it,
 // per cell (the result included: ScanCam's OrderedScan holds 32 bytes per cell with intensity,
 // ordered_scan.h; PCL's PointXYZI 32 bytes per point), file_MB.
-// CloudCompare has no library to call: the whole-command comparison with it (scancam ba against
-// CloudCompare -SILENT -O on the same PTX) is in README "Benchmarks".
+// CloudCompare, when installed (Debian's `CloudCompare`), opens the same PTX as a whole process
+// (QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O scan.ptx: start, read, quit;
+// wall time of the child), and the PTX and E57 import speeds are printed as multiples of it at
+// the end; --no-cloudcompare skips it.
 #include <benchmark/benchmark.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -38,6 +43,7 @@ struct Files {
   fs::path dir;
   std::string ptx, e57, pcd;
   int rows = 1500, cols = 2000;
+  bool cloudcompare = true;
   std::size_t cells() const { return static_cast<std::size_t>(rows) * cols; }
 };
 Files g_files;
@@ -118,7 +124,32 @@ void BM_PclPcd(benchmark::State& state) {
 }
 BENCHMARK(BM_PclPcd)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
-// --rows=R / --cols=C (before Google Benchmark's own flags are parsed).
+// CloudCompare opening the PTX, a whole process per iteration (real time of the child).
+void BM_CloudCompareOpenPtx(benchmark::State& state) {
+  if (!g_files.cloudcompare || std::system("command -v CloudCompare >/dev/null 2>&1") != 0) {
+    state.SkipWithError("CloudCompare not installed (or --no-cloudcompare)");
+    return;
+  }
+  const std::string cmd = "QT_QPA_PLATFORM=offscreen CloudCompare -SILENT -AUTO_SAVE OFF -O '" +
+                          g_files.ptx + "' >/dev/null 2>&1";
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const int rc = std::system(cmd.c_str());
+    state.SetIterationTime(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    if (rc != 0) {
+      state.SkipWithError("CloudCompare failed");
+      return;
+    }
+  }
+  const double bytes = static_cast<double>(fs::file_size(g_files.ptx));
+  state.SetBytesProcessed(static_cast<std::int64_t>(bytes) * state.iterations());
+  state.SetItemsProcessed(static_cast<std::int64_t>(g_files.cells()) * state.iterations());
+  state.counters["file_MB"] = bytes / 1e6;
+}
+BENCHMARK(BM_CloudCompareOpenPtx)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(2);
+
+// --rows=R / --cols=C / --no-cloudcompare (before Google Benchmark's own flags are parsed).
 void ParseSize(int& argc, char** argv) {
   int out = 1;
   for (int i = 1; i < argc; ++i) {
@@ -126,6 +157,8 @@ void ParseSize(int& argc, char** argv) {
       g_files.rows = std::stoi(argv[i] + 7);
     } else if (std::strncmp(argv[i], "--cols=", 7) == 0) {
       g_files.cols = std::stoi(argv[i] + 7);
+    } else if (std::strcmp(argv[i], "--no-cloudcompare") == 0) {
+      g_files.cloudcompare = false;
     } else {
       argv[out++] = argv[i];
     }
@@ -152,6 +185,14 @@ int main(int argc, char** argv) {
     if (scancam_pcd > 0 && pcl_pcd > 0)
       std::printf("PCD: ScanCam (grid with ranges and beams) at %.2fx PCL's loadPCDFile speed\n",
                   scancam_pcd / pcl_pcd);
+    const double cc = reporter.Rate("BM_CloudCompareOpenPtx/iterations:2/manual_time");
+    const double ptx = reporter.Rate("BM_ScanCamPtx/iterations:3");
+    const double e57 = reporter.Rate("BM_ScanCamE57/iterations:3");
+    if (cc > 0 && ptx > 0 && e57 > 0)
+      std::printf(
+          "points per second against CloudCompare opening the PTX: ScanCam PTX %.2fx, "
+          "E57 %.2fx\n",
+          ptx / cc, e57 / cc);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "import_bench: %s\n", e.what());
     status = 1;
