@@ -357,6 +357,15 @@ void CheckScanIndex(const std::string& path, int scan_index) {
                       std::to_string(scans) + " scan" + (scans == 1 ? "" : "s"));
 }
 
+// Reads the headers up to scan `scan_index`'s into `header`, checking the scans before it.
+void SkipToScan(PtxParser& parser, PtxScan& header, const std::string& path, int scan_index) {
+  for (int k = 0; k < scan_index; ++k) {
+    if (!parser.ReadHeader(header, k)) NoSuchScan(path, scan_index, k);
+    parser.ReadPoints(header.columns, header.rows, k, false, NoSink);
+  }
+  if (!parser.ReadHeader(header, scan_index)) NoSuchScan(path, scan_index, scan_index);
+}
+
 // The rest of the file must be whole scans too: a header that counts fewer points than its
 // data, or lines appended, would otherwise go unnoticed.
 void CheckRest(PtxParser& parser, int scan_index) {
@@ -501,12 +510,9 @@ PtxScan ReadPtxScan(const std::string& path, int scan_index, const Progress& pro
   CheckScanIndex(path, scan_index);
   PtxParser parser(path);
   PtxScan scan;
-  for (int k = 0;; ++k) {
-    if (!parser.ReadHeader(scan, k)) NoSuchScan(path, scan_index, k);
-    if (k != scan_index) {
-      parser.ReadPoints(scan.columns, scan.rows, k, false, NoSink);
-      continue;
-    }
+  {
+    SkipToScan(parser, scan, path, scan_index);
+    const int k = scan_index;
     const std::size_t n = static_cast<std::size_t>(scan.columns) * scan.rows;
     // Reserve no more than the file can hold: a point line takes at least 8 bytes ("0 0 0 0\n"),
     // so a header that counts 10^9 points in a 100-byte file asks for nothing big.
@@ -527,7 +533,6 @@ PtxScan ReadPtxScan(const std::string& path, int scan_index, const Progress& pro
                         }
                       });
     parser.set_progress(Progress());
-    break;
   }
   CheckRest(parser, scan_index);
   progress(1.0, "reading PTX");
@@ -656,12 +661,9 @@ OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,
   PtxParser parser(path);
   PtxScan header;
   OrderedScan scan;
-  for (int k = 0;; ++k) {
-    if (!parser.ReadHeader(header, k)) NoSuchScan(path, scan_index, k);
-    if (k != scan_index) {
-      parser.ReadPoints(header.columns, header.rows, k, false, NoSink);
-      continue;
-    }
+  {
+    SkipToScan(parser, header, path, scan_index);
+    const int k = scan_index;
     const std::size_t n = static_cast<std::size_t>(header.columns) * header.rows;
     if (n > MaxPointLines(parser.file_size())) {
       // More points than the file can hold: it is truncated; the reader that grows its arrays
@@ -681,7 +683,6 @@ OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,
         },
         /*indexed=*/true);
     parser.set_progress(Progress());
-    break;
   }
   CheckRest(parser, scan_index);
   progress(1.0, "reading PTX");
