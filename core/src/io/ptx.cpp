@@ -406,36 +406,38 @@ void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool app
   }
   // Per PTX column an azimuth, per PTX row an elevation (scanner frame), for no-return cells:
   // medians over the line's returns, computed only for the lines that need one.
-  std::vector<double> col_az(columns), row_el(rows), buf;
-  std::vector<std::uint8_t> col_done(columns, 0), row_done(rows, 0);
-  auto median_or_nan = [&]() { return buf.empty() ? std::nan("") : MedianAngle(buf); };
-  auto column_azimuth = [&](int r) {
-    if (!col_done[r]) {
+  // NaN marks a line without returns; `done` which lines were computed.
+  struct LineMedians {
+    std::vector<double> value;
+    std::vector<std::uint8_t> done;
+  };
+  LineMedians col_az{std::vector<double>(columns), std::vector<std::uint8_t>(columns, 0)};
+  LineMedians row_el{std::vector<double>(rows), std::vector<std::uint8_t>(rows, 0)};
+  std::vector<double> buf;
+  // The median of angle(point) over the returns of grid row `i` (a PTX column) or grid column
+  // `i` (a PTX row), in grid order.
+  auto line_median = [&](LineMedians& m, int i, bool grid_row, auto angle) {
+    if (!m.done[i]) {
       buf.clear();
-      for (int c = 0; c < rows; ++c) {
-        const std::size_t k = scan.index(r, c);
-        if (!returned[k]) continue;
-        const Eigen::Vector3f& p = scan.point_m[k];
-        buf.push_back(std::atan2(double(p.y()), double(p.x())));
+      const int length = grid_row ? rows : columns;
+      for (int j = 0; j < length; ++j) {
+        const std::size_t k = grid_row ? scan.index(i, j) : scan.index(j, i);
+        if (returned[k]) buf.push_back(angle(scan.point_m[k]));
       }
-      col_az[r] = median_or_nan();
-      col_done[r] = 1;
+      m.value[i] = buf.empty() ? std::nan("") : MedianAngle(buf);
+      m.done[i] = 1;
     }
-    return col_az[r];
+    return m.value[i];
+  };
+  auto column_azimuth = [&](int r) {
+    return line_median(col_az, r, true, [](const Eigen::Vector3f& p) {
+      return std::atan2(double(p.y()), double(p.x()));
+    });
   };
   auto row_elevation = [&](int c) {
-    if (!row_done[c]) {
-      buf.clear();
-      for (int r = 0; r < columns; ++r) {
-        const std::size_t k = scan.index(r, c);
-        if (!returned[k]) continue;
-        const Eigen::Vector3f& p = scan.point_m[k];
-        buf.push_back(std::atan2(double(p.z()), std::hypot(double(p.x()), double(p.y()))));
-      }
-      row_el[c] = median_or_nan();
-      row_done[c] = 1;
-    }
-    return row_el[c];
+    return line_median(row_el, c, false, [](const Eigen::Vector3f& p) {
+      return std::atan2(double(p.z()), std::hypot(double(p.x()), double(p.y())));
+    });
   };
   // A no-return cell's beam: interpolated along its grid line from the nearest
   // returns on both sides (within kReach cells), which fits any scanner whose beams
