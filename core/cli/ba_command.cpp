@@ -95,7 +95,9 @@ struct Writer {
   }
   // `image` is the whole grid: cropped to the written cells here.
   void Image(const std::string& name, const cv::Mat& full) {
-    const cv::Mat image = full(crop.cells).clone();
+    // A crop of the whole grid is the image itself (no copy of 4 bytes per cell).
+    const bool whole = crop.cells == cv::Rect(0, 0, full.cols, full.rows);
+    const cv::Mat image = whole ? full : full(crop.cells).clone();
     Write(name + ".tiff", [&](const std::string& p) { WriteFloatTiff(p, image); });
     Png(name, image);
   }
@@ -190,35 +192,42 @@ int RunBa(const Args& args) {
                 "' is not equalize or percentile");
 
   const Progress progress(StderrProgress(quiet));
-  const OrderedScan scan = LoadScan(path, load, progress);
+  OrderedScan scan = LoadScan(path, load, progress);
   if (scan.rows <= 0 || scan.cols <= 0) throw FileError(path, "", "the scan grid is empty");
+  // The images read ranges, beam directions and intensities only: the points (12 of the 32
+  // bytes per cell, ordered_scan.h) are released, the largest part of the peak at full size.
+  std::vector<Eigen::Vector3f>().swap(scan.point_m);
   out.angles = ComputeScanAngles(scan);
   out.crop = MakeScanView(crop, out.angles, scan.rows, scan.cols, false);
   if (args.has("--true-aspect"))
     out.aspect = MakeScanView(crop, out.angles, scan.rows, scan.cols, true);
 
-  // BA images: the four traces in one pass, then the extra steps.
-  std::vector<std::pair<std::string, cv::Mat>> images;
-  const auto four = ComputeBearingAngleAll(scan, progress);
+  // BA images one at a time, each written as soon as it is made, into one reused buffer: at
+  // full size (13 M cells) four images held together would add 4 bytes per cell each to the
+  // scan's 32 (the images are the same as ComputeBearingAngleAll's, see ba_image.h).
+  std::vector<std::pair<std::string, GridStep>> traces;
   for (std::size_t t = 0; t < 4; ++t)
-    images.emplace_back("ba_" + TraceName(kAllBaTraces[t]), four[t]);
+    traces.emplace_back("ba_" + TraceName(kAllBaTraces[t]), TraceStep(kAllBaTraces[t]));
   for (const GridStep& s : extra) {
-    images.emplace_back("ba_step_" + std::to_string(s.drow) + "_" + std::to_string(s.dcol),
-                        ComputeBearingAngle(scan, s, progress));
+    traces.emplace_back("ba_step_" + std::to_string(s.drow) + "_" + std::to_string(s.dcol), s);
   }
-
-  const cv::Mat intensity = IntensityImage(scan);
-  // Only now, with the scan read and its images made: a run that fails earlier (a bad option,
-  // a damaged scan) leaves no new directory behind.
-  std::error_code ec;
-  std::filesystem::create_directories(out.dir, ec);
-  if (!std::filesystem::is_directory(out.dir))
-    throw FileError(
-        out.dir.string(), "",
-        "cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
-  const std::size_t total = images.size() + 1;
+  std::vector<double> ba_valid;  // per image, for the summary
+  const std::size_t total = traces.size() + 1;
   std::size_t done = 0;
-  for (const auto& [name, ba] : images) {
+  cv::Mat ba;
+  for (const auto& [name, step] : traces) {
+    ComputeBearingAngle(scan, step, ba, progress);
+    ba_valid.push_back(ValidFraction(ba));
+    if (done == 0) {
+      // Only now, with the scan read and its first image made: a run that fails earlier (a bad
+      // option, a damaged scan) leaves no new directory behind.
+      std::error_code ec;
+      std::filesystem::create_directories(out.dir, ec);
+      if (!std::filesystem::is_directory(out.dir))
+        throw FileError(
+            out.dir.string(), "",
+            "cannot create the output directory" + (ec ? ": " + ec.message() : std::string()));
+    }
     out.Image(name, ba);
     if (edges) {
       const cv::Mat e = SobelEdges(ba);
@@ -232,11 +241,17 @@ int RunBa(const Args& args) {
     }
     progress(double(++done) / double(total), "writing");
   }
+  ba.release();
+  bool has_intensity = false;
+  double intensity_valid = 0.0;  // of the written cells, for the summary
   {
     ViewOptions keep = out.view;
     out.view.fixed_range = false;  // metres: always stretched
     out.Image("range", RangeImage(scan));
-    if (!intensity.empty()) {
+    const cv::Mat intensity = IntensityImage(scan);
+    has_intensity = !intensity.empty();
+    if (has_intensity) {
+      intensity_valid = ValidFraction(intensity(out.crop.cells));
       out.view = IntensityViewOptions();
       out.view.equalize = intensity_stretch == "equalize";
       if (args.has("--intensity-gamma")) out.view.gamma = intensity_gamma;
@@ -263,13 +278,12 @@ int RunBa(const Args& args) {
       std::cout << "aspect: *_aspect.png are " << out.aspect->aspect->width() << " x "
                 << out.aspect->aspect->height() << " px at true angular aspect ("
                 << out.aspect->aspect->pixels_per_col() << " px per column)\n";
-    if (intensity.empty())
+    if (!has_intensity)
       std::cout << "intensity: the scan has none (no intensity.tiff/.png)\n";
     else
-      std::cout << "        intensity: " << Percent(ValidFraction(intensity(b)))
-                << " with a value\n";
-    for (const auto& [name, ba] : images)
-      std::cout << "        " << name << ": " << Percent(ValidFraction(ba)) << " with a BA\n";
+      std::cout << "        intensity: " << Percent(intensity_valid) << " with a value\n";
+    for (std::size_t k = 0; k < traces.size(); ++k)
+      std::cout << "        " << traces[k].first << ": " << Percent(ba_valid[k]) << " with a BA\n";
     std::cout << "wrote " << out.written.size() << " files to " << out.dir.string() << ":\n";
     for (const auto& f : out.written) std::cout << "  " << f << "\n";
   }

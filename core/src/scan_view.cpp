@@ -75,7 +75,7 @@ ScanAngles ComputeScanAngles(const OrderedScan& scan) {
   a.row_elevation_deg.assign(rows, kNaN);
   a.col_azimuth_deg.assign(cols, kNaN);
   std::vector<Eigen::Vector2d> col_sum(cols, Eigen::Vector2d::Zero());
-  std::vector<double> buf, steps;
+  std::vector<double> buf, steps, row_spreads;
   for (int r = 0; r < rows; ++r) {
     buf.clear();
     for (int c = 0; c < cols; ++c) {
@@ -90,6 +90,12 @@ ScanAngles ComputeScanAngles(const OrderedScan& scan) {
       }
     }
     a.row_elevation_deg[r] = Median(buf);
+    // The spread of the row's elevations about their median (the layout test below), from the
+    // same values (a median does not depend on their order): one atan2 per cell less.
+    if (!buf.empty()) {
+      for (double& e : buf) e = std::abs(e - a.row_elevation_deg[r]);
+      row_spreads.push_back(Median(buf));
+    }
   }
   for (int c = 0; c < cols; ++c)
     if (col_sum[c].squaredNorm() > 0.0)
@@ -119,16 +125,7 @@ ScanAngles ComputeScanAngles(const OrderedScan& scan) {
 
   // Layout: the median spread of the beams' elevation inside a row, azimuth inside a column.
   std::vector<double> spreads, dev;
-  for (int r = 0; r < rows; ++r) {
-    dev.clear();
-    for (int c = 0; c < cols; ++c) {
-      const Eigen::Vector3f& b = scan.beam_dir[scan.index(r, c)];
-      if (Known(b))
-        dev.push_back(std::abs(ElevationDeg(b.cast<double>()) - a.row_elevation_deg[r]));
-    }
-    if (!dev.empty()) spreads.push_back(Median(dev));
-  }
-  const double row_spread = Median(spreads);
+  const double row_spread = Median(row_spreads);
   spreads.clear();
   for (int c = 0; c < cols; ++c) {
     dev.clear();

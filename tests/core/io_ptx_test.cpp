@@ -3,6 +3,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "scancam/error.h"
@@ -244,6 +245,24 @@ TEST(Ptx, BadInputsNameFileLineAndProblem) {
        std::string("2\n3\n\x89PNG\x00\x01\x02", 11),
        {"garbage.ptx:byte 8", "binary"}},
       {"huge.ptx", "100000000\n100000000\n", {"huge.ptx:2", "more than this reader accepts"}},
+      // A header counting 10^9 points in a small file: refused as truncated, without
+      // allocating the grid it claims (32 GB).
+      {"claims.ptx",
+       "1000000\n1000\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"
+       "1 0 0 0.1\n",
+       {"claims.ptx:12", "truncated", "after 1 of its 1000000000 points"}},
+      // Faults after the first point (the fast path hands such lines to the checked one).
+      {"binary2.ptx",
+       h + "1 0 0 0.1\n2 0\x01 0 0.2\n",
+       {"binary2.ptx:byte " + std::to_string(h.size() + 13), "binary data (byte value 1)"}},
+      {"rgb2.ptx",
+       h + "1 0 0 0.1 1 2 3\n2 0 0 0.2 1 2 256\n",
+       {"rgb2.ptx:12", "[0, 255]", "'256'"}},
+      {"rgbsign.ptx", h + "1 0 0 0.1 1 2 3\n2 0 0 0.2 1 -2 3\n", {"rgbsign.ptx:12", "'-2'"}},
+      {"suffix.ptx", h + "1 0 0 0.1\n2 0 0 0.2x\n", {"suffix.ptx:12", "intensity", "'0.2x'"}},
+      {"inf.ptx", h + "1 0 0 0.1\n2 0 inf 0.2\n", {"inf.ptx:12", "z: expected a finite"}},
+      {"more.ptx", h + "1 0 0 0.1\n2 0 0 0.2 5\n", {"more.ptx:12", "found 5 fields"}},
+      {"range.ptx", h + "1 0 0 0.1\n2 1e39 0 0.2\n", {"range.ptx:12", "y: expected a finite"}},
   };
   for (const Case& c : cases) {
     const std::string path = dir + "/" + c.name;
@@ -261,6 +280,58 @@ TEST(Ptx, BadInputsNameFileLineAndProblem) {
   // fewer points than its data, or lines appended, must not pass unnoticed).
   ExpectError([&] { LoadPtx(two, 0, false); }, {"two.ptx:20", "truncated"});
   ExpectError([&] { LoadPtx(two, 1, false); }, {"two.ptx:20", "truncated"});
+}
+
+// LoadPtx reads straight into the grid; ReadPtxScan + PtxToOrderedScan go through PtxScan: the
+// two give the same bits, also for no-return cells that take the line medians (a hole wider than
+// the interpolation reach) and with the pose applied. Separators, signs and exponents as
+// files write them are read alike on every line (the fast path and the checked one).
+TEST(Ptx, LoadPtxEqualsReadThenConvert) {
+  PtxScan ptx = MakeScan(40, 30, 5, false);
+  for (int r = 10; r < 30; ++r)
+    for (int c = 5; c < 25; ++c) ptx.xyz[std::size_t(r) * 30 + c] = Eigen::Vector3f::Zero();
+  ptx.transform.block<3, 3>(0, 0) =
+      Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 0.3, 0.9).normalized()).toRotationMatrix();
+  ptx.transform.block<3, 1>(0, 3) = Eigen::Vector3d(1.5, -2, 0.25);
+  const std::string path = test::TempDir() + "/same.ptx";
+  WritePtx(path, {ptx});
+  for (bool pose : {false, true}) {
+    SCOPED_TRACE(pose);
+    const OrderedScan a = LoadPtx(path, 0, pose);
+    const OrderedScan b = PtxToOrderedScan(ReadPtxScan(path, 0), pose, path);
+    ASSERT_EQ(a.size(), b.size());
+    ASSERT_EQ(a.intensity.size(), b.intensity.size());
+    EXPECT_EQ(std::memcmp(a.range_m.data(), b.range_m.data(), a.size() * 4), 0);
+    EXPECT_EQ(std::memcmp(a.point_m.data(), b.point_m.data(), a.size() * 12), 0);
+    EXPECT_EQ(std::memcmp(a.beam_dir.data(), b.beam_dir.data(), a.size() * 12), 0);
+    EXPECT_EQ(std::memcmp(a.intensity.data(), b.intensity.data(), a.size() * 4), 0);
+    EXPECT_EQ(a.origin_m, b.origin_m);
+    // The hole's middle is beyond the reach of interpolation: a median beam, not NaN.
+    EXPECT_TRUE(a.beam_dir[a.index(20, 15)].allFinite());
+  }
+  // A scan followed by another (the block reader stops at the scan's last point), and the second.
+  const std::string two = test::TempDir() + "/same_two.ptx";
+  WritePtx(two, {ptx, MakeScan(4, 7, 2, true)});
+  for (int index : {0, 1}) {
+    const OrderedScan a = LoadPtx(two, index, false);
+    const OrderedScan b = PtxToOrderedScan(ReadPtxScan(two, index), false, two);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.point_m.data(), b.point_m.data(), a.size() * 12), 0);
+    EXPECT_EQ(std::memcmp(a.beam_dir.data(), b.beam_dir.data(), a.size() * 12), 0);
+    EXPECT_EQ(std::memcmp(a.intensity.data(), b.intensity.data(), a.size() * 4), 0);
+  }
+  // Tabs, CR LF, '+' signs and exponents, on the first point line and on the others.
+  const std::string text = test::TempDir() + "/text.ptx";
+  test::WriteFile(text, std::string(kHeader23) +
+                            "+1\t0 0 0.1\r\n2e0  0\t0 +0.2\r\n0 0 0 0.3\n"
+                            "0 4 0 4E-1\n\t0 +5 0 0.5 \n0 6.0 1 0.6");
+  const OrderedScan t = LoadPtx(text, 0, false);
+  EXPECT_EQ(t.point_m[t.index(0, 0)], Eigen::Vector3f(1, 0, 0));
+  EXPECT_EQ(t.point_m[t.index(0, 1)], Eigen::Vector3f(2, 0, 0));
+  EXPECT_EQ(t.intensity[t.index(0, 1)], 0.2f);
+  EXPECT_EQ(t.intensity[t.index(1, 0)], 0.4f);
+  EXPECT_EQ(t.point_m[t.index(1, 1)], Eigen::Vector3f(0, 5, 0));
+  EXPECT_EQ(t.point_m[t.index(1, 2)], Eigen::Vector3f(0, 6, 1));
 }
 
 }  // namespace

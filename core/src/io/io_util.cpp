@@ -80,7 +80,7 @@ bool FileLineReader::Fill() {
   return got > 0;
 }
 
-bool FileLineReader::Next(std::string_view& line) {
+bool FileLineReader::NextUnchecked(std::string_view& line) {
   std::size_t nl = std::string::npos;
   std::size_t searched = begin_;
   for (;;) {
@@ -110,20 +110,42 @@ bool FileLineReader::Next(std::string_view& line) {
   line_start_ = consumed_;
   std::size_t stop = nl;
   if (stop > begin_ && buf_[stop - 1] == '\r') --stop;
-  for (std::size_t i = begin_; i < stop; ++i) {
-    const unsigned char c = static_cast<unsigned char>(buf_[i]);
-    if (c < 0x20 && c != '\t' && c != '\r') {
-      throw FileError(
-          path_, ByteWhere(consumed_ + (i - begin_)),
-          "binary data (byte value " + std::to_string(int(c)) + ") where text was expected");
-    }
-  }
   line = std::string_view(buf_.data() + begin_, stop - begin_);
   const std::size_t next = nl < buf_.size() ? nl + 1 : nl;
   consumed_ += next - begin_;
   begin_ = next;
   ++line_;
   return true;
+}
+
+std::string_view FileLineReader::PeekLines(std::size_t min_bytes) {
+  while (buf_.size() - begin_ < min_bytes && Fill()) {
+  }
+  const std::size_t avail = buf_.size() - begin_;
+  if (eof_) return std::string_view(buf_.data() + begin_, avail);
+  const char* first = buf_.data() + begin_;
+  const void* last_nl = avail ? ::memrchr(first, '\n', avail) : nullptr;
+  if (!last_nl) return std::string_view(first, 0);
+  return std::string_view(first,
+                          static_cast<std::size_t>(static_cast<const char*>(last_nl) - first) + 1);
+}
+
+void FileLineReader::Skip(std::size_t bytes, int lines) {
+  line_start_ = consumed_ + bytes;
+  consumed_ += bytes;
+  begin_ += bytes;
+  line_ += lines;
+}
+
+void FileLineReader::CheckText(std::string_view line) const {
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(line[i]);
+    if (c < 0x20 && c != '\t' && c != '\r') {
+      throw FileError(
+          path_, ByteWhere(line_start_ + i),
+          "binary data (byte value " + std::to_string(int(c)) + ") where text was expected");
+    }
+  }
 }
 
 void SplitWhitespace(std::string_view line, std::vector<std::string_view>& out) {

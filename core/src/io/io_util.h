@@ -52,7 +52,24 @@ class FileLineReader {
   FileLineReader(const FileLineReader&) = delete;
   FileLineReader& operator=(const FileLineReader&) = delete;
   /// Next line (valid until the next call); false at the end of the file.
-  bool Next(std::string_view& line);
+  bool Next(std::string_view& line) {
+    if (!NextUnchecked(line)) return false;
+    CheckText(line);
+    return true;
+  }
+  /// Next() without the binary-byte check, for parsers that reject such bytes anyway and
+  /// call CheckText() on the lines they do not accept (the message then names the byte).
+  bool NextUnchecked(std::string_view& line);
+  /// Throws FileError naming the byte if `line` (the current line) holds a control character
+  /// other than tab / CR.
+  void CheckText(std::string_view line) const;
+  /// The whole lines buffered after the current position, at least `min_bytes` of them unless
+  /// the file ends first (or a line is longer than the buffer holds: then fewer, maybe none),
+  /// without consuming them: the view ends just after a '\n', or at the end of the file. Valid
+  /// until the next call that reads; for parsers that take many lines at once (PTX points).
+  std::string_view PeekLines(std::size_t min_bytes);
+  /// Consumes the first `bytes` of what PeekLines gave, which hold `lines` whole lines.
+  void Skip(std::size_t bytes, int lines);
   int line_number() const { return line_; }
   std::size_t line_offset() const { return line_start_; }
   std::size_t file_size() const { return file_size_; }
