@@ -158,6 +158,7 @@ void ChooseColumns(AzimuthLayout& l, const std::vector<long long>& cells) {
   }
 }
 
+// (RegridSpherical computes the same per cell with the sines and cosines hoisted.)
 Eigen::Vector3f Direction(const Eigen::Matrix3d& r, double az, double el) {
   const double ce = std::cos(el);
   return (r * Eigen::Vector3d(ce * std::cos(az), ce * std::sin(az), std::sin(el))).cast<float>();
@@ -477,10 +478,20 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
   scan.row_axis = "elevation bin (highest first), spherical re-grid";
   scan.col_axis = "azimuth bin (decreasing azimuth left to right), spherical re-grid";
   const Eigen::Matrix3d rot = o.orientation.normalized().toRotationMatrix();
+  // Direction() per cell, its sines and cosines taken once per column and per row.
+  std::vector<double> cos_az(static_cast<std::size_t>(scan.cols)), sin_az(cos_az.size());
+  for (int c = 0; c < scan.cols; ++c) {
+    cos_az[static_cast<std::size_t>(c)] = std::cos(layout.Centre(c));
+    sin_az[static_cast<std::size_t>(c)] = std::sin(layout.Centre(c));
+  }
   for (int r = 0; r < scan.rows; ++r) {
     const double el = eph + static_cast<double>(m_max - r) * est;
-    for (int c = 0; c < scan.cols; ++c)
-      scan.beam_dir[scan.index(r, c)] = Direction(rot, layout.Centre(c), el);
+    const double ce = std::cos(el), se = std::sin(el);
+    for (int c = 0; c < scan.cols; ++c) {
+      const std::size_t k = static_cast<std::size_t>(c);
+      scan.beam_dir[scan.index(r, c)] =
+          (rot * Eigen::Vector3d(ce * cos_az[k], ce * sin_az[k], se)).cast<float>();
+    }
   }
   std::vector<std::int64_t> cell_of(p.az.size(), -1);
   for (std::size_t i = 0; i < p.az.size(); ++i) {
