@@ -12,7 +12,7 @@
 //                                            output images every call
 //   ba_all_four_reuse/...                    the same into the previous call's images
 //   ba_<trace>/omp, ba_<trace>/1thread       ComputeBearingAngle, one trace (and _reuse)
-//   ba_horizontal/1thread/kernel_*           the same with the scalar / SSE2 / AVX kernel
+//   ba_horizontal/1thread/kernel_*           the same with the scalar / SSE2 / AVX2 kernel
 //                                            forced (default: the widest the CPU has)
 //   pcl_generateBAImage                      PCL's BA image (one diagonal trace, one thread)
 //   sobel_edges                              SobelEdges of one BA image
@@ -181,7 +181,7 @@ void BM_Trace(benchmark::State& state, scancam::BaTrace trace, int threads) {
   Finish(state, rss);
 }
 
-// One trace, one thread, with a forced kernel (scalar / SSE2 / AVX), to show what SIMD buys.
+// One trace, one thread, with a forced kernel (scalar / SSE2 / AVX2), to show what SIMD buys.
 void BM_Kernel(benchmark::State& state, scancam::detail::BaKernel kernel) {
   const Data& d = GetData();
   ThreadScope ts(1);
@@ -289,7 +289,7 @@ int main(int argc, char** argv) {
   }
   using K = scancam::detail::BaKernel;
   for (auto [name, k] : {std::pair{"kernel_scalar", K::kScalar}, std::pair{"kernel_sse2", K::kSse2},
-                         std::pair{"kernel_avx", K::kAvx}}) {
+                         std::pair{"kernel_avx2", K::kAvx2}}) {
     benchmark::RegisterBenchmark((std::string("ba_horizontal/1thread/") + name).c_str(), BM_Kernel,
                                  k)
         ->Unit(benchmark::kMillisecond)
@@ -305,7 +305,7 @@ int main(int argc, char** argv) {
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   const Data& d = GetData();
-  const char* kernels[] = {"auto", "scalar", "sse2", "avx"};
+  const char* kernels[] = {"auto", "scalar", "sse2", "avx2"};
   std::printf("scene: %d x %d = %d cells, %.1f %% valid; OpenMP threads: %d; BA kernel: %s\n",
               kRows, kCols, kRows * kCols, 100.0 * d.scan.valid_fraction(), cores,
               kernels[static_cast<int>(scancam::detail::ActiveBaKernel())]);

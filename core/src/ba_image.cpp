@@ -11,6 +11,8 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "simd/simd.h"
+#include "simd/vec4.h"
+#include "simd/vec8_avx2.h"
 
 namespace scancam {
 namespace {
@@ -48,173 +50,42 @@ void BaSpanScalar(const float* __restrict rho, const float* __restrict beam,
   }
 }
 
-#if SCANCAM_SIMD_SSE2
-#define SCANCAM_BA_X86 1
-// SIMD kernels (GCC does not vectorise the scalar loop itself: sqrt may set errno, and the
-// beams have stride 3). They perform the operations of detail::BearingAngleFromChord in the
-// same order, without FMA, so every kernel gives the same bits.
-//
-// Beams are packed x y z floats: 4 cells = 12 floats = 3 vectors A B C holding
-// (x0 y0 z0 x1 | y1 z1 x2 y2 | z2 x3 y3 z3). The squared differences are de-interleaved
-// with shuffles into x = (a0 a3 b2 c1), y = (a1 b0 b3 c2), z = (a2 b1 c0 c3) and summed.
+// The vector kernels (ba_kernel.inc) on the core's SIMD layer (simd/simd.h): 4 lanes (SSE2 on
+// x86-64, plain C++ elsewhere) and 8 lanes (AVX2), chosen at run time.
+namespace ba4 {
+using namespace simd::v4;
+using V = F4;
+constexpr int kLanes = 4;
+#include "ba_kernel.inc"
+}  // namespace ba4
 
-// SSE2: 4 cells per step.
-
-void BaSpanSse2(const float* __restrict rho, const float* __restrict beam,
-                const float* __restrict rho_prev, const float* __restrict beam_prev,
-                float* __restrict out, int n) {
-  const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(kInf), nan = _mm_set1_ps(kNaN);
-  const __m128 half = _mm_set1_ps(0.5f), quarter = _mm_set1_ps(0.25f), one = _mm_set1_ps(1.f);
-  const __m128 sign = _mm_set1_ps(-0.f);
-  const __m128 half_pi = _mm_set1_ps(1.57079632679489662f);
-  const __m128 pi = _mm_set1_ps(3.14159265358979324f);
-  __m128 c[8];
-  for (int j = 0; j < 8; ++j) c[j] = _mm_set1_ps(detail::kAtanPoly[j]);
-  int k = 0;
-  for (; k + 4 <= n; k += 4) {
-    const float* b = beam + 3 * k;
-    const float* bp = beam_prev + 3 * k;
-    const __m128 d0 = _mm_sub_ps(_mm_loadu_ps(b), _mm_loadu_ps(bp));
-    const __m128 d1 = _mm_sub_ps(_mm_loadu_ps(b + 4), _mm_loadu_ps(bp + 4));
-    const __m128 d2 = _mm_sub_ps(_mm_loadu_ps(b + 8), _mm_loadu_ps(bp + 8));
-    const __m128 va = _mm_mul_ps(d0, d0), vb = _mm_mul_ps(d1, d1), vc = _mm_mul_ps(d2, d2);
-    const __m128 tx = _mm_shuffle_ps(vb, vc, _MM_SHUFFLE(1, 1, 2, 2));    // b2 b2 c1 c1
-    const __m128 sx = _mm_shuffle_ps(va, tx, _MM_SHUFFLE(2, 0, 3, 0));    // a0 a3 b2 c1
-    const __m128 ty0 = _mm_shuffle_ps(va, vb, _MM_SHUFFLE(0, 0, 1, 1));   // a1 a1 b0 b0
-    const __m128 ty1 = _mm_shuffle_ps(vb, vc, _MM_SHUFFLE(2, 2, 3, 3));   // b3 b3 c2 c2
-    const __m128 sy = _mm_shuffle_ps(ty0, ty1, _MM_SHUFFLE(2, 0, 2, 0));  // a1 b0 b3 c2
-    const __m128 tz0 = _mm_shuffle_ps(va, vb, _MM_SHUFFLE(1, 1, 2, 2));   // a2 a2 b1 b1
-    const __m128 tz1 = _mm_shuffle_ps(vc, vc, _MM_SHUFFLE(3, 3, 0, 0));   // c0 c0 c3 c3
-    const __m128 sz = _mm_shuffle_ps(tz0, tz1, _MM_SHUFFLE(2, 0, 2, 0));  // a2 b1 c0 c3
-    const __m128 h = _mm_add_ps(_mm_add_ps(sx, sy), sz);
-
-    const __m128 r1 = _mm_loadu_ps(rho + k), r0 = _mm_loadu_ps(rho_prev + k);
-    const __m128 x = _mm_add_ps(_mm_sub_ps(r1, r0), _mm_mul_ps(r0, _mm_mul_ps(half, h)));
-    __m128 q = _mm_mul_ps(h, _mm_sub_ps(one, _mm_mul_ps(quarter, h)));
-    q = simd::SelectPs(_mm_cmpgt_ps(q, zero), q, zero);
-    const __m128 y = _mm_mul_ps(r0, _mm_sqrt_ps(q));
-
-    const __m128 ax = _mm_andnot_ps(sign, x);
-    const __m128 y_big = _mm_cmpgt_ps(y, ax);
-    const __m128 a = _mm_div_ps(simd::SelectPs(y_big, ax, y), simd::SelectPs(y_big, y, ax));
-    const __m128 s = _mm_mul_ps(a, a), s2 = _mm_mul_ps(s, s), s4 = _mm_mul_ps(s2, s2);
-    const __m128 p01 = _mm_add_ps(c[0], _mm_mul_ps(c[1], s));
-    const __m128 p23 = _mm_add_ps(c[2], _mm_mul_ps(c[3], s));
-    const __m128 p45 = _mm_add_ps(c[4], _mm_mul_ps(c[5], s));
-    const __m128 p67 = _mm_add_ps(c[6], _mm_mul_ps(c[7], s));
-    const __m128 p03 = _mm_add_ps(p01, _mm_mul_ps(p23, s2));
-    const __m128 p47 = _mm_add_ps(p45, _mm_mul_ps(p67, s2));
-    __m128 p = _mm_mul_ps(_mm_add_ps(p03, _mm_mul_ps(p47, s4)), a);
-    p = simd::SelectPs(y_big, _mm_sub_ps(half_pi, p), p);
-    p = simd::SelectPs(_mm_cmplt_ps(x, zero), _mm_sub_ps(pi, p), p);
-
-    // Valid as OrderedScan::valid (finite, > 0); ordered compares are false for NaN, so a
-    // NaN range or an unknown beam (h NaN) gives NaN.
-    __m128 ok = _mm_and_ps(_mm_cmpgt_ps(r1, zero), _mm_cmplt_ps(r1, inf));
-    ok = _mm_and_ps(ok, _mm_and_ps(_mm_cmpgt_ps(r0, zero), _mm_cmplt_ps(r0, inf)));
-    ok = _mm_and_ps(ok, _mm_cmpge_ps(h, zero));
-    _mm_storeu_ps(out + k, simd::SelectPs(ok, p, nan));
-  }
-  BaSpanScalar(rho + k, beam + 3 * k, rho_prev + k, beam_prev + 3 * k, out + k, n - k);
-}
-
-// AVX: 8 cells per step. The three 8-float vectors are first regrouped by 128-bit halves
-// (permute2f128) so that each half holds the 12 floats of 4 cells; the in-lane shuffles are
-// then those of the SSE2 kernel (lower half: cells 0-3, upper half: cells 4-7).
-SCANCAM_SIMD_TARGET_AVX void BaSpanAvx(const float* __restrict rho, const float* __restrict beam,
-                                       const float* __restrict rho_prev,
-                                       const float* __restrict beam_prev, float* __restrict out,
-                                       int n) {
-  const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(kInf);
-  const __m256 nan = _mm256_set1_ps(kNaN);
-  const __m256 half = _mm256_set1_ps(0.5f), quarter = _mm256_set1_ps(0.25f);
-  const __m256 one = _mm256_set1_ps(1.f), sign = _mm256_set1_ps(-0.f);
-  const __m256 half_pi = _mm256_set1_ps(1.57079632679489662f);
-  const __m256 pi = _mm256_set1_ps(3.14159265358979324f);
-  __m256 c[8];
-  for (int j = 0; j < 8; ++j) c[j] = _mm256_set1_ps(detail::kAtanPoly[j]);
-  int k = 0;
-  for (; k + 8 <= n; k += 8) {
-    const float* b = beam + 3 * k;
-    const float* bp = beam_prev + 3 * k;
-    const __m256 d0 = _mm256_sub_ps(_mm256_loadu_ps(b), _mm256_loadu_ps(bp));
-    const __m256 d1 = _mm256_sub_ps(_mm256_loadu_ps(b + 8), _mm256_loadu_ps(bp + 8));
-    const __m256 d2 = _mm256_sub_ps(_mm256_loadu_ps(b + 16), _mm256_loadu_ps(bp + 16));
-    const __m256 q0 = _mm256_mul_ps(d0, d0), q1 = _mm256_mul_ps(d1, d1);
-    const __m256 q2 = _mm256_mul_ps(d2, d2);
-    const __m256 va = _mm256_permute2f128_ps(q0, q1, 0x30);  // floats 0-3  | 12-15
-    const __m256 vb = _mm256_permute2f128_ps(q0, q2, 0x21);  // floats 4-7  | 16-19
-    const __m256 vc = _mm256_permute2f128_ps(q1, q2, 0x30);  // floats 8-11 | 20-23
-    const __m256 tx = _mm256_shuffle_ps(vb, vc, _MM_SHUFFLE(1, 1, 2, 2));
-    const __m256 sx = _mm256_shuffle_ps(va, tx, _MM_SHUFFLE(2, 0, 3, 0));
-    const __m256 ty0 = _mm256_shuffle_ps(va, vb, _MM_SHUFFLE(0, 0, 1, 1));
-    const __m256 ty1 = _mm256_shuffle_ps(vb, vc, _MM_SHUFFLE(2, 2, 3, 3));
-    const __m256 sy = _mm256_shuffle_ps(ty0, ty1, _MM_SHUFFLE(2, 0, 2, 0));
-    const __m256 tz0 = _mm256_shuffle_ps(va, vb, _MM_SHUFFLE(1, 1, 2, 2));
-    const __m256 tz1 = _mm256_shuffle_ps(vc, vc, _MM_SHUFFLE(3, 3, 0, 0));
-    const __m256 sz = _mm256_shuffle_ps(tz0, tz1, _MM_SHUFFLE(2, 0, 2, 0));
-    const __m256 h = _mm256_add_ps(_mm256_add_ps(sx, sy), sz);
-
-    const __m256 r1 = _mm256_loadu_ps(rho + k), r0 = _mm256_loadu_ps(rho_prev + k);
-    const __m256 x =
-        _mm256_add_ps(_mm256_sub_ps(r1, r0), _mm256_mul_ps(r0, _mm256_mul_ps(half, h)));
-    __m256 q = _mm256_mul_ps(h, _mm256_sub_ps(one, _mm256_mul_ps(quarter, h)));
-    q = simd::SelectPs(_mm256_cmp_ps(q, zero, _CMP_GT_OQ), q, zero);
-    const __m256 y = _mm256_mul_ps(r0, _mm256_sqrt_ps(q));
-
-    const __m256 ax = _mm256_andnot_ps(sign, x);
-    const __m256 y_big = _mm256_cmp_ps(y, ax, _CMP_GT_OQ);
-    const __m256 a = _mm256_div_ps(simd::SelectPs(y_big, ax, y), simd::SelectPs(y_big, y, ax));
-    const __m256 s = _mm256_mul_ps(a, a), s2 = _mm256_mul_ps(s, s);
-    const __m256 s4 = _mm256_mul_ps(s2, s2);
-    const __m256 p01 = _mm256_add_ps(c[0], _mm256_mul_ps(c[1], s));
-    const __m256 p23 = _mm256_add_ps(c[2], _mm256_mul_ps(c[3], s));
-    const __m256 p45 = _mm256_add_ps(c[4], _mm256_mul_ps(c[5], s));
-    const __m256 p67 = _mm256_add_ps(c[6], _mm256_mul_ps(c[7], s));
-    const __m256 p03 = _mm256_add_ps(p01, _mm256_mul_ps(p23, s2));
-    const __m256 p47 = _mm256_add_ps(p45, _mm256_mul_ps(p67, s2));
-    __m256 p = _mm256_mul_ps(_mm256_add_ps(p03, _mm256_mul_ps(p47, s4)), a);
-    p = simd::SelectPs(y_big, _mm256_sub_ps(half_pi, p), p);
-    p = simd::SelectPs(_mm256_cmp_ps(x, zero, _CMP_LT_OQ), _mm256_sub_ps(pi, p), p);
-
-    __m256 ok =
-        _mm256_and_ps(_mm256_cmp_ps(r1, zero, _CMP_GT_OQ), _mm256_cmp_ps(r1, inf, _CMP_LT_OQ));
-    ok = _mm256_and_ps(
-        ok, _mm256_and_ps(_mm256_cmp_ps(r0, zero, _CMP_GT_OQ), _mm256_cmp_ps(r0, inf, _CMP_LT_OQ)));
-    ok = _mm256_and_ps(ok, _mm256_cmp_ps(h, zero, _CMP_GE_OQ));
-    _mm256_storeu_ps(out + k, simd::SelectPs(ok, p, nan));
-  }
-  BaSpanSse2(rho + k, beam + 3 * k, rho_prev + k, beam_prev + 3 * k, out + k, n - k);
-}
+#if SCANCAM_SIMD_AVX2
+SCANCAM_SIMD_AVX2_BEGIN
+namespace ba8 {
+using namespace simd::v8;
+using V = F8;
+constexpr int kLanes = 8;
+#include "ba_kernel.inc"
+}  // namespace ba8
+SCANCAM_SIMD_AVX2_END
 #endif
 
-using SpanFn = void (*)(const float*, const float*, const float*, const float*, float*, int);
-
-detail::BaKernel Resolve(detail::BaKernel want) {
-  using K = detail::BaKernel;
-  // simd/simd.h's rule: the widest the processor has, up to the one asked for.
-  const simd::Isa isa = simd::Widest(want == K::kScalar ? simd::Isa::kScalar
-                                     : want == K::kSse2 ? simd::Isa::kSse2
-                                                        : simd::Isa::kAvx);
-  return isa == simd::Isa::kAvx ? K::kAvx : isa == simd::Isa::kSse2 ? K::kSse2 : K::kScalar;
-}
-
-std::atomic<detail::BaKernel>& KernelChoice() {
-  static std::atomic<detail::BaKernel> choice{Resolve(detail::BaKernel::kAuto)};
+simd::IsaChoice& BaIsa() {
+  static simd::IsaChoice choice(simd::Isa::kAvx2);
   return choice;
 }
 
-SpanFn ActiveSpan() {
-  switch (KernelChoice().load(std::memory_order_relaxed)) {
-#if defined(SCANCAM_BA_X86)
-    case detail::BaKernel::kAvx:
-      return BaSpanAvx;
-    case detail::BaKernel::kSse2:
-      return BaSpanSse2;
+// A span of cells with the kernel in use; the widest kernel leaves its tail to the narrower.
+void BaSpan(const float* rho, const float* beam, const float* rho_prev, const float* beam_prev,
+            float* out, int n) {
+  int k = 0;
+#if SCANCAM_SIMD_AVX2
+  if (BaIsa().Uses(simd::Isa::kAvx2)) k = ba8::BaSpanLanes(rho, beam, rho_prev, beam_prev, out, n);
 #endif
-    default:
-      return BaSpanScalar;
+  if (BaIsa().Uses(simd::Isa::kSse2)) {
+    k += ba4::BaSpanLanes(rho + k, beam + 3 * k, rho_prev + k, beam_prev + 3 * k, out + k, n - k);
   }
+  BaSpanScalar(rho + k, beam + 3 * k, rho_prev + k, beam_prev + 3 * k, out + k, n - k);
 }
 
 // One row of the BA image for step (drow, dcol).
@@ -234,8 +105,8 @@ void BaRow(const OrderedScan& scan, int r, GridStep step, float* out) {
   const std::size_t i = scan.index(r, c0);
   const std::size_t ip = scan.index(rp, c0 - step.dcol);
   const float* beams = scan.beam_dir.data()->data();
-  ActiveSpan()(scan.range_m.data() + i, beams + 3 * i, scan.range_m.data() + ip, beams + 3 * ip,
-               out + c0, c1 - c0);
+  BaSpan(scan.range_m.data() + i, beams + 3 * i, scan.range_m.data() + ip, beams + 3 * ip, out + c0,
+         c1 - c0);
 }
 
 // Runs body(r) for every row, rows in parallel. With a progress callback, rows go in
@@ -258,10 +129,16 @@ void ForRows(int rows, const Progress& progress, const std::string& stage, Body 
 }  // namespace
 
 void detail::SetBaKernel(BaKernel kernel) {
-  KernelChoice().store(Resolve(kernel), std::memory_order_relaxed);
+  BaIsa().Set(kernel == BaKernel::kScalar ? simd::Isa::kScalar
+              : kernel == BaKernel::kSse2 ? simd::Isa::kSse2
+                                          : simd::Isa::kAvx2);
 }
 
-detail::BaKernel detail::ActiveBaKernel() { return KernelChoice().load(std::memory_order_relaxed); }
+detail::BaKernel detail::ActiveBaKernel() {
+  return BaIsa().Uses(simd::Isa::kAvx2)   ? BaKernel::kAvx2
+         : BaIsa().Uses(simd::Isa::kSse2) ? BaKernel::kSse2
+                                          : BaKernel::kScalar;
+}
 
 GridStep TraceStep(BaTrace trace) {
   switch (trace) {

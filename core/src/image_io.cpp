@@ -12,6 +12,7 @@
 #include <cstdio>  // before jpeglib.h, which uses FILE
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -238,6 +239,7 @@ struct JpegDecodeReport {
   int warning_code = -1;  // -1: no warning
   long offset = -1;
   char text[JMSG_LENGTH_MAX] = {0};
+  bool decoded = false;  // DecodeJpeg filled the image
 };
 
 struct JpegErrorManager {
@@ -272,10 +274,66 @@ void JpegOnMessage(j_common_ptr c, int level) {
   (*c->err->format_message)(c, m->report->text);
 }
 
-// Decodes the whole entropy-coded data of a JPEG at 1/8 scale (every Huffman code is read; the
-// inverse DCT mostly skipped) only to hear what libjpeg says about it. C only between setjmp and
-// longjmp: nothing here owns a destructor.
-JpegDecodeReport DecodeJpegForDamage(FILE* file) {
+// True when cv::imread (OpenCV 4.6, not IMREAD_UNCHANGED) leaves a JPEG as decoded: it turns
+// the image by the orientation tag (0x0112) of IFD0 in the first APP1 marker, read as EXIF
+// from its byte 6 on. Only the plain cases answer true: no APP1 marker, or an "Exif" APP1
+// whose IFD0 is readable and has no orientation tag or orientation 1 (its first one, as
+// OpenCV's map keeps). Anything else answers false and the caller lets cv::imread decode.
+bool ExifKeepsOrientation(const jpeg_decompress_struct& info) {
+  jpeg_saved_marker_ptr m = info.marker_list;
+  while (m != nullptr && m->marker != JPEG_APP0 + 1) m = m->next;
+  if (m == nullptr) return true;
+  const unsigned char* d = m->data;
+  const std::size_t n = m->data_length;
+  if (n < 6 + 8 || std::memcmp(d, "Exif\0\0", 6) != 0) return false;
+  const unsigned char* t = d + 6;
+  const std::size_t tn = n - 6;
+  const bool little = t[0] == 'I' && t[1] == 'I';
+  if (!little && !(t[0] == 'M' && t[1] == 'M')) return false;
+  auto u16 = [&](std::size_t at) {
+    return little ? t[at] | (t[at + 1] << 8) : (t[at] << 8) | t[at + 1];
+  };
+  auto u32 = [&](std::size_t at) {
+    return little ? std::uint32_t(u16(at)) | (std::uint32_t(u16(at + 2)) << 16)
+                  : (std::uint32_t(u16(at)) << 16) | std::uint32_t(u16(at + 2));
+  };
+  if (u16(2) != 42) return false;
+  const std::uint32_t ifd = u32(4);
+  if (ifd > tn || tn - ifd < 2) return false;
+  const std::size_t count = u16(ifd);
+  if ((tn - ifd - 2) / 12 < count) return false;
+  for (std::size_t k = 0; k < count; ++k) {
+    const std::size_t e = ifd + 2 + 12 * k;
+    if (u16(e) == 0x0112) return u16(e + 8) == 1;
+  }
+  return true;
+}
+
+// The cv::Mat type cv::imread(flags) gives this JPEG when ReadJpeg may decode it itself with
+// the same result (libjpeg-turbo, the library OpenCV decodes with, with OpenCV's settings: the
+// default DCT and upsampling, BGR or grey output, no scaling, no EXIF turn); -1 otherwise
+// (CMYK/YCCK, 12-bit, Motion-JPEG without Huffman tables, other flags, an EXIF orientation).
+int OwnJpegDecodeType(const jpeg_decompress_struct& info, int flags) {
+  if (info.num_components != 1 && info.num_components != 3) return -1;
+  if (info.jpeg_color_space != JCS_GRAYSCALE && info.jpeg_color_space != JCS_YCbCr &&
+      info.jpeg_color_space != JCS_RGB)
+    return -1;
+  if (info.data_precision != 8) return -1;
+  if (info.ac_huff_tbl_ptrs[0] == nullptr && info.ac_huff_tbl_ptrs[1] == nullptr &&
+      info.dc_huff_tbl_ptrs[0] == nullptr && info.dc_huff_tbl_ptrs[1] == nullptr)
+    return -1;  // OpenCV loads its own tables for these
+  if (flags == cv::IMREAD_UNCHANGED) return info.num_components > 1 ? CV_8UC3 : CV_8UC1;
+  if (flags != cv::IMREAD_COLOR && flags != cv::IMREAD_GRAYSCALE) return -1;
+  if (!ExifKeepsOrientation(info)) return -1;
+  return flags == cv::IMREAD_COLOR ? CV_8UC3 : CV_8UC1;
+}
+
+// Decodes a JPEG with libjpeg, hearing every warning about its entropy-coded data. When
+// OwnJpegDecodeType says so, at full size into *image (report.decoded), exactly as
+// cv::imread(flags) would; otherwise at 1/8 scale (every Huffman code is still read, the
+// inverse DCT mostly skipped) only to hear libjpeg, and the caller decodes with cv::imread.
+// C only between setjmp and longjmp (nothing here owns a destructor; *image is the caller's).
+JpegDecodeReport DecodeJpeg(FILE* file, int flags, cv::Mat* image) {
   JpegDecodeReport report;
   jpeg_decompress_struct info;
   JpegErrorManager err;
@@ -285,40 +343,67 @@ JpegDecodeReport DecodeJpegForDamage(FILE* file) {
   err.report = &report;
   err.file = file;
   err.info = &info;
-  JSAMPARRAY row = nullptr;
   if (setjmp(err.jump)) {
     jpeg_destroy_decompress(&info);
+    report.decoded = false;
     return report;
   }
   jpeg_create_decompress(&info);
   jpeg_stdio_src(&info, file);
+  jpeg_save_markers(&info, JPEG_APP0 + 1, 0xFFFF);
   jpeg_read_header(&info, TRUE);
-  info.scale_num = 1;
-  info.scale_denom = 8;
-  info.dct_method = JDCT_IFAST;
-  info.do_fancy_upsampling = FALSE;
-  jpeg_start_decompress(&info);
-  row = (*info.mem->alloc_sarray)(reinterpret_cast<j_common_ptr>(&info), JPOOL_IMAGE,
-                                  info.output_width * info.output_components, 1);
-  while (info.output_scanline < info.output_height) jpeg_read_scanlines(&info, row, 1);
+  const int type = OwnJpegDecodeType(info, flags);
+  if (type >= 0) {
+    info.out_color_space = CV_MAT_CN(type) == 3 ? JCS_EXT_BGR : JCS_GRAYSCALE;
+    jpeg_start_decompress(&info);
+    bool allocated = false;
+    try {
+      image->create(static_cast<int>(info.output_height), static_cast<int>(info.output_width),
+                    type);
+      allocated = true;
+    } catch (...) {
+    }
+    if (!allocated) {
+      jpeg_destroy_decompress(&info);
+      throw std::bad_alloc();
+    }
+    while (info.output_scanline < info.output_height) {
+      JSAMPROW row = image->ptr(static_cast<int>(info.output_scanline));
+      jpeg_read_scanlines(&info, &row, 1);
+    }
+  } else {
+    info.scale_num = 1;
+    info.scale_denom = 8;
+    info.dct_method = JDCT_IFAST;
+    info.do_fancy_upsampling = FALSE;
+    jpeg_start_decompress(&info);
+    JSAMPARRAY row = (*info.mem->alloc_sarray)(reinterpret_cast<j_common_ptr>(&info), JPOOL_IMAGE,
+                                               info.output_width * info.output_components, 1);
+    while (info.output_scanline < info.output_height) jpeg_read_scanlines(&info, row, 1);
+  }
   jpeg_finish_decompress(&info);
   jpeg_destroy_decompress(&info);
+  report.decoded = type >= 0;
   return report;
 }
 
 // A JPEG whose image data is damaged decodes "successfully" into grey or shifted blocks, with
 // libjpeg's "Corrupt JPEG data: ..." printed to stderr. Such a photo would paint wrong colours:
 // refuse it in plain words. Extra bytes between segments (JWRN_EXTRANEOUS_DATA, written by some
-// cameras) leave the pixels intact and pass.
-void CheckJpegData(const std::string& path) {
+// cameras) leave the pixels intact and pass. Returns true when it decoded the image into
+// *image (one pass: DecodeJpeg), false when cv::imread still has to.
+bool ReadJpeg(const std::string& path, int flags, cv::Mat* image) {
   FILE* file = std::fopen(path.c_str(), "rb");
   if (file == nullptr) throw FileError(path, "", "cannot open the JPEG file");
-  const JpegDecodeReport r = DecodeJpegForDamage(file);
-  std::fclose(file);
+  struct Close {
+    FILE* f;
+    ~Close() { std::fclose(f); }
+  } close{file};
+  const JpegDecodeReport r = DecodeJpeg(file, flags, image);
   const std::string place = r.offset >= 0 ? "byte " + std::to_string(r.offset) : std::string();
   const std::string said = std::string(" (libjpeg: \"") + r.text + "\")";
   if (r.fatal) throw FileError(path, place, "damaged JPEG: cannot be decoded" + said);
-  if (r.warning_code < 0 || r.warning_code == JWRN_EXTRANEOUS_DATA) return;
+  if (r.warning_code < 0 || r.warning_code == JWRN_EXTRANEOUS_DATA) return r.decoded;
   std::string what = "the JPEG's image data is damaged";
   if (r.warning_code == JWRN_JPEG_EOF) what = "the JPEG's image data ends early (truncated)";
   throw FileError(path, place,
@@ -508,10 +593,12 @@ cv::Mat ReadImage(const std::string& path, int flags, const std::string& what,
     if (info.format == "PNG") CheckPngChunks(f);
     if (info.format == "JPEG") CheckJpegEnd(f);
   }
-  if (info.format == "JPEG") CheckJpegData(path);
   cv::Mat image;
   try {
-    image = cv::imread(path, flags);
+    // A JPEG is decoded once: libjpeg hears its damage while decoding it (ReadJpeg), and
+    // cv::imread decodes only the cases that path leaves to it.
+    const bool decoded = info.format == "JPEG" && ReadJpeg(path, flags, &image);
+    if (!decoded) image = cv::imread(path, flags);
   } catch (const cv::Exception& e) {
     const std::string msg = e.what();
     if (msg.find("MAX_IMAGE_PIXELS") != std::string::npos) {  // OpenCV's limit, as a sentence

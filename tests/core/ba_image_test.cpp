@@ -299,14 +299,14 @@ TEST(BearingAngle, ArbitraryStepsMatchEquation4) {
   }
 }
 
-// Every kernel (scalar, SSE2, AVX) gives the same bits; odd widths exercise the tails.
+// Every kernel (scalar, SSE2, AVX2) gives the same bits; odd widths exercise the tails.
 TEST(BearingAngle, KernelsGiveIdenticalBits) {
   const OrderedScan s = RoomScan(31, 203, 9);
   detail::SetBaKernel(detail::BaKernel::kScalar);
   ASSERT_EQ(detail::ActiveBaKernel(), detail::BaKernel::kScalar);
   const auto ref = ComputeBearingAngleAll(s);
   const cv::Mat ref_step = ComputeBearingAngle(s, GridStep{-2, 3});
-  for (auto k : {detail::BaKernel::kSse2, detail::BaKernel::kAvx, detail::BaKernel::kAuto}) {
+  for (auto k : {detail::BaKernel::kSse2, detail::BaKernel::kAvx2, detail::BaKernel::kAuto}) {
     detail::SetBaKernel(k);
     const auto got = ComputeBearingAngleAll(s);
     for (std::size_t t = 0; t < 4; ++t) {

@@ -2,9 +2,14 @@
 // write / read round trips, bad files, image-size checks.
 #include "scancam/camera/camera_io.h"
 
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <csignal>
 #include <filesystem>
 
 #include "scancam/error.h"
+#include "scancam/output_file.h"
 #include "test_util.h"
 
 namespace scancam {
@@ -201,6 +206,57 @@ TEST(CameraIo, SaveLoadRoundTripIsExact) {
                         "ocam");
   EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/cam.txt"), "cam.txt", ".yaml");
   EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/no/such/dir/cam.yaml"), "cam.yaml");
+}
+
+// Camera files are written atomically (output_file.h), the native OpenCV format too: a write
+// that fails (the disk fills up) or a run that fails afterwards (its OutputBatch destroyed
+// uncommitted) leaves the previous file as it was and no temporary beside it.
+TEST(CameraIo, AFailedWriteLeavesThePreviousFile) {
+  const std::string dir = TempDir();
+  auto files = [&] {
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(dir))
+      names.push_back(e.path().filename().string());
+    std::sort(names.begin(), names.end());
+    return names;
+  };
+  for (const char* name : {"cam.yaml", "cam.json"}) {
+    SCOPED_TRACE(name);
+    const std::string path = dir + "/" + name;
+    SaveCamera(kFisheye, path);
+    const std::string previous = ReadFile(path);
+    ASSERT_GT(previous.size(), 200u);
+    {
+      // The disk fills up after 100 bytes: writes past the limit fail (EFBIG, SIGXFSZ ignored).
+      rlimit old{};
+      ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+      rlimit small = old;
+      small.rlim_cur = 100;
+      const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+      ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
+      const std::string msg = ErrorOf([&] { SaveCamera(kFront, path); });
+      setrlimit(RLIMIT_FSIZE, &old);
+      std::signal(SIGXFSZ, old_handler);
+      EXPECT_NE(msg.find(name), std::string::npos) << "message: '" << msg << "'";
+    }
+    EXPECT_EQ(ReadFile(path), previous);
+    {
+      OutputBatch batch;
+      SaveCamera(kFront, path);
+      EXPECT_EQ(ReadFile(path), previous) << "staged, not yet renamed";
+    }  // the run failed: nothing committed
+    EXPECT_EQ(ReadFile(path), previous);
+    EXPECT_EQ(files(), std::vector<std::string>{name}) << "no temporary left";
+    // A successful run replaces it.
+    SaveCamera(kFisheye, path);
+    {
+      OutputBatch batch;
+      SaveCamera(kFront, path);
+      batch.Commit();
+    }
+    ExpectSameCamera(LoadCamera(path), kFront);
+    std::filesystem::remove(path);
+  }
 }
 
 // A simulator writes the OCam camera it used; the toolbox-format file keeps every digit.

@@ -11,14 +11,15 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "scancam/camera/camera_io.h"
 #include "scancam/colour/colourise.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
-#include "scancam/io/pose_json.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/io/pose_json.h"
 #include "scancam/solve/calibrate.h"
 #include "test_util.h"
 
@@ -495,6 +496,58 @@ TEST(HostileImage, DamagedJpegImageDataIsRefusedInPlainWords) {
   const cv::Mat direct = cv::imdecode(buf, cv::IMREAD_COLOR);
   ASSERT_EQ(read.size(), direct.size());
   EXPECT_EQ(cv::norm(read, direct, cv::NORM_INF), 0.0);
+}
+
+// A JPEG is decoded once (libjpeg hears its damage while decoding it) and gives exactly what
+// cv::imread gives: colour and grey files, baseline and progressive, odd sizes (chroma
+// subsampling at the edges), each ReadImage flag, and an EXIF orientation (turned as
+// cv::imread turns it, except with IMREAD_UNCHANGED).
+TEST(HostileImage, JpegDecodesAsOpenCvDoes) {
+  const std::string dir = TempDir();
+  cv::Mat colour(61, 97, CV_8UC3), grey(45, 83, CV_8UC1);
+  cv::randu(colour, 0, 255);
+  cv::GaussianBlur(colour, colour, cv::Size(5, 5), 1.5);  // smooth areas and noise
+  cv::randu(grey, 0, 255);
+  // An APP1 EXIF marker (little-endian TIFF, IFD0 with one entry: orientation = o).
+  auto with_orientation = [](const std::string& jpg, int o) {
+    std::string tiff("II*\0\x08\0\0\0\x01\0\x12\x01\x03\0\x01\0\0\0", 18);
+    tiff += std::string(1, static_cast<char>(o)) + std::string(3, '\0') + std::string(4, '\0');
+    const std::string body = std::string("Exif\0\0", 6) + tiff;
+    const std::size_t len = body.size() + 2;
+    const std::string app1 = std::string("\xFF\xE1") + static_cast<char>(len >> 8) +
+                             static_cast<char>(len & 0xFF) + body;
+    return jpg.substr(0, 2) + app1 + jpg.substr(2);
+  };
+  std::vector<std::pair<std::string, std::string>> files;  // name, bytes
+  std::vector<unsigned char> buf;
+  cv::imencode(".jpg", colour, buf, {cv::IMWRITE_JPEG_QUALITY, 90});
+  const std::string colour_jpg(buf.begin(), buf.end());
+  files.emplace_back("colour.jpg", colour_jpg);
+  cv::imencode(".jpg", colour, buf, {cv::IMWRITE_JPEG_PROGRESSIVE, 1});
+  files.emplace_back("progressive.jpg", std::string(buf.begin(), buf.end()));
+  cv::imencode(".jpg", grey, buf);
+  files.emplace_back("grey.jpg", std::string(buf.begin(), buf.end()));
+  files.emplace_back("turned6.jpg", with_orientation(colour_jpg, 6));
+  files.emplace_back("turned1.jpg", with_orientation(colour_jpg, 1));
+  for (const auto& [name, bytes] : files) {
+    const std::string p = WriteFileIn(dir, name, bytes);
+    for (int flags : {cv::IMREAD_COLOR, cv::IMREAD_GRAYSCALE, cv::IMREAD_UNCHANGED}) {
+      SCOPED_TRACE(name + " flags " + std::to_string(flags));
+      const cv::Mat want = cv::imread(p, flags);
+      ASSERT_FALSE(want.empty());
+      testing::internal::CaptureStderr();
+      const cv::Mat got = ReadImage(p, flags);
+      EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+      ASSERT_EQ(got.type(), want.type());
+      ASSERT_EQ(got.size(), want.size());
+      EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0);
+    }
+  }
+  // The orientation is honoured (the size turned), except with IMREAD_UNCHANGED.
+  const std::string turned = dir + "/turned6.jpg";
+  EXPECT_EQ(ReadImage(turned).size(), cv::Size(61, 97));
+  EXPECT_EQ(ReadImage(turned, cv::IMREAD_UNCHANGED).size(), cv::Size(97, 61));
+  EXPECT_EQ(ReadImage(dir + "/turned1.jpg").size(), cv::Size(97, 61));
 }
 
 TEST(HostileImage, DamagedJpegTiffBmpHeaders) {

@@ -230,6 +230,10 @@ TEST(MrptBad, ErrorsNameTheFileAndTheObject) {
   test::WriteFile(dir + "/garbage.rawlog", garbage);
   ExpectError([&] { LoadScan(dir + "/garbage.rawlog"); },
               {"garbage.rawlog:object 0 (byte 0", "not a readable MRPT object"});
+  // A header naming a class MRPT does not know (refused before a decoder process is forked).
+  test::WriteFile(dir + "/unknown.rawlog", std::string("\x89NotAClass") + std::string(40, '\0'));
+  ExpectError([&] { LoadScan(dir + "/unknown.rawlog"); },
+              {"unknown.rawlog:object 0 (byte 0", "unknown MRPT class name 'NotAClass'"});
   // A committed fixture: a CObservationOdometry and a CObservationIMU, nothing scan-like.
   const std::string odo = std::string(SCANCAM_SOURCE_DIR) + "/tests/data/odometry_only.rawlog";
   ExpectError([&] { LoadScan(odo); },

@@ -51,7 +51,7 @@
 // for a clearer image.
 //
 // Speed: one pass over the grid, rows in parallel (OpenMP), branch-free hand-written SIMD
-// kernels (SSE2, and AVX chosen at run time; detail::BaKernel) with a polynomial atan2
+// kernels (SSE2, and AVX2 chosen at run time; detail::BaKernel) with a polynomial atan2
 // (|error| < 1e-6 rad, see FastAtan2NonNeg), no transcendental library calls. Numbers:
 // bench/ba_bench.cpp. Threads: OpenMP's default. On a machine loaded by other processes a
 // fork-join over 2 cores can take longer than one thread (the join waits for a descheduled
@@ -161,7 +161,7 @@ inline constexpr float kAtanPoly[8] = {
 
 /// atan2(y, x) for y >= 0 (result in [0, pi]) by the polynomial above after reduction to
 /// [0, 1]; |error| < 1e-6 rad against std::atan2 (tested; docs/design/ba_image.md). NaN in,
-/// NaN out; (0, 0) -> NaN. The SIMD kernel in ba_image.cpp performs the same operations in the
+/// NaN out; (0, 0) -> NaN. The SIMD kernels (ba_kernel.inc) perform the same operations in the
 /// same order.
 inline float FastAtan2NonNeg(float y, float x) {
   constexpr float kHalfPi = 1.57079632679489662f, kPi = 3.14159265358979324f;
@@ -194,10 +194,10 @@ inline float BearingAngleFromChord(float rho_i, float rho_prev, float h) {
   const float y = rho_prev * std::sqrt(q);  // rho_prev sin dphi
   return FastAtan2NonNeg(y, x);
 }
-/// Which kernel computes BA images: kAuto picks the widest the CPU has (AVX, else SSE2 on
+/// Which kernel computes BA images: kAuto picks the widest the CPU has (AVX2, else SSE2 on
 /// x86-64, else scalar). All give bit-identical results (same operations, no FMA); forcing
 /// one is for tests and benchmarks. Not thread-safe against concurrent BA computations.
-enum class BaKernel { kAuto, kScalar, kSse2, kAvx };
+enum class BaKernel { kAuto, kScalar, kSse2, kAvx2 };
 void SetBaKernel(BaKernel kernel);
 /// The kernel in use (never kAuto); kernels the CPU or build lacks fall back to narrower ones.
 BaKernel ActiveBaKernel();

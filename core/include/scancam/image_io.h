@@ -53,7 +53,11 @@ ImageFileInfo ReadImageHeader(const std::string& path);
 ///     again with the decoded size;
 ///   - a PNG whose chunk structure or CRCs are damaged (truncated, bytes inserted or changed):
 ///     "FILE:byte N: PNG chunk 'IDAT' is damaged (CRC mismatch)" instead of libpng's text;
-///   - a JPEG without its end marker after the image data (truncated).
+///   - a JPEG without its end marker after the image data (truncated), or whose image data
+///     libjpeg finds damaged while decoding it. A JPEG is decoded once, by libjpeg with
+///     OpenCV's settings (the same pixels as cv::imread); the cases cv::imread treats its own
+///     way (CMYK, an EXIF orientation to apply, flags other than COLOR / GRAYSCALE /
+///     UNCHANGED) are checked at 1/8 scale, then decoded by cv::imread.
 /// (Before decoding, the header's size with width and height swapped also passes check_size:
 /// cv::imread turns images by their EXIF orientation; the decoded size is checked exactly.)
 /// Decoding errors (also OpenCV's own pixel limit for other formats) become plain FileErrors

@@ -2,11 +2,13 @@
 // write), read without cv::FileStorage: OpenCV 4.6's YAML parser never returns on some damaged
 // files (fuzz/FINDINGS.md #13), so YAML goes through the project's bounded reader
 // (yaml_reader.h; tags such as !!opencv-matrix skipped) and JSON through nlohmann's parser, both
-// into a YNode. cv::FileStorage still writes these files (SaveOpenCv).
+// into a YNode. cv::FileStorage still composes these files (SaveOpenCv), in memory; they are
+// written atomically (output_file.h).
 #include <filesystem>
 #include <opencv2/core.hpp>
 
 #include "camera_format.h"
+#include "scancam/output_file.h"
 
 namespace scancam::camera_detail {
 namespace {
@@ -213,13 +215,14 @@ void SaveOpenCv(const CameraModel& c, const std::string& path) {
   } else {
     throw FileError(path, "", "native camera files must end in .yaml, .yml or .json");
   }
+  // Composed in memory, then written through output_file.h (atomic, honours the OutputBatch).
   cv::FileStorage fs;
   try {
-    fs.open(path, flags);
+    fs.open(ext, flags | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
     throw FileError(path, "", std::string("cannot write: ") + e.err);
   }
-  if (!fs.isOpened()) throw FileError(path, "", "cannot open for writing");
+  if (!fs.isOpened()) throw FileError(path, "", "cannot compose the file");
   const std::vector<double>& p = c.params();
   const cv::Mat K = KMat(Fx(c), Fy(c), Cx(c), Cy(c));
   fs << "model" << CameraTypeName(c.type());
@@ -251,7 +254,7 @@ void SaveOpenCv(const CameraModel& c, const std::string& path) {
       fs << "camera_matrix" << K;
       break;
   }
-  fs.release();
+  WriteFileAtomically(path, fs.releaseAndGetString());
 }
 
 }  // namespace scancam::camera_detail

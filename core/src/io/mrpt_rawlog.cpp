@@ -160,6 +160,7 @@ void WriteAll(int fd, const std::string& s) {
 template <typename Decode>
 std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
                            const Decode& decode) {
+  CheckFirstObjectHeader(path, bytes);  // what MRPT refuses at once needs no process
   const std::size_t budget = (std::size_t{512} << 20) + 16 * bytes.data.size();
   void* page =
       mmap(nullptr, sizeof(DecodeWhere), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);

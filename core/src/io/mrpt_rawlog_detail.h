@@ -47,6 +47,13 @@ struct RawlogBytes {
 /// checking every member's CRC-32 and length before MRPT sees a byte.
 RawlogBytes ReadRawlogBytes(const std::string& path);
 
+/// What MRPT's CArchive::ReadObject refuses in the first object's header, checked without
+/// MRPT decoding anything (so in the calling process, before a decoder process is forked): a
+/// first byte without the current format's flag not followed by three zero bytes, or a class
+/// name (that fits in the data) MRPT has not registered. Throws FileError naming object 0;
+/// anything else is left to the decoder.
+void CheckFirstObjectHeader(const std::string& path, const RawlogBytes& bytes);
+
 struct ObsRecord {
   int object_index = 0;
   std::size_t offset = 0;

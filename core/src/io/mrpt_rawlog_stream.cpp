@@ -2,6 +2,7 @@
 // and the scan-like entries among the observations.
 #include <mrpt/io/CMemoryStream.h>
 #include <mrpt/obs/CSensoryFrame.h>
+#include <mrpt/rtti/CObject.h>
 #include <mrpt/serialization/CArchive.h>
 #include <unistd.h>
 #include <zlib.h>
@@ -165,6 +166,30 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
     throw FileError(path, "", "empty rawlog (the gzip stream holds no object)");
   }
   return b;
+}
+
+void CheckFirstObjectHeader(const std::string& path, const RawlogBytes& bytes) {
+  const std::string& d = bytes.data;
+  if (d.empty()) return;
+  const std::string where = ObjectWhere(0, 0);
+  const unsigned char b0 = static_cast<unsigned char>(d[0]);
+  std::size_t name_at = 1;
+  if (!(b0 & 0x80)) {  // the pre-2008 header: three zero bytes follow
+    if (d.size() < 4) return;
+    if (d[1] != 0 || d[2] != 0 || d[3] != 0) {
+      throw FileError(path, where,
+                      "not a readable MRPT object: its first bytes are neither an MRPT object "
+                      "header nor gzip (damaged data, or not a rawlog)");
+    }
+    name_at = 4;
+  }
+  const std::size_t n = b0 & 0x7F;
+  if (d.size() - name_at < n) return;  // truncated: the decoder says so
+  const std::string name = d.substr(name_at, n);
+  if (name == "nullptr" || mrpt::rtti::findRegisteredClass(name) != nullptr) return;
+  throw FileError(path, where,
+                  "not a readable MRPT object: unknown MRPT class name '" + name +
+                      "' (damaged data, or a class this MRPT does not know)");
 }
 
 namespace {

@@ -158,6 +158,7 @@ void ChooseColumns(AzimuthLayout& l, const std::vector<long long>& cells) {
   }
 }
 
+// (RegridSpherical computes the same per cell with the sines and cosines hoisted.)
 Eigen::Vector3f Direction(const Eigen::Matrix3d& r, double az, double el) {
   const double ce = std::cos(el);
   return (r * Eigen::Vector3d(ce * std::cos(az), ce * std::sin(az), std::sin(el))).cast<float>();
@@ -229,10 +230,8 @@ struct AngularSamples {
   bool usable = false;  ///< at least 2 points
 };
 
-AngularSamples SampleAngles(const std::vector<Eigen::Vector3f>& points,
-                            const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation) {
+AngularSamples SampleAngles(const Polar& p) {
   AngularSamples out;
-  const Polar p = ToPolar(points, origin, orientation);
   const std::size_t n = p.az.size();
   if (n < 2) return out;
   out.usable = true;
@@ -329,63 +328,69 @@ double MedianNeighbourDistance(const AngularSamples& s, double max_daz, double m
   return nn.empty() ? 0.0 : MedianOf(nn);
 }
 
-}  // namespace
-
-double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
-                              const Eigen::Vector3d& origin,
-                              const Eigen::Quaterniond& orientation) {
-  const AngularSamples s = SampleAngles(points, origin, orientation);
-  if (!s.usable) return 0.0;
+// The median nearest-neighbour spacing over the samples (both axes), 0 when none.
+double NeighbourSpacing(const AngularSamples& s) {
   const double inf = std::numeric_limits<double>::infinity();
-  const double d = MedianNeighbourDistance(s, inf, inf, true,
-                                           [](double a, double e) { return std::hypot(a, e); });
-  return d > 0.0 ? d : s.h0;
+  return MedianNeighbourDistance(s, inf, inf, true,
+                                 [](double a, double e) { return std::hypot(a, e); });
 }
 
-AngularSteps EstimateAngularStepsDeg(const std::vector<Eigen::Vector3f>& points,
-                                     const Eigen::Vector3d& origin,
-                                     const Eigen::Quaterniond& orientation) {
-  const AngularSamples s = SampleAngles(points, origin, orientation);
+// EstimateAngularStepDeg on the samples, given their NeighbourSpacing `nn`.
+double OneStep(const AngularSamples& s, double nn) {
+  if (!s.usable) return 0.0;
+  return nn > 0.0 ? nn : s.h0;
+}
+
+// EstimateAngularStepsDeg on the samples, given their NeighbourSpacing `nn`.
+AngularSteps PerAxisSteps(const AngularSamples& s, double nn) {
   AngularSteps out;
   if (!s.usable) return out;
-  const double inf = std::numeric_limits<double>::infinity();
-  const double h = MedianNeighbourDistance(s, inf, inf, true,
-                                           [](double a, double e) { return std::hypot(a, e); });
-  if (!(h > 0.0)) {
+  if (!(nn > 0.0)) {
     out.azimuth_deg = out.elevation_deg = s.h0;
     return out;
   }
+  const double inf = std::numeric_limits<double>::infinity();
   // Along a row (same elevation within half the finer step) and along a column.
   out.azimuth_deg =
-      MedianNeighbourDistance(s, inf, 0.5 * h, true, [](double a, double) { return a; });
+      MedianNeighbourDistance(s, inf, 0.5 * nn, true, [](double a, double) { return a; });
   out.elevation_deg =
-      MedianNeighbourDistance(s, 0.5 * h, inf, false, [](double, double e) { return e; });
-  if (!(out.azimuth_deg > 0.0)) out.azimuth_deg = h;
-  if (!(out.elevation_deg > 0.0)) out.elevation_deg = h;
+      MedianNeighbourDistance(s, 0.5 * nn, inf, false, [](double, double e) { return e; });
+  if (!(out.azimuth_deg > 0.0)) out.azimuth_deg = nn;
+  if (!(out.elevation_deg > 0.0)) out.elevation_deg = nn;
   return out;
 }
 
-AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
-                             const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
-                             const AngularSteps& requested, const AngularSteps& sensor) {
+// Steps 1 and 2 of ChooseGridSteps: the steps given, if any.
+bool GivenSteps(const AngularSteps& requested, const AngularSteps& sensor, AngularSteps* out) {
   for (const AngularSteps* given : {&requested, &sensor}) {
     if (given->azimuth_deg > 0.0) {
-      return {given->azimuth_deg,
+      *out = {given->azimuth_deg,
               given->elevation_deg > 0.0 ? given->elevation_deg : given->azimuth_deg};
+      return true;
     }
   }
-  const double h = EstimateAngularStepDeg(points, origin, orientation);
+  return false;
+}
+
+// ChooseGridSteps on the points' angles (computed once by the caller; the samples and their
+// spacing are shared by both estimates).
+AngularSteps ChooseGridStepsOf(const Polar& p, const AngularSteps& requested,
+                               const AngularSteps& sensor) {
+  AngularSteps given;
+  if (GivenSteps(requested, sensor, &given)) return given;
+  const AngularSamples s = SampleAngles(p);
+  const double nn = s.usable ? NeighbourSpacing(s) : 0.0;
+  const double h = OneStep(s, nn);
   if (!(h > 0.0)) return {};
   if (requested.elevation_deg > 0.0) return {h, requested.elevation_deg};
   // One step for both axes, or a step per axis: the grid that keeps more points in cells of
   // their own; when both keep the same (within 0.5 % of the points), the one with fewer cells.
   const AngularSteps one{h, h};
-  const AngularSteps per_axis = EstimateAngularStepsDeg(points, origin, orientation);
+  const AngularSteps per_axis = PerAxisSteps(s, nn);
   if (!(per_axis.azimuth_deg > 0.0 && per_axis.elevation_deg > 0.0) ||
       (std::abs(per_axis.azimuth_deg - h) < 0.05 * h &&
        std::abs(per_axis.elevation_deg - h) < 0.05 * h))
     return one;
-  const Polar p = ToPolar(points, origin, orientation);
   auto kept = [&](const AngularSteps& st) {
     const double a = st.azimuth_deg * kDeg, e = st.elevation_deg * kDeg;
     std::vector<std::pair<long long, long long>> cells(p.az.size());
@@ -401,6 +406,30 @@ AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
   return per_axis.azimuth_deg * per_axis.elevation_deg > h * h ? per_axis : one;
 }
 
+}  // namespace
+
+double EstimateAngularStepDeg(const std::vector<Eigen::Vector3f>& points,
+                              const Eigen::Vector3d& origin,
+                              const Eigen::Quaterniond& orientation) {
+  const AngularSamples s = SampleAngles(ToPolar(points, origin, orientation));
+  return OneStep(s, s.usable ? NeighbourSpacing(s) : 0.0);
+}
+
+AngularSteps EstimateAngularStepsDeg(const std::vector<Eigen::Vector3f>& points,
+                                     const Eigen::Vector3d& origin,
+                                     const Eigen::Quaterniond& orientation) {
+  const AngularSamples s = SampleAngles(ToPolar(points, origin, orientation));
+  return PerAxisSteps(s, s.usable ? NeighbourSpacing(s) : 0.0);
+}
+
+AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
+                             const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
+                             const AngularSteps& requested, const AngularSteps& sensor) {
+  AngularSteps given;
+  if (GivenSteps(requested, sensor, &given)) return given;
+  return ChooseGridStepsOf(ToPolar(points, origin, orientation), requested, sensor);
+}
+
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
                             const std::vector<float>* intensity, const Eigen::Vector3d& origin,
                             RegridOptions o, const Progress& progress) {
@@ -411,8 +440,7 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
     throw Error(o.source + ": no finite point away from the sensor origin to re-grid (" +
                 std::to_string(points.size()) + " points)");
   }
-  const AngularSteps steps =
-      ChooseGridSteps(points, origin, o.orientation, {o.step_deg, o.elevation_step_deg});
+  const AngularSteps steps = ChooseGridStepsOf(p, {o.step_deg, o.elevation_step_deg}, {});
   const double step_deg = steps.azimuth_deg;
   if (!(step_deg > 0.0)) {
     throw Error(o.source + ": cannot estimate the angular grid step from " +
@@ -450,10 +478,20 @@ OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
   scan.row_axis = "elevation bin (highest first), spherical re-grid";
   scan.col_axis = "azimuth bin (decreasing azimuth left to right), spherical re-grid";
   const Eigen::Matrix3d rot = o.orientation.normalized().toRotationMatrix();
+  // Direction() per cell, its sines and cosines taken once per column and per row.
+  std::vector<double> cos_az(static_cast<std::size_t>(scan.cols)), sin_az(cos_az.size());
+  for (int c = 0; c < scan.cols; ++c) {
+    cos_az[static_cast<std::size_t>(c)] = std::cos(layout.Centre(c));
+    sin_az[static_cast<std::size_t>(c)] = std::sin(layout.Centre(c));
+  }
   for (int r = 0; r < scan.rows; ++r) {
     const double el = eph + static_cast<double>(m_max - r) * est;
-    for (int c = 0; c < scan.cols; ++c)
-      scan.beam_dir[scan.index(r, c)] = Direction(rot, layout.Centre(c), el);
+    const double ce = std::cos(el), se = std::sin(el);
+    for (int c = 0; c < scan.cols; ++c) {
+      const std::size_t k = static_cast<std::size_t>(c);
+      scan.beam_dir[scan.index(r, c)] =
+          (rot * Eigen::Vector3d(ce * cos_az[k], ce * sin_az[k], se)).cast<float>();
+    }
   }
   std::vector<std::int64_t> cell_of(p.az.size(), -1);
   for (std::size_t i = 0; i < p.az.size(); ++i) {

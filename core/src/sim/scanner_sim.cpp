@@ -182,21 +182,23 @@ RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample
   return d;
 }
 
-OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sample,
-                                const std::string& source) {
+namespace {
+
+// The scanner's grid (with an intensity channel, all NaN, when `intensity`), every beam
+// direction set and fill(scan, i, origin, direction) called per cell to set what it measured;
+// axes named as the scanner names them.
+template <typename Fill>
+OrderedScan ScannerGrid(const SimScanner& scanner, bool intensity, const std::string& source,
+                        Fill fill) {
   OrderedScan s = OrderedScan::Empty(scanner.rows(), scanner.cols());
-  s.intensity.assign(s.size(), OrderedScan::kNaN);
+  if (intensity) s.intensity.assign(s.size(), OrderedScan::kNaN);
   for (int r = 0; r < s.rows; ++r)
     for (int c = 0; c < s.cols; ++c) {
       Eigen::Vector3d o, d;
       scanner.Beam(r, c, &o, &d);
       const std::size_t i = s.index(r, c);
       s.beam_dir[i] = d.cast<float>();
-      const float rho = sample.range_m[i];
-      if (!std::isfinite(rho)) continue;
-      s.range_m[i] = rho;
-      s.point_m[i] = (o + double(rho) * d).cast<float>();
-      s.intensity[i] = sample.intensity[i];
+      fill(s, i, o, d);
     }
   s.row_axis = scanner.RowAxis();
   s.col_axis = scanner.ColAxis();
@@ -204,22 +206,29 @@ OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sam
   return s;
 }
 
+}  // namespace
+
+OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sample,
+                                const std::string& source) {
+  return ScannerGrid(
+      scanner, true, source,
+      [&](OrderedScan& s, std::size_t i, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+        const float rho = sample.range_m[i];
+        if (!std::isfinite(rho)) return;
+        s.range_m[i] = rho;
+        s.point_m[i] = (o + double(rho) * d).cast<float>();
+        s.intensity[i] = sample.intensity[i];
+      });
+}
+
 OrderedScan TruthOrderedScan(const SimScanner& scanner, const ScanTruth& truth) {
-  OrderedScan s = OrderedScan::Empty(scanner.rows(), scanner.cols());
-  for (int r = 0; r < s.rows; ++r)
-    for (int c = 0; c < s.cols; ++c) {
-      Eigen::Vector3d o, d;
-      scanner.Beam(r, c, &o, &d);
-      const std::size_t i = s.index(r, c);
-      s.beam_dir[i] = d.cast<float>();
-      if (truth.quad[i] < 0) continue;
-      s.point_m[i] = truth.point_m[i].cast<float>();
-      s.range_m[i] = static_cast<float>((truth.point_m[i] - o).norm());
-    }
-  s.row_axis = scanner.RowAxis();
-  s.col_axis = scanner.ColAxis();
-  s.source = "truth";
-  return s;
+  return ScannerGrid(
+      scanner, false, "truth",
+      [&](OrderedScan& s, std::size_t i, const Eigen::Vector3d& o, const Eigen::Vector3d&) {
+        if (truth.quad[i] < 0) return;
+        s.point_m[i] = truth.point_m[i].cast<float>();
+        s.range_m[i] = static_cast<float>((truth.point_m[i] - o).norm());
+      });
 }
 
 }  // namespace scancam::sim

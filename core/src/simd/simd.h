@@ -1,5 +1,5 @@
 // ScanCam internal: the one SIMD layer of the core (the colouring's row kernels,
-// colour/row_kernels.cpp, and the Bearing-Angle kernels, ba_image.cpp). No units or frames:
+// colour/row_kernels.cpp, and the Bearing-Angle kernels, ba_kernel.inc). No units or frames:
 // lanes of 32-bit floats and ints.
 //
 // What it gives:

@@ -54,10 +54,10 @@ inline I4 operator&(I4 a, I4 b) { return {_mm_and_si128(a.v, b.v)}; }
 inline I4 Shl13(I4 a) { return {_mm_slli_epi32(a.v, 13)}; }
 inline I4 Shr13(I4 a) { return {_mm_srli_epi32(a.v, 13)}; }
 inline F4 GtI(I4 a, I4 b) { return {_mm_castsi128_ps(_mm_cmpgt_epi32(a.v, b.v))}; }
-// Three consecutive xyz triples x 4 (12 floats) -> x, y, z of the four.
-inline void Deinterleave3(const float* p, F4* x, F4* y, F4* z) {
-  const __m128 a = _mm_loadu_ps(p), b = _mm_loadu_ps(p + 4), c = _mm_loadu_ps(p + 8);
-  // a = x0 y0 z0 x1, b = y1 z1 x2 y2, c = z2 x3 y3 z3
+// Four consecutive xyz triples held in three vectors (a = x0 y0 z0 x1, b = y1 z1 x2 y2,
+// c = z2 x3 y3 z3) -> x, y, z of the four.
+inline void Deinterleave3(F4 va, F4 vb, F4 vc, F4* x, F4* y, F4* z) {
+  const __m128 a = va.v, b = vb.v, c = vc.v;
   const __m128 bc_x = _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2));  // x2 x2 x3 x3
   x->v = _mm_shuffle_ps(a, bc_x, _MM_SHUFFLE(2, 0, 3, 0));
   const __m128 ab_y = _mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1));  // y0 y0 y1 y1
@@ -66,6 +66,10 @@ inline void Deinterleave3(const float* p, F4* x, F4* y, F4* z) {
   const __m128 ab_z = _mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2));  // z0 z0 z1 z1
   const __m128 cc_z = _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0));  // z2 z2 z3 z3
   z->v = _mm_shuffle_ps(ab_z, cc_z, _MM_SHUFFLE(2, 0, 2, 0));
+}
+// Three consecutive xyz triples x 4 (12 floats) -> x, y, z of the four.
+inline void Deinterleave3(const float* p, F4* x, F4* y, F4* z) {
+  Deinterleave3(Load(p), Load(p + 4), Load(p + 8), x, y, z);
 }
 inline I4 MinI(I4 a, I4 b) {  // std::min(a, b)
   const __m128i b_lt_a = _mm_cmpgt_epi32(a.v, b.v);
@@ -215,6 +219,13 @@ inline void Deinterleave3(const float* p, F4* x, F4* y, F4* z) {
     y->v[k] = p[3 * k + 1];
     z->v[k] = p[3 * k + 2];
   }
+}
+inline void Deinterleave3(F4 a, F4 b, F4 c, F4* x, F4* y, F4* z) {
+  float p[12];
+  Store(p, a);
+  Store(p + 4, b);
+  Store(p + 8, c);
+  Deinterleave3(p, x, y, z);
 }
 inline I4 MinI(I4 a, I4 b) {
   return MapI(a, b, [](int x, int y) { return std::min(x, y); });

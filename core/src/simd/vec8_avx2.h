@@ -67,6 +67,23 @@ inline F8 BitI(const std::int32_t* p, std::int32_t b) {
   const __m256i bits = _mm256_set1_epi32(b);
   return {_mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(LoadI(p).v, bits), bits))};
 }
+// Eight consecutive xyz triples held in three vectors (24 floats, a = floats 0-7) -> x, y, z:
+// regrouped by 128-bit halves so that each half holds the 12 floats of 4 triples (lower half:
+// triples 0-3, upper: 4-7), then the 4-lane shuffles of v4::Deinterleave3 in each half.
+inline void Deinterleave3(F8 a, F8 b, F8 c, F8* x, F8* y, F8* z) {
+  const __m256 va = _mm256_permute2f128_ps(a.v, b.v, 0x30);  // floats 0-3  | 12-15
+  const __m256 vb = _mm256_permute2f128_ps(a.v, c.v, 0x21);  // floats 4-7  | 16-19
+  const __m256 vc = _mm256_permute2f128_ps(b.v, c.v, 0x30);  // floats 8-11 | 20-23
+  const __m256 bc_x = _mm256_shuffle_ps(vb, vc, _MM_SHUFFLE(1, 1, 2, 2));
+  x->v = _mm256_shuffle_ps(va, bc_x, _MM_SHUFFLE(2, 0, 3, 0));
+  const __m256 ab_y = _mm256_shuffle_ps(va, vb, _MM_SHUFFLE(0, 0, 1, 1));
+  const __m256 bc_y = _mm256_shuffle_ps(vb, vc, _MM_SHUFFLE(2, 2, 3, 3));
+  y->v = _mm256_shuffle_ps(ab_y, bc_y, _MM_SHUFFLE(2, 0, 2, 0));
+  const __m256 ab_z = _mm256_shuffle_ps(va, vb, _MM_SHUFFLE(1, 1, 2, 2));
+  const __m256 cc_z = _mm256_shuffle_ps(vc, vc, _MM_SHUFFLE(3, 3, 0, 0));
+  z->v = _mm256_shuffle_ps(ab_z, cc_z, _MM_SHUFFLE(2, 0, 2, 0));
+}
+// The same from memory (24 floats), as two 4-lane de-interleaves joined.
 inline void Deinterleave3(const float* p, F8* x, F8* y, F8* z) {
   v4::F4 x0, y0, z0, x1, y1, z1;
   v4::Deinterleave3(p, &x0, &y0, &z0);
