@@ -1,0 +1,506 @@
+#include "e57_filter.h"
+
+#include <ccCameraSensor.h>
+#include <ccColorScalesManager.h>
+#include <ccGBLSensor.h>
+#include <ccGriddedTools.h>
+#include <ccLog.h>
+#include <ccPointCloud.h>
+#include <ccScalarField.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <new>
+#include <unordered_map>
+#include <vector>
+
+#include "cc_progress.h"
+#include "cloud_adapter.h"
+#include "scancam/error.h"
+#include "scancam/io/e57.h"
+
+namespace scancam::plugin::io {
+
+namespace {
+
+constexpr const char* kIntensityName = "Intensity";  // as CloudCompare's PTX filter names it
+
+// The scan's pose (scan frame -> file frame) with CloudCompare's global shift added.
+Eigen::Isometry3d PoseOf(const scancam::E57Pose& pose, const CCVector3d& shift) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = pose.rotation.normalized().toRotationMatrix();
+  T.translation() = pose.translation + Eigen::Vector3d(shift.x, shift.y, shift.z);
+  return T;
+}
+
+ccGLMatrixd ToCc(const Eigen::Isometry3d& T) {
+  const Eigen::Matrix4d m = T.matrix();  // column-major, as ccGLMatrixd
+  return ccGLMatrixd(m.data());
+}
+
+// Colours of the scan's records keyed by their point (scan frame, as float: the cells'
+// point_m are the same floats). The first record at a point wins.
+struct ColourKey {
+  std::uint32_t bits[3];
+  bool operator==(const ColourKey& o) const { return std::memcmp(bits, o.bits, sizeof bits) == 0; }
+};
+struct ColourKeyHash {
+  std::size_t operator()(const ColourKey& k) const {
+    std::uint64_t h = 1469598103934665603ull;
+    for (std::uint32_t b : k.bits) h = (h ^ b) * 1099511628211ull;
+    return static_cast<std::size_t>(h);
+  }
+};
+ColourKey KeyOf(float x, float y, float z) {
+  ColourKey k;
+  std::memcpy(&k.bits[0], &x, 4);
+  std::memcpy(&k.bits[1], &y, 4);
+  std::memcpy(&k.bits[2], &z, 4);
+  return k;
+}
+struct RecordColour {
+  std::array<std::uint8_t, 3> rgb;
+  bool valid;
+};
+
+std::unordered_map<ColourKey, RecordColour, ColourKeyHash> ReadColours(const std::string& path,
+                                                                       int scan_index) {
+  std::unordered_map<ColourKey, RecordColour, ColourKeyHash> colours;
+  scancam::ReadE57Points(path, scan_index, [&](const scancam::E57Point* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (p[i].state != 0) continue;
+      colours.emplace(KeyOf(static_cast<float>(p[i].xyz[0]), static_cast<float>(p[i].xyz[1]),
+                            static_cast<float>(p[i].xyz[2])),
+                      RecordColour{p[i].rgb, p[i].colour_valid});
+    }
+  });
+  return colours;
+}
+
+// Adds the intensity field as CloudCompare's PTX filter shows it (grey ramp).
+void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf) {
+  sf->computeMinAndMax();
+  const bool unit = sf->getMin() >= 0 && sf->getMax() <= 1;
+  sf->setColorScale(ccColorScalesManager::GetDefaultScale(
+      unit ? ccColorScalesManager::ABS_NORM_GREY : ccColorScalesManager::GREY));
+  const int idx = cloud.addScalarField(sf);
+  cloud.setCurrentDisplayedScalarField(idx);
+}
+
+QString ScanName(const scancam::E57ScanInfo& info, int index) {
+  return info.name.empty() ? QString("Scan %1").arg(index) : QString::fromStdString(info.name);
+}
+
+// A scan with rowIndex / columnIndex as a cloud with its grid (see the header). `shift` is
+// decided on the first valid point of the file when not yet done.
+ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
+                            bool& shift_decided, CCVector3d& shift, bool& preserve_shift,
+                            FileIOFilter::LoadParameters& parameters,
+                            const scancam::Progress& progress) {
+  scancam::E57LoadOptions options;
+  options.scan_index = index;
+  options.apply_pose = false;
+  const scancam::OrderedScan scan = scancam::LoadE57(path, options, progress);
+
+  const Eigen::Matrix3d R = info.pose.rotation.normalized().toRotationMatrix();
+  const Eigen::Vector3d t = info.pose.translation;
+  if (!shift_decided) {
+    for (std::size_t k = 0; k < scan.size(); ++k) {
+      if (!scan.valid(k)) continue;
+      const Eigen::Vector3d p = R * scan.point_m[k].cast<double>() + t;
+      FileIOFilter::HandleGlobalShift(CCVector3d(p.x(), p.y(), p.z()), shift, preserve_shift,
+                                      parameters);
+      break;
+    }
+    shift_decided = true;
+  }
+  const Eigen::Isometry3d T_cloud_scan = PoseOf(info.pose, shift);
+
+  std::unordered_map<ColourKey, RecordColour, ColourKeyHash> colours;
+  if (info.has_colour) colours = ReadColours(path, index);
+
+  auto cloud = std::make_unique<ccPointCloud>(ScanName(info, index));
+  const unsigned valid = static_cast<unsigned>(scan.valid_count());
+  if (!cloud->reserve(valid)) throw std::bad_alloc();
+  ccPointCloud::Grid::Shared grid(new ccPointCloud::Grid);
+  grid->h = static_cast<unsigned>(scan.rows);
+  grid->w = static_cast<unsigned>(scan.cols);
+  grid->indexes.assign(scan.size(), -1);
+  ccScalarField* sf = nullptr;
+  if (scan.has_intensity()) {
+    sf = new ccScalarField(kIntensityName);
+    if (!sf->reserveSafe(valid)) {
+      sf->release();
+      throw std::bad_alloc();
+    }
+  }
+  const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
+  std::size_t colour_invalid = 0, colour_missing = 0;
+  for (std::size_t k = 0; k < scan.size(); ++k) {
+    if (!scan.valid(k)) continue;
+    const Eigen::Vector3f& p_scan = scan.point_m[k];
+    const Eigen::Vector3d p = T_cloud_scan * p_scan.cast<double>();
+    grid->indexes[k] = static_cast<int>(cloud->size());
+    cloud->addPoint(CCVector3(static_cast<PointCoordinateType>(p.x()),
+                              static_cast<PointCoordinateType>(p.y()),
+                              static_cast<PointCoordinateType>(p.z())));
+    if (sf) {
+      const float v = scan.intensity[k];
+      sf->addElement(std::isfinite(v) ? static_cast<ScalarType>(v) : NAN_VALUE);
+    }
+    if (with_colours) {
+      ccColor::Rgba c(128, 128, 128, 255);
+      const auto it = colours.find(KeyOf(p_scan.x(), p_scan.y(), p_scan.z()));
+      if (it == colours.end()) {
+        ++colour_missing;
+      } else if (!it->second.valid) {
+        ++colour_invalid;
+      } else {
+        c = ccColor::Rgba(it->second.rgb[0], it->second.rgb[1], it->second.rgb[2], 255);
+      }
+      cloud->addColor(c);
+    }
+  }
+  if (sf) FinishIntensity(*cloud, sf);
+  if (colour_invalid + colour_missing > 0) {
+    ccLog::Warning(QString("[E57] %1: %2 points without a valid colour in the file are grey")
+                       .arg(cloud->getName())
+                       .arg(colour_invalid + colour_missing));
+  }
+  if (preserve_shift) cloud->setGlobalShift(shift);
+
+  // A scanner sensor, as CloudCompare's PTX filter adds one (yaw / pitch steps from the grid).
+  ccGLMatrix cloud_to_sensor(ToCc(T_cloud_scan.inverse()).data());
+  if (ccGBLSensor* sensor = ccGriddedTools::ComputeBestSensor(cloud.get(), grid, &cloud_to_sensor)) {
+    sensor->setRigidTransformation(ccGLMatrix(ToCc(T_cloud_scan).data()));
+    cloud->addChild(sensor);
+  }
+  grid->validCount = cloud->size();
+  grid->minValidIndex = 0;
+  grid->maxValidIndex = cloud->size() ? cloud->size() - 1 : 0;
+  grid->sensorPosition = ToCc(T_cloud_scan);
+  cloud->addGrid(grid);
+
+  cloud->setVisible(true);
+  cloud->showColors(with_colours);
+  cloud->showSF(!with_colours && sf != nullptr);
+  ccLog::Print(QString("[E57] %1: %2 points, grid %3 x %4 (%5)%6%7")
+                   .arg(cloud->getName())
+                   .arg(cloud->size())
+                   .arg(scan.rows)
+                   .arg(scan.cols)
+                   .arg(info.has_grid_index ? "the file's row/column indices" : "re-gridded")
+                   .arg(sf ? ", intensity" : "")
+                   .arg(with_colours ? ", colours" : ""));
+  return cloud.release();
+}
+
+// A scan without row/column indices: every valid record (state 0) in file order, pose applied,
+// and a ccGBLSensor at the pose without angular steps (the qScanCam window re-grids about it
+// with estimated steps, cloud_adapter.h ScanOfUngriddedCloud): nothing is dropped, unlike the
+// re-gridded OrderedScan the CLI works on (one point per cell).
+ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57ScanInfo& info,
+                                 int index, bool& shift_decided, CCVector3d& shift,
+                                 bool& preserve_shift, FileIOFilter::LoadParameters& parameters,
+                                 const scancam::Progress& progress) {
+  const Eigen::Matrix3d R = info.pose.rotation.normalized().toRotationMatrix();
+  const Eigen::Vector3d t = info.pose.translation;
+  auto cloud = std::make_unique<ccPointCloud>(ScanName(info, index));
+  if (info.record_count > std::uint64_t(std::numeric_limits<int>::max()))
+    throw scancam::FileError(path, "", "scan " + std::to_string(index) +
+                                           " has more points than a CloudCompare cloud holds");
+  if (!cloud->reserve(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
+  ccScalarField* sf = nullptr;
+  std::unique_ptr<ccScalarField, void (*)(ccScalarField*)> sf_guard(nullptr,
+                                                                    [](ccScalarField* f) {
+                                                                      f->release();
+                                                                    });
+  if (info.has_intensity) {
+    sf = new ccScalarField(kIntensityName);
+    sf->link();
+    sf_guard.reset(sf);
+    if (!sf->reserveSafe(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
+  }
+  // Intensity scaled to [0, 1] by intensityLimits, as LoadE57 does.
+  const bool scale = info.has_intensity_limits && info.intensity_max > info.intensity_min;
+  const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
+  std::size_t no_colour = 0;
+  Eigen::Vector3d shift_e(shift.x, shift.y, shift.z);
+  scancam::ReadE57Points(
+      path, index,
+      [&](const scancam::E57Point* p, std::size_t n) {
+        for (std::size_t i = 0; i < n; ++i) {
+          if (p[i].state != 0) continue;
+          const Eigen::Vector3d x = R * Eigen::Vector3d(p[i].xyz[0], p[i].xyz[1], p[i].xyz[2]) + t;
+          if (!x.allFinite()) continue;
+          if (!shift_decided) {
+            FileIOFilter::HandleGlobalShift(CCVector3d(x.x(), x.y(), x.z()), shift,
+                                            preserve_shift, parameters);
+            shift_e = Eigen::Vector3d(shift.x, shift.y, shift.z);
+            shift_decided = true;
+          }
+          const Eigen::Vector3d q = x + shift_e;
+          cloud->addPoint(CCVector3(static_cast<PointCoordinateType>(q.x()),
+                                    static_cast<PointCoordinateType>(q.y()),
+                                    static_cast<PointCoordinateType>(q.z())));
+          if (sf) {
+            const double v = p[i].intensity;
+            const double s = scale ? (v - info.intensity_min) / (info.intensity_max - info.intensity_min) : v;
+            sf->addElement(std::isfinite(s) ? static_cast<ScalarType>(s) : NAN_VALUE);
+          }
+          if (with_colours) {
+            no_colour += p[i].colour_valid ? 0 : 1;
+            cloud->addColor(p[i].colour_valid
+                                ? ccColor::Rgba(p[i].rgb[0], p[i].rgb[1], p[i].rgb[2], 255)
+                                : ccColor::Rgba(128, 128, 128, 255));
+          }
+        }
+      },
+      progress);
+  if (cloud->size() == 0)
+    throw scancam::FileError(path, "", "E57 scan " + std::to_string(index) + " has no valid point");
+  cloud->resize(cloud->size());
+  if (sf) {
+    sf->resizeSafe(cloud->size());
+    FinishIntensity(*cloud, sf);
+    sf_guard.reset();
+  }
+  if (no_colour > 0)
+    ccLog::Warning(QString("[E57] %1: %2 points without a valid colour in the file are grey")
+                       .arg(cloud->getName())
+                       .arg(no_colour));
+  if (preserve_shift) cloud->setGlobalShift(shift);
+  auto* sensor = new ccGBLSensor(ccGBLSensor::YAW_THEN_PITCH);
+  sensor->setRigidTransformation(ccGLMatrix(ToCc(PoseOf(info.pose, shift)).data()));
+  cloud->addChild(sensor);
+  cloud->setVisible(true);
+  cloud->showColors(with_colours);
+  cloud->showSF(!with_colours && sf != nullptr);
+  ccLog::Print(QString("[E57] %1: %2 points, no row/column indices (no grid; the scanner sensor "
+                       "at the scan's pose)%3%4")
+                   .arg(cloud->getName())
+                   .arg(cloud->size())
+                   .arg(sf ? ", intensity" : "")
+                   .arg(with_colours ? ", colours" : ""));
+  return cloud.release();
+}
+
+ccPointCloud* LoadScanCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
+                            bool& shift_decided, CCVector3d& shift, bool& preserve_shift,
+                            FileIOFilter::LoadParameters& parameters,
+                            const scancam::Progress& progress) {
+  return info.has_grid_index ? LoadGriddedCloud(path, info, index, shift_decided, shift,
+                                                preserve_shift, parameters, progress)
+                             : LoadUnorderedCloud(path, info, index, shift_decided, shift,
+                                                  preserve_shift, parameters, progress);
+}
+
+// A pinhole image's camera (see the header), or null for other representations.
+ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector3d& shift) {
+  if (image.representation != "pinhole" || image.pixel_width_m <= 0 ||
+      image.pixel_height_m <= 0 || image.focal_length_m <= 0 || image.width_px <= 0 ||
+      image.height_px <= 0)
+    return nullptr;
+  ccCameraSensor::IntrinsicParameters params;
+  params.vertFocal_pix = static_cast<float>(image.focal_length_m / image.pixel_height_m);
+  params.pixelSize_mm[0] = static_cast<float>(image.pixel_width_m * 1000.0);
+  params.pixelSize_mm[1] = static_cast<float>(image.pixel_height_m * 1000.0);
+  params.arrayWidth = static_cast<int>(image.width_px);
+  params.arrayHeight = static_cast<int>(image.height_px);
+  params.principal_point[0] = static_cast<float>(image.principal_x_px);
+  params.principal_point[1] = static_cast<float>(image.principal_y_px);
+  params.vFOV_rad = static_cast<float>(
+      2.0 * std::atan(0.5 * double(image.height_px) * image.pixel_height_m / image.focal_length_m));
+  auto* sensor = new ccCameraSensor(params);
+  sensor->setName(image.name.empty() ? QString("E57 camera") : QString::fromStdString(image.name));
+  sensor->setRigidTransformation(ccGLMatrix(ToCc(PoseOf(image.pose, shift)).data()));
+  sensor->setVisible(true);
+  sensor->setEnabled(false);
+  return sensor;
+}
+
+// Cameras go under their scan's cloud (the first cloud when the image names none; the file's
+// group when the file has no scan).
+void AddImages(const scancam::E57FileInfo& info, const std::vector<ccPointCloud*>& clouds,
+               const CCVector3d& shift, ccHObject& container) {
+  for (std::size_t i = 0; i < info.images.size(); ++i) {
+    const scancam::E57ImageInfo& image = info.images[i];
+    const QString name =
+        image.name.empty() ? QString("image %1").arg(i) : QString::fromStdString(image.name);
+    ccHObject* owner = &container;
+    if (image.associated_scan >= 0 && std::size_t(image.associated_scan) < clouds.size() &&
+        clouds[std::size_t(image.associated_scan)])
+      owner = clouds[std::size_t(image.associated_scan)];
+    else if (const auto first = std::find_if(clouds.begin(), clouds.end(),
+                                             [](const ccPointCloud* c) { return c != nullptr; });
+             first != clouds.end())
+      owner = *first;
+    ccCameraSensor* camera = PinholeCamera(image, shift);
+    if (camera) {
+      owner->addChild(camera);
+      ccLog::Print(QString("[E57] image %1 ('%2'): pinhole camera %3 x %4 px, focal %5 px, under "
+                           "'%6'%7")
+                       .arg(i)
+                       .arg(name)
+                       .arg(image.width_px)
+                       .arg(image.height_px)
+                       .arg(double(camera->getIntrinsicParameters().vertFocal_pix))
+                       .arg(owner->getName())
+                       .arg(image.has_leica_distortion ? " (its Leica distortion is not shown)"
+                                                       : ""));
+    } else {
+      ccLog::Print(QString("[E57] image %1 ('%2'): %3 representation, %4 x %5 px, %6 (not a "
+                           "CloudCompare camera; `scancam e57-info --extract-image` gives it)")
+                       .arg(i)
+                       .arg(name)
+                       .arg(image.representation.empty()
+                                ? QString("no")
+                                : QString::fromStdString(image.representation))
+                       .arg(image.width_px)
+                       .arg(image.height_px)
+                       .arg(QString::fromStdString(image.blob_type)));
+    }
+  }
+}
+
+}  // namespace
+
+FileIOFilter::FilterInfo E57Filter::Info() {
+  FileIOFilter::FilterInfo info;
+  info.id = "ScanCamE57Filter";
+  info.priority = DEFAULT_PRIORITY;
+  info.importExtensions = QStringList{"e57"};
+  info.defaultExtension = "e57";
+  info.importFileFilterStrings = QStringList{"E57 scans, ScanCam (*.e57)"};
+  info.exportFileFilterStrings = QStringList{"E57 scan, ScanCam (*.e57)"};
+  info.features = FileIOFilter::Import | FileIOFilter::Export;
+  return info;
+}
+
+E57Filter::E57Filter() : FileIOFilter(Info()) {}
+
+bool E57Filter::canSave(CC_CLASS_ENUM type, bool& multiple, bool& exclusive) const {
+  multiple = false;
+  exclusive = true;
+  return type == CC_TYPES::POINT_CLOUD;
+}
+
+CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
+                                  LoadParameters& parameters) {
+  const std::string path = filename.toStdString();
+  std::vector<ccPointCloud*> clouds;
+  try {
+    const scancam::E57FileInfo info = scancam::ReadE57Info(path);
+    const bool has_camera = std::any_of(info.images.begin(), info.images.end(), [](const auto& i) {
+      return i.representation == "pinhole";
+    });
+    if (info.scans.empty() && !has_camera)
+      throw scancam::FileError(path, "", "the file has no scan (data3D is empty) and no pinhole image");
+    bool shift_decided = false, preserve_shift = true;
+    CCVector3d shift(0, 0, 0);
+    std::string first_error;
+    RunWithCcProgress(parameters.parentWidget, "Loading E57 file",
+                      [&](const scancam::Progress& progress) {
+                        for (std::size_t s = 0; s < info.scans.size(); ++s) {
+                          try {
+                            clouds.push_back(LoadScanCloud(path, info.scans[s], int(s),
+                                                           shift_decided, shift, preserve_shift,
+                                                           parameters, progress));
+                          } catch (const scancam::Error& e) {
+                            // One bad scan of several: the others still open.
+                            if (info.scans.size() == 1) throw;
+                            clouds.push_back(nullptr);  // keeps scan indexes for the images
+                            if (first_error.empty()) first_error = e.what();
+                            ccLog::Warning(QString("[E57] scan %1 not loaded: %2")
+                                               .arg(s)
+                                               .arg(QString::fromStdString(e.what())));
+                          }
+                        }
+                      });
+    if (!info.scans.empty() && std::count(clouds.begin(), clouds.end(), nullptr) ==
+                                   static_cast<std::ptrdiff_t>(clouds.size()))
+      throw scancam::Error(first_error);
+    AddImages(info, clouds, shift, container);
+  } catch (const scancam::Cancelled&) {
+    for (ccPointCloud* c : clouds) delete c;
+    return CC_FERR_CANCELED_BY_USER;
+  } catch (const std::bad_alloc&) {
+    for (ccPointCloud* c : clouds) delete c;
+    return CC_FERR_NOT_ENOUGH_MEMORY;
+  } catch (const std::exception& e) {
+    for (ccPointCloud* c : clouds) delete c;
+    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
+    return CC_FERR_CONSOLE_ERROR;
+  }
+  for (ccPointCloud* c : clouds)
+    if (c) container.addChild(c);
+  return CC_FERR_NO_ERROR;
+}
+
+CC_FILE_ERROR E57Filter::saveToFile(ccHObject* entity, const QString& filename,
+                                    const SaveParameters& parameters) {
+  if (!entity || !entity->isA(CC_TYPES::POINT_CLOUD)) return CC_FERR_BAD_ENTITY_TYPE;
+  auto* cloud = static_cast<ccPointCloud*>(entity);
+  const std::string path = filename.toStdString();
+  try {
+    if (!HasScanGrid(*cloud))
+      throw scancam::Error(cloud->getName().toStdString() +
+                           ": E57 export needs a scan grid (a cloud opened from E57 or PTX); "
+                           "this cloud has none");
+    RunWithCcProgress(parameters.parentWidget, "Saving E57 file",
+                      [&](const scancam::Progress& progress) {
+                        CloudScan cs = ScanFromGrid(*cloud, 0, progress);
+                        // Back into the cloud's frame (the frame CloudCompare shows).
+                        Eigen::Isometry3d T_cloud_scan;
+                        T_cloud_scan.matrix() =
+                            Eigen::Map<const Eigen::Matrix4d>(cloud->grid(0)->sensorPosition.data());
+                        scancam::OrderedScan& scan = *cs.scan;
+                        const Eigen::Matrix3f R = T_cloud_scan.linear().cast<float>();
+                        for (std::size_t k = 0; k < scan.size(); ++k) {
+                          if (scan.valid(k))
+                            scan.point_m[k] = (T_cloud_scan * scan.point_m[k].cast<double>())
+                                                  .cast<float>();
+                          if (scan.beam_dir[k].allFinite()) scan.beam_dir[k] = R * scan.beam_dir[k];
+                        }
+                        scan.origin_m = T_cloud_scan.translation();
+                        std::vector<std::array<std::uint8_t, 3>> rgb;
+                        std::vector<std::uint8_t> coloured;
+                        if (cloud->hasColors()) {
+                          rgb.assign(scan.size(), {0, 0, 0});
+                          coloured.assign(scan.size(), 0);
+                          const int vis = cloud->getScalarFieldIndexByName(kVisibilitySfName);
+                          const auto* vis_sf = vis >= 0 ? cloud->getScalarField(vis) : nullptr;
+                          for (std::size_t k = 0; k < scan.size(); ++k) {
+                            const int idx = cs.cell_to_point[k];
+                            if (idx < 0) continue;
+                            const ccColor::Rgba& c = cloud->getPointColor(unsigned(idx));
+                            rgb[k] = {c.r, c.g, c.b};
+                            coloured[k] = !vis_sf || vis_sf->getValue(unsigned(idx)) == 3;
+                          }
+                        }
+                        scancam::WriteE57(path, scan, rgb.empty() ? nullptr : &rgb,
+                                          coloured.empty() ? nullptr : &coloured,
+                                          progress);
+                      });
+    if (cloud->isShifted())
+      ccLog::Warning(QString("[E57] %1: saved in CloudCompare's shifted coordinates (the global "
+                             "shift is not stored in the file)")
+                         .arg(cloud->getName()));
+  } catch (const scancam::Cancelled&) {
+    return CC_FERR_CANCELED_BY_USER;
+  } catch (const std::bad_alloc&) {
+    return CC_FERR_NOT_ENOUGH_MEMORY;
+  } catch (const std::exception& e) {
+    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
+    return CC_FERR_CONSOLE_ERROR;
+  }
+  return CC_FERR_NO_ERROR;
+}
+
+}  // namespace scancam::plugin::io

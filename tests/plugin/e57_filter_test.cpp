@@ -1,0 +1,296 @@
+// The E57 file filter of the qScanCamIO plugin (plugin/io/e57_filter.h) on CloudCompare's own
+// libraries, no GUI: the files of ../shared/datasets/e57 open with their point counts, colours,
+// intensities and pinhole cameras; a gridded E57 (written by the core's WriteE57) opens with its
+// row/column grid as the qScanCam window reads it (the same ordered scan); a cloud saved through
+// the filter reads back with the same grid and colours; broken files give an error result with
+// the core's message and load nothing.
+#include "e57_filter.h"
+
+#include <ccCameraSensor.h>
+#include <ccGBLSensor.h>
+#include <ccLog.h>
+#include <ccPointCloud.h>
+#include <ccScalarField.h>
+
+#include <QString>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+#include "cloud_adapter.h"
+#include "scancam/io/e57.h"
+#include "scancam/sim/simulate.h"
+#include "sim_test_util.h"
+#include "test_util.h"
+
+namespace {
+
+using scancam::plugin::io::E57Filter;
+
+// Collects CloudCompare's console messages.
+class Log : public ccLog {
+ public:
+  void logMessage(const QString& message, int level) override {
+    if (level & LOG_ERROR) errors.push_back(message.toStdString());
+  }
+  std::vector<std::string> errors;
+};
+
+Log& TheLog() {
+  static Log* log = [] {
+    auto* l = new Log;
+    ccLog::RegisterInstance(l);
+    return l;
+  }();
+  return *log;
+}
+
+std::string E57(const std::string& name) { return scancam::test::SharedDataset("e57/" + name); }
+
+struct Loaded {
+  CC_FILE_ERROR result = CC_FERR_NO_ERROR;
+  ccHObject container;
+  std::vector<std::string> errors;
+  ccPointCloud* cloud(unsigned i = 0) {
+    ccHObject* c = container.getChild(i);
+    return c && c->isA(CC_TYPES::POINT_CLOUD) ? static_cast<ccPointCloud*>(c) : nullptr;
+  }
+};
+
+void Load(const std::string& path, Loaded& out) {
+  TheLog().errors.clear();
+  E57Filter filter;
+  FileIOFilter::LoadParameters params;
+  params.alwaysDisplayLoadDialog = false;
+  params.shiftHandlingMode = ccGlobalShiftManager::NO_DIALOG;
+  out.result = filter.loadFile(QString::fromStdString(path), out.container, params);
+  out.errors = TheLog().errors;
+}
+
+template <typename T>
+int CountChildren(const ccHObject& o, CC_CLASS_ENUM type) {
+  int n = 0;
+  for (unsigned i = 0; i < o.getChildrenNumber(); ++i) n += o.getChild(i)->isA(type) ? 1 : 0;
+  return n;
+}
+
+std::string TempDir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("scancam_e57_filter_" + std::to_string(::getpid()) + "_" + name);
+  std::filesystem::create_directories(dir);
+  return dir.string();
+}
+
+TEST(E57Filter, DatasetsOpenWithTheirPointsColoursAndIntensity) {
+  SCANCAM_REQUIRE_SHARED();
+  {
+    Loaded l;
+    Load(E57("bunnyFloat.e57"), l);
+    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+    ASSERT_EQ(l.container.getChildrenNumber(), 1u);
+    ccPointCloud* c = l.cloud();
+    ASSERT_NE(c, nullptr);
+    EXPECT_EQ(c->size(), 30571u);  // every record: a scan without indices keeps all its points
+    EXPECT_EQ(c->getName(), QString("bunny"));
+    EXPECT_EQ(c->gridCount(), 0u);
+    EXPECT_NE(scancam::plugin::FindGblSensor(*c), nullptr);  // the window re-grids about it
+    EXPECT_FALSE(c->hasColors());
+  }
+  {
+    Loaded l;
+    Load(E57("tinyCartesianFloatRgb.e57"), l);
+    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+    ccPointCloud* c = l.cloud();
+    ASSERT_NE(c, nullptr);
+    EXPECT_EQ(c->size(), 2090u);
+    ASSERT_TRUE(c->hasColors());
+    // The colours are the file's (first record's colour).
+    const scancam::E57Cloud ref = scancam::ReadE57Cloud(E57("tinyCartesianFloatRgb.e57"));
+    ASSERT_FALSE(ref.points.empty());
+    const ccColor::Rgba& c0 = c->getPointColor(0);
+    EXPECT_EQ(c0.r, ref.points[0].rgb[0]);
+    EXPECT_EQ(c0.g, ref.points[0].rgb[1]);
+    EXPECT_EQ(c0.b, ref.points[0].rgb[2]);
+  }
+  {
+    Loaded l;
+    Load(E57("integer_intensity.e57"), l);
+    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+    ccPointCloud* c = l.cloud();
+    ASSERT_NE(c, nullptr);
+    EXPECT_EQ(c->size(), 2u);
+    EXPECT_GE(c->getScalarFieldIndexByName("Intensity"), 0);
+  }
+  {
+    // Pinhole image -> camera sensor under the scan; the other representations are listed.
+    Loaded l;
+    Load(E57("tiny_pc_and_images.e57"), l);
+    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+    ccPointCloud* c = l.cloud();
+    ASSERT_NE(c, nullptr);
+    EXPECT_EQ(CountChildren<ccCameraSensor>(*c, CC_TYPES::CAMERA_SENSOR), 1);
+    ccCameraSensor* cam = nullptr;
+    for (unsigned i = 0; i < c->getChildrenNumber(); ++i)
+      if (c->getChild(i)->isA(CC_TYPES::CAMERA_SENSOR))
+        cam = static_cast<ccCameraSensor*>(c->getChild(i));
+    ASSERT_NE(cam, nullptr);
+    const auto& p = cam->getIntrinsicParameters();
+    EXPECT_NEAR(p.vertFocal_pix, 123.0 / 0.033, 1e-2);  // focal length / pixel height
+    EXPECT_EQ(p.arrayWidth, 100);
+    EXPECT_EQ(p.arrayHeight, 100);
+    EXPECT_FLOAT_EQ(p.principal_point[0], 23.f);
+    EXPECT_FLOAT_EQ(p.principal_point[1], 42.f);
+  }
+  {
+    // No scan, one pinhole image: the camera alone.
+    Loaded l;
+    Load(E57("PinholeImageWithDistortionParameters.e57"), l);
+    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+    EXPECT_EQ(CountChildren<ccCameraSensor>(l.container, CC_TYPES::CAMERA_SENSOR), 1);
+  }
+}
+
+TEST(E57Filter, BrokenFilesGiveTheCoresMessageAndLoadNothing) {
+  SCANCAM_REQUIRE_SHARED();
+  const std::string dir = TempDir("broken");
+  // A truncated copy of a good file.
+  {
+    std::ifstream in(E57("bunnyFloat.e57"), std::ios::binary);
+    std::vector<char> bytes((std::istreambuf_iterator<char>(in)), {});
+    ASSERT_GT(bytes.size(), 5000u);
+    std::ofstream(dir + "/truncated.e57", std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  }
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {E57("bad-crc.e57"), "CRC mismatch"},
+      {E57("corrupt_crc.e57"), "CRC mismatch"},
+      {E57("read_error.e57"), "no point with a valid return"},
+      {E57("empty_pc.e57"), "no valid point"},
+      {dir + "/truncated.e57", "truncated.e57"},
+  };
+  for (const auto& [path, what] : cases) {
+    SCOPED_TRACE(path);
+    Loaded l;
+    Load(path, l);
+    EXPECT_EQ(l.result, CC_FERR_CONSOLE_ERROR);
+    EXPECT_EQ(l.container.getChildrenNumber(), 0u);
+    ASSERT_EQ(l.errors.size(), 1u);
+    EXPECT_NE(l.errors[0].find(path), std::string::npos) << l.errors[0];
+    EXPECT_NE(l.errors[0].find(what), std::string::npos) << l.errors[0];
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// A simulated ordered scan written as a coloured E57 with its grid indices.
+struct GriddedFile {
+  scancam::OrderedScan scan;
+  std::vector<std::array<std::uint8_t, 3>> rgb;
+  std::vector<std::uint8_t> coloured;
+  std::string path;
+};
+
+GriddedFile WriteGridded(const std::string& dir) {
+  GriddedFile f;
+  f.scan = scancam::sim::Simulate(scancam::test::SmallSimOptions(60, 4.0, 61, 2.0)).scan;
+  f.rgb.resize(f.scan.size());
+  f.coloured.resize(f.scan.size());
+  for (std::size_t k = 0; k < f.scan.size(); ++k) {
+    f.rgb[k] = {std::uint8_t(k % 256), std::uint8_t((3 * k) % 256), std::uint8_t(200)};
+    f.coloured[k] = k % 5 != 0;
+  }
+  f.path = dir + "/gridded.e57";
+  scancam::WriteE57(f.path, f.scan, &f.rgb, &f.coloured);
+  return f;
+}
+
+TEST(E57Filter, GriddedScanOpensWithItsGridAsTheWindowReadsIt) {
+  const std::string dir = TempDir("gridded");
+  const GriddedFile f = WriteGridded(dir);
+  const scancam::OrderedScan core = scancam::LoadE57(f.path);
+  Loaded l;
+  Load(f.path, l);
+  ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+  ccPointCloud* c = l.cloud();
+  ASSERT_NE(c, nullptr);
+  EXPECT_EQ(c->size(), core.valid_count());
+  EXPECT_EQ(c->size(), f.scan.valid_count());
+  ASSERT_TRUE(scancam::plugin::HasScanGrid(*c));
+  EXPECT_EQ(c->grid(0)->h, unsigned(f.scan.rows));
+  EXPECT_EQ(c->grid(0)->w, unsigned(f.scan.cols));
+  EXPECT_GE(c->getScalarFieldIndexByName("Intensity"), 0);
+  ASSERT_TRUE(c->hasColors());
+
+  // The window's view of the cloud: the same grid, points and colours per cell.
+  const scancam::plugin::CloudScan cs = scancam::plugin::ScanFromGrid(*c, 0);
+  ASSERT_EQ(cs.scan->rows, f.scan.rows);
+  ASSERT_EQ(cs.scan->cols, f.scan.cols);
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < f.scan.size(); ++k) {
+    ASSERT_EQ(cs.scan->valid(k), f.scan.valid(k)) << k;
+    if (!f.scan.valid(k)) continue;
+    EXPECT_LT((cs.scan->point_m[k] - f.scan.point_m[k]).norm(), 1e-5f) << k;
+    const ccColor::Rgba& col = c->getPointColor(unsigned(cs.cell_to_point[k]));
+    if (f.coloured[k]) {
+      EXPECT_EQ(col.r, f.rgb[k][0]) << k;
+      EXPECT_EQ(col.g, f.rgb[k][1]) << k;
+    } else {
+      EXPECT_EQ(col.r, 128) << k;  // no valid colour in the file: grey
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000u);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(E57Filter, SavedCloudReadsBackWithItsGridAndColours) {
+  const std::string dir = TempDir("save");
+  const GriddedFile f = WriteGridded(dir);
+  Loaded l;
+  Load(f.path, l);
+  ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+  ccPointCloud* c = l.cloud();
+  ASSERT_NE(c, nullptr);
+  E57Filter filter;
+  FileIOFilter::SaveParameters sp;
+  sp.alwaysDisplaySaveDialog = false;
+  const std::string out = dir + "/saved.e57";
+  ASSERT_EQ(filter.saveToFile(c, QString::fromStdString(out), sp), CC_FERR_NO_ERROR);
+  const scancam::OrderedScan back = scancam::LoadE57(out);
+  ASSERT_EQ(back.rows, f.scan.rows);
+  ASSERT_EQ(back.cols, f.scan.cols);
+  EXPECT_EQ(back.valid_count(), f.scan.valid_count());
+  for (std::size_t k = 0; k < back.size(); ++k) {
+    ASSERT_EQ(back.valid(k), f.scan.valid(k)) << k;
+    if (back.valid(k)) {
+      EXPECT_LT((back.point_m[k] - f.scan.point_m[k]).norm(), 1e-5f) << k;
+    }
+  }
+  const scancam::E57Cloud rec = scancam::ReadE57Cloud(out);
+  ASSERT_EQ(rec.points.size(), f.scan.valid_count());
+  std::size_t with_colour = 0;
+  for (const auto& p : rec.points) {
+    ASSERT_TRUE(p.colour_valid);  // no "ScanCam visibility" field: every point keeps its colour
+    const std::size_t k = back.index(int(p.row), int(p.column));
+    if (f.coloured[k]) {
+      EXPECT_EQ(p.rgb, f.rgb[k]);
+      ++with_colour;
+    }
+  }
+  EXPECT_GT(with_colour, 1000u);
+
+  // A cloud without a scan grid is refused plainly; nothing is written.
+  ccPointCloud plain("plain");
+  plain.reserve(3);
+  for (int i = 0; i < 3; ++i) plain.addPoint(CCVector3(float(i), 1.f, 2.f));
+  TheLog().errors.clear();
+  EXPECT_EQ(filter.saveToFile(&plain, QString::fromStdString(dir + "/plain.e57"), sp),
+            CC_FERR_CONSOLE_ERROR);
+  ASSERT_EQ(TheLog().errors.size(), 1u);
+  EXPECT_NE(TheLog().errors[0].find("needs a scan grid"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(dir + "/plain.e57"));
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
