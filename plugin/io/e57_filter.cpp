@@ -93,6 +93,28 @@ void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf) {
   cloud.setCurrentDisplayedScalarField(idx);
 }
 
+// When some points have no valid colour in the file (isColorInvalid): they are grey, and the
+// kColourValidSfName field (1 valid, 0 not) keeps which, so that saving writes them back as
+// colourless. Not added when every colour is valid.
+void AddColourValidField(ccPointCloud& cloud, const std::vector<std::uint8_t>& valid) {
+  const std::size_t invalid = std::size_t(std::count(valid.begin(), valid.end(), 0));
+  if (invalid == 0) return;
+  auto* sf = new ccScalarField(kColourValidSfName);
+  if (!sf->resizeSafe(static_cast<unsigned>(valid.size()))) {
+    sf->release();
+    throw std::bad_alloc();
+  }
+  for (std::size_t i = 0; i < valid.size(); ++i)
+    sf->setValue(static_cast<unsigned>(i), valid[i] ? 1.f : 0.f);
+  sf->computeMinAndMax();
+  cloud.addScalarField(sf);
+  ccLog::Warning(QString("[E57] %1: %2 points have no valid colour in the file: grey, 0 in the "
+                         "scalar field '%3'")
+                     .arg(cloud.getName())
+                     .arg(invalid)
+                     .arg(kColourValidSfName));
+}
+
 QString ScanName(const scancam::E57ScanInfo& info, int index) {
   return info.name.empty() ? QString("Scan %1").arg(index) : QString::fromStdString(info.name);
 }
@@ -141,7 +163,7 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
     }
   }
   const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
-  std::size_t colour_invalid = 0, colour_missing = 0;
+  std::vector<std::uint8_t> colour_valid;  // one per point when the scan has colours
   for (std::size_t k = 0; k < scan.size(); ++k) {
     if (!scan.valid(k)) continue;
     const Eigen::Vector3f& p_scan = scan.point_m[k];
@@ -157,22 +179,14 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
     if (with_colours) {
       ccColor::Rgba c(128, 128, 128, 255);
       const auto it = colours.find(KeyOf(p_scan.x(), p_scan.y(), p_scan.z()));
-      if (it == colours.end()) {
-        ++colour_missing;
-      } else if (!it->second.valid) {
-        ++colour_invalid;
-      } else {
-        c = ccColor::Rgba(it->second.rgb[0], it->second.rgb[1], it->second.rgb[2], 255);
-      }
+      const bool ok = it != colours.end() && it->second.valid;
+      if (ok) c = ccColor::Rgba(it->second.rgb[0], it->second.rgb[1], it->second.rgb[2], 255);
+      colour_valid.push_back(ok ? 1 : 0);
       cloud->addColor(c);
     }
   }
   if (sf) FinishIntensity(*cloud, sf);
-  if (colour_invalid + colour_missing > 0) {
-    ccLog::Warning(QString("[E57] %1: %2 points without a valid colour in the file are grey")
-                       .arg(cloud->getName())
-                       .arg(colour_invalid + colour_missing));
-  }
+  AddColourValidField(*cloud, colour_valid);
   if (preserve_shift) cloud->setGlobalShift(shift);
 
   // A scanner sensor, as CloudCompare's PTX filter adds one (yaw / pitch steps from the grid).
@@ -230,7 +244,7 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
   // Intensity scaled to [0, 1] by intensityLimits, as LoadE57 does.
   const bool scale = info.has_intensity_limits && info.intensity_max > info.intensity_min;
   const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
-  std::size_t no_colour = 0;
+  std::vector<std::uint8_t> colour_valid;
   Eigen::Vector3d shift_e(shift.x, shift.y, shift.z);
   scancam::ReadE57Points(
       path, index,
@@ -255,7 +269,7 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
             sf->addElement(std::isfinite(s) ? static_cast<ScalarType>(s) : NAN_VALUE);
           }
           if (with_colours) {
-            no_colour += p[i].colour_valid ? 0 : 1;
+            colour_valid.push_back(p[i].colour_valid ? 1 : 0);
             cloud->addColor(p[i].colour_valid
                                 ? ccColor::Rgba(p[i].rgb[0], p[i].rgb[1], p[i].rgb[2], 255)
                                 : ccColor::Rgba(128, 128, 128, 255));
@@ -271,10 +285,7 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
     FinishIntensity(*cloud, sf);
     sf_guard.reset();
   }
-  if (no_colour > 0)
-    ccLog::Warning(QString("[E57] %1: %2 points without a valid colour in the file are grey")
-                       .arg(cloud->getName())
-                       .arg(no_colour));
+  AddColourValidField(*cloud, colour_valid);
   if (preserve_shift) cloud->setGlobalShift(shift);
   auto* sensor = new ccGBLSensor(ccGBLSensor::YAW_THEN_PITCH);
   sensor->setRigidTransformation(ccGLMatrix(ToCc(PoseOf(info.pose, shift)).data()));
@@ -302,11 +313,14 @@ ccPointCloud* LoadScanCloud(const std::string& path, const scancam::E57ScanInfo&
 }
 
 // A pinhole image's camera (see the header), or null for other representations.
+bool UsablePinhole(const scancam::E57ImageInfo& image) {
+  return image.representation == "pinhole" && image.pixel_width_m > 0 &&
+         image.pixel_height_m > 0 && image.focal_length_m > 0 && image.width_px > 0 &&
+         image.height_px > 0;
+}
+
 ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector3d& shift) {
-  if (image.representation != "pinhole" || image.pixel_width_m <= 0 ||
-      image.pixel_height_m <= 0 || image.focal_length_m <= 0 || image.width_px <= 0 ||
-      image.height_px <= 0)
-    return nullptr;
+  if (!UsablePinhole(image)) return nullptr;
   ccCameraSensor::IntrinsicParameters params;
   params.vertFocal_pix = static_cast<float>(image.focal_length_m / image.pixel_height_m);
   params.pixelSize_mm[0] = static_cast<float>(image.pixel_width_m * 1000.0);
@@ -397,11 +411,13 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
   std::vector<ccPointCloud*> clouds;
   try {
     const scancam::E57FileInfo info = scancam::ReadE57Info(path);
-    const bool has_camera = std::any_of(info.images.begin(), info.images.end(), [](const auto& i) {
-      return i.representation == "pinhole";
-    });
-    if (info.scans.empty() && !has_camera)
-      throw scancam::FileError(path, "", "the file has no scan (data3D is empty) and no pinhole image");
+    if (info.scans.empty() &&
+        std::none_of(info.images.begin(), info.images.end(), UsablePinhole))
+      throw scancam::FileError(path, "",
+                               "the file has no scan (data3D is empty) and no pinhole image "
+                               "with a focal length, pixel size and image size (" +
+                                   std::to_string(info.images.size()) +
+                                   " images: `scancam e57-info` lists them)");
     bool shift_decided = false, preserve_shift = true;
     CCVector3d shift(0, 0, 0);
     std::string first_error;
@@ -474,14 +490,18 @@ CC_FILE_ERROR E57Filter::saveToFile(ccHObject* entity, const QString& filename,
                         if (cloud->hasColors()) {
                           rgb.assign(scan.size(), {0, 0, 0});
                           coloured.assign(scan.size(), 0);
-                          const int vis = cloud->getScalarFieldIndexByName(kVisibilitySfName);
-                          const auto* vis_sf = vis >= 0 ? cloud->getScalarField(vis) : nullptr;
+                          // Which points have a colour: ScanCam's visibility field (3 =
+                          // coloured by the camera), else the file's (kColourValidSfName).
+                          int flag = cloud->getScalarFieldIndexByName(kVisibilitySfName);
+                          const float want = flag >= 0 ? 3.f : 1.f;
+                          if (flag < 0) flag = cloud->getScalarFieldIndexByName(kColourValidSfName);
+                          const auto* flag_sf = flag >= 0 ? cloud->getScalarField(flag) : nullptr;
                           for (std::size_t k = 0; k < scan.size(); ++k) {
                             const int idx = cs.cell_to_point[k];
                             if (idx < 0) continue;
                             const ccColor::Rgba& c = cloud->getPointColor(unsigned(idx));
                             rgb[k] = {c.r, c.g, c.b};
-                            coloured[k] = !vis_sf || vis_sf->getValue(unsigned(idx)) == 3;
+                            coloured[k] = !flag_sf || flag_sf->getValue(unsigned(idx)) == want;
                           }
                         }
                         scancam::WriteE57(path, scan, rgb.empty() ? nullptr : &rgb,

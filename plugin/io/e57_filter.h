@@ -3,21 +3,23 @@
 // I/O plugin (qScanCamIO.h): File > Open, drag and drop and `CloudCompare -O scan.e57` use it.
 //
 // Opening. Each data3D scan becomes one ccPointCloud named after the scan ("Scan N" when it has
-// no name), all of them children of the file's group. A scan is read as `scancam` reads it
-// (LoadE57: the file's rowIndex/columnIndex grid, or a re-gridding of a scan without indices)
-// and keeps every valid cell of that grid, in row-major order:
+// no name), all of them children of the file's group. A scan with rowIndex/columnIndex is read
+// as `scancam` reads it (LoadE57, the file's grid) and keeps every valid cell, in row-major
+// order; a scan without indices keeps every valid record, in file order, without a grid (the
+// CLI re-grids it, keeping one point per cell: here nothing is dropped) and with a ccGBLSensor
+// at its pose, about which the qScanCam window re-grids it. In both cases:
 //   - points in the file's frame: X_file = R X_scan + t (the scan's pose applied, as
 //     CloudCompare's PTX filter applies a PTX scan's transformation), minus a global shift
 //     when CloudCompare asks for one (large coordinates);
-//   - the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid: h = OrderedScan
+//   - (gridded scans) the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid: h = OrderedScan
 //     rows, w = columns, cell r * w + c -> point index, sensorPosition = the scan's pose), so
 //     that the qScanCam window (cloud_adapter.h ScanFromGrid) finds the very same ordered scan;
 //     and a ccGBLSensor (ccGriddedTools::ComputeBestSensor) at the pose, as for PTX;
 //   - "Intensity" scalar field when the scan has intensities (scaled to [0, 1] by the file's
 //     intensityLimits, as LoadE57 does; NaN where the file marks it invalid);
 //   - colours when the scan has colorRed/Green/Blue; a point whose colour the file marks
-//     invalid gets grey 128 (CloudCompare colours every point or none; the console says how
-//     many).
+//     invalid gets grey 128 (CloudCompare colours every point or none) and 0 in the
+//     "E57 colour valid" field (added only when some point has no valid colour).
 // Images: a pinhole image becomes a ccCameraSensor (focal length and principal point in pixels,
 // pixel size, image size; its pose in the file frame, shifted like the points) under the cloud
 // of the scan it belongs to (the first cloud when it names none). Other representations
@@ -31,13 +33,17 @@
 // row/column indices, the "Intensity" field and the colours; points in the cloud's frame as
 // CloudCompare shows them (a global shift is not stored: the console says so). A point is
 // written with isColorInvalid when the cloud has ScanCam's "ScanCam visibility" field and the
-// camera did not colour it (state != 3). A cloud without a scan grid is refused with a message
-// (re-gridding would drop points).
+// camera did not colour it (state != 3), else when its "E57 colour valid" value is 0: a point
+// without colour stays without colour through CloudCompare. A cloud without a scan grid is
+// refused with a message (re-gridding would drop points).
 #pragma once
 
 #include <FileIOFilter.h>
 
 namespace scancam::plugin::io {
+
+/// Scalar field of points whose colour the file marks invalid (0) or not (1); see above.
+inline constexpr const char* kColourValidSfName = "E57 colour valid";
 
 class E57Filter : public FileIOFilter {
  public:
