@@ -17,7 +17,6 @@
 #include <limits>
 #include <memory>
 #include <new>
-#include <unordered_map>
 #include <vector>
 
 #include "cc_progress.h"
@@ -44,51 +43,47 @@ ccGLMatrixd ToCc(const Eigen::Isometry3d& T) {
   return ccGLMatrixd(m.data());
 }
 
-// Colours of the scan's records keyed by their point (scan frame, as float: the cells'
-// point_m are the same floats). The first record at a point wins.
-struct ColourKey {
-  std::uint32_t bits[3];
-  bool operator==(const ColourKey& o) const { return std::memcmp(bits, o.bits, sizeof bits) == 0; }
-};
-struct ColourKeyHash {
-  std::size_t operator()(const ColourKey& k) const {
-    std::uint64_t h = 1469598103934665603ull;
-    for (std::uint32_t b : k.bits) h = (h ^ b) * 1099511628211ull;
-    return static_cast<std::size_t>(h);
+// The colour of each cell of `scan` (LoadE57's grid of a scan with row/column indices): the
+// record at that cell (row - row minimum, column - column minimum, the minima from indexBounds
+// or else from the data, as LoadE57 takes them) whose point is the cell's point (several returns
+// in a cell: the one LoadE57 kept). [3] = 0: no record found, 1: the file marks the colour
+// invalid, 2: valid.
+std::vector<std::array<std::uint8_t, 4>> CellColours(const std::string& path, int scan_index,
+                                                     const scancam::E57ScanInfo& info,
+                                                     const scancam::OrderedScan& scan) {
+  long long r0 = info.row_min, c0 = info.column_min;
+  if (!info.has_index_bounds) {
+    r0 = c0 = std::numeric_limits<long long>::max();
+    scancam::ReadE57Points(path, scan_index, [&](const scancam::E57Point* p, std::size_t n) {
+      for (std::size_t i = 0; i < n; ++i) {
+        r0 = std::min(r0, p[i].row);
+        c0 = std::min(c0, p[i].column);
+      }
+    });
   }
-};
-ColourKey KeyOf(float x, float y, float z) {
-  ColourKey k;
-  std::memcpy(&k.bits[0], &x, 4);
-  std::memcpy(&k.bits[1], &y, 4);
-  std::memcpy(&k.bits[2], &z, 4);
-  return k;
-}
-struct RecordColour {
-  std::array<std::uint8_t, 3> rgb;
-  bool valid;
-};
-
-std::unordered_map<ColourKey, RecordColour, ColourKeyHash> ReadColours(const std::string& path,
-                                                                       int scan_index) {
-  std::unordered_map<ColourKey, RecordColour, ColourKeyHash> colours;
+  std::vector<std::array<std::uint8_t, 4>> cells(scan.size(), {0, 0, 0, 0});
   scancam::ReadE57Points(path, scan_index, [&](const scancam::E57Point* p, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) {
       if (p[i].state != 0) continue;
-      colours.emplace(KeyOf(static_cast<float>(p[i].xyz[0]), static_cast<float>(p[i].xyz[1]),
-                            static_cast<float>(p[i].xyz[2])),
-                      RecordColour{p[i].rgb, p[i].colour_valid});
+      const long long r = p[i].row - r0, c = p[i].column - c0;
+      if (r < 0 || c < 0 || r >= scan.rows || c >= scan.cols) continue;
+      const std::size_t k = scan.index(int(r), int(c));
+      if (cells[k][3] != 0 || !scan.valid(k)) continue;
+      const Eigen::Vector3f x(static_cast<float>(p[i].xyz[0]), static_cast<float>(p[i].xyz[1]),
+                              static_cast<float>(p[i].xyz[2]));
+      if (x != scan.point_m[k]) continue;
+      cells[k] = {p[i].rgb[0], p[i].rgb[1], p[i].rgb[2], std::uint8_t(p[i].colour_valid ? 2 : 1)};
     }
   });
-  return colours;
+  return cells;
 }
 
 // Adds the intensity field as CloudCompare's PTX filter shows it (grey ramp).
 void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf) {
   sf->computeMinAndMax();
   const bool unit = sf->getMin() >= 0 && sf->getMax() <= 1;
-  sf->setColorScale(ccColorScalesManager::GetDefaultScale(
-      unit ? ccColorScalesManager::ABS_NORM_GREY : ccColorScalesManager::GREY));
+  sf->setColorScale(ccColorScalesManager::GetDefaultScale(unit ? ccColorScalesManager::ABS_NORM_GREY
+                                                               : ccColorScalesManager::GREY));
   const int idx = cloud.addScalarField(sf);
   cloud.setCurrentDisplayedScalarField(idx);
 }
@@ -122,9 +117,9 @@ QString ScanName(const scancam::E57ScanInfo& info, int index) {
 // A scan with rowIndex / columnIndex as a cloud with its grid (see the header). `shift` is
 // decided on the first valid point of the file when not yet done.
 ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
-                            bool& shift_decided, CCVector3d& shift, bool& preserve_shift,
-                            FileIOFilter::LoadParameters& parameters,
-                            const scancam::Progress& progress) {
+                               bool& shift_decided, CCVector3d& shift, bool& preserve_shift,
+                               FileIOFilter::LoadParameters& parameters,
+                               const scancam::Progress& progress) {
   scancam::E57LoadOptions options;
   options.scan_index = index;
   options.apply_pose = false;
@@ -144,8 +139,8 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
   }
   const Eigen::Isometry3d T_cloud_scan = PoseOf(info.pose, shift);
 
-  std::unordered_map<ColourKey, RecordColour, ColourKeyHash> colours;
-  if (info.has_colour) colours = ReadColours(path, index);
+  std::vector<std::array<std::uint8_t, 4>> colours;
+  if (info.has_colour) colours = CellColours(path, index, info, scan);
 
   auto cloud = std::make_unique<ccPointCloud>(ScanName(info, index));
   const unsigned valid = static_cast<unsigned>(scan.valid_count());
@@ -178,9 +173,9 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
     }
     if (with_colours) {
       ccColor::Rgba c(128, 128, 128, 255);
-      const auto it = colours.find(KeyOf(p_scan.x(), p_scan.y(), p_scan.z()));
-      const bool ok = it != colours.end() && it->second.valid;
-      if (ok) c = ccColor::Rgba(it->second.rgb[0], it->second.rgb[1], it->second.rgb[2], 255);
+      const auto& rec = colours[k];
+      const bool ok = rec[3] == 2;
+      if (ok) c = ccColor::Rgba(rec[0], rec[1], rec[2], 255);
       colour_valid.push_back(ok ? 1 : 0);
       cloud->addColor(c);
     }
@@ -191,7 +186,8 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
 
   // A scanner sensor, as CloudCompare's PTX filter adds one (yaw / pitch steps from the grid).
   ccGLMatrix cloud_to_sensor(ToCc(T_cloud_scan.inverse()).data());
-  if (ccGBLSensor* sensor = ccGriddedTools::ComputeBestSensor(cloud.get(), grid, &cloud_to_sensor)) {
+  if (ccGBLSensor* sensor =
+          ccGriddedTools::ComputeBestSensor(cloud.get(), grid, &cloud_to_sensor)) {
     sensor->setRigidTransformation(ccGLMatrix(ToCc(T_cloud_scan).data()));
     cloud->addChild(sensor);
   }
@@ -227,14 +223,13 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
   const Eigen::Vector3d t = info.pose.translation;
   auto cloud = std::make_unique<ccPointCloud>(ScanName(info, index));
   if (info.record_count > std::uint64_t(std::numeric_limits<int>::max()))
-    throw scancam::FileError(path, "", "scan " + std::to_string(index) +
-                                           " has more points than a CloudCompare cloud holds");
+    throw scancam::FileError(
+        path, "",
+        "scan " + std::to_string(index) + " has more points than a CloudCompare cloud holds");
   if (!cloud->reserve(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
   ccScalarField* sf = nullptr;
-  std::unique_ptr<ccScalarField, void (*)(ccScalarField*)> sf_guard(nullptr,
-                                                                    [](ccScalarField* f) {
-                                                                      f->release();
-                                                                    });
+  std::unique_ptr<ccScalarField, void (*)(ccScalarField*)> sf_guard(
+      nullptr, [](ccScalarField* f) { f->release(); });
   if (info.has_intensity) {
     sf = new ccScalarField(kIntensityName);
     sf->link();
@@ -254,8 +249,8 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
           const Eigen::Vector3d x = R * Eigen::Vector3d(p[i].xyz[0], p[i].xyz[1], p[i].xyz[2]) + t;
           if (!x.allFinite()) continue;
           if (!shift_decided) {
-            FileIOFilter::HandleGlobalShift(CCVector3d(x.x(), x.y(), x.z()), shift,
-                                            preserve_shift, parameters);
+            FileIOFilter::HandleGlobalShift(CCVector3d(x.x(), x.y(), x.z()), shift, preserve_shift,
+                                            parameters);
             shift_e = Eigen::Vector3d(shift.x, shift.y, shift.z);
             shift_decided = true;
           }
@@ -265,7 +260,8 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
                                     static_cast<PointCoordinateType>(q.z())));
           if (sf) {
             const double v = p[i].intensity;
-            const double s = scale ? (v - info.intensity_min) / (info.intensity_max - info.intensity_min) : v;
+            const double s =
+                scale ? (v - info.intensity_min) / (info.intensity_max - info.intensity_min) : v;
             sf->addElement(std::isfinite(s) ? static_cast<ScalarType>(s) : NAN_VALUE);
           }
           if (with_colours) {
@@ -314,9 +310,8 @@ ccPointCloud* LoadScanCloud(const std::string& path, const scancam::E57ScanInfo&
 
 // A pinhole image's camera (see the header), or null for other representations.
 bool UsablePinhole(const scancam::E57ImageInfo& image) {
-  return image.representation == "pinhole" && image.pixel_width_m > 0 &&
-         image.pixel_height_m > 0 && image.focal_length_m > 0 && image.width_px > 0 &&
-         image.height_px > 0;
+  return image.representation == "pinhole" && image.pixel_width_m > 0 && image.pixel_height_m > 0 &&
+         image.focal_length_m > 0 && image.width_px > 0 && image.height_px > 0;
 }
 
 ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector3d& shift) {
@@ -358,16 +353,16 @@ void AddImages(const scancam::E57FileInfo& info, const std::vector<ccPointCloud*
     ccCameraSensor* camera = PinholeCamera(image, shift);
     if (camera) {
       owner->addChild(camera);
-      ccLog::Print(QString("[E57] image %1 ('%2'): pinhole camera %3 x %4 px, focal %5 px, under "
-                           "'%6'%7")
-                       .arg(i)
-                       .arg(name)
-                       .arg(image.width_px)
-                       .arg(image.height_px)
-                       .arg(double(camera->getIntrinsicParameters().vertFocal_pix))
-                       .arg(owner->getName())
-                       .arg(image.has_leica_distortion ? " (its Leica distortion is not shown)"
-                                                       : ""));
+      ccLog::Print(
+          QString("[E57] image %1 ('%2'): pinhole camera %3 x %4 px, focal %5 px, under "
+                  "'%6'%7")
+              .arg(i)
+              .arg(name)
+              .arg(image.width_px)
+              .arg(image.height_px)
+              .arg(double(camera->getIntrinsicParameters().vertFocal_pix))
+              .arg(owner->getName())
+              .arg(image.has_leica_distortion ? " (its Leica distortion is not shown)" : ""));
     } else {
       ccLog::Print(QString("[E57] image %1 ('%2'): %3 representation, %4 x %5 px, %6 (not a "
                            "CloudCompare camera; `scancam e57-info --extract-image` gives it)")
@@ -411,8 +406,7 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
   std::vector<ccPointCloud*> clouds;
   try {
     const scancam::E57FileInfo info = scancam::ReadE57Info(path);
-    if (info.scans.empty() &&
-        std::none_of(info.images.begin(), info.images.end(), UsablePinhole))
+    if (info.scans.empty() && std::none_of(info.images.begin(), info.images.end(), UsablePinhole))
       throw scancam::FileError(path, "",
                                "the file has no scan (data3D is empty) and no pinhole image "
                                "with a focal length, pixel size and image size (" +
@@ -421,24 +415,23 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
     bool shift_decided = false, preserve_shift = true;
     CCVector3d shift(0, 0, 0);
     std::string first_error;
-    RunWithCcProgress(parameters.parentWidget, "Loading E57 file",
-                      [&](const scancam::Progress& progress) {
-                        for (std::size_t s = 0; s < info.scans.size(); ++s) {
-                          try {
-                            clouds.push_back(LoadScanCloud(path, info.scans[s], int(s),
-                                                           shift_decided, shift, preserve_shift,
-                                                           parameters, progress));
-                          } catch (const scancam::Error& e) {
-                            // One bad scan of several: the others still open.
-                            if (info.scans.size() == 1) throw;
-                            clouds.push_back(nullptr);  // keeps scan indexes for the images
-                            if (first_error.empty()) first_error = e.what();
-                            ccLog::Warning(QString("[E57] scan %1 not loaded: %2")
-                                               .arg(s)
-                                               .arg(QString::fromStdString(e.what())));
-                          }
-                        }
-                      });
+    RunWithCcProgress(
+        parameters.parentWidget, "Loading E57 file", [&](const scancam::Progress& progress) {
+          for (std::size_t s = 0; s < info.scans.size(); ++s) {
+            try {
+              clouds.push_back(LoadScanCloud(path, info.scans[s], int(s), shift_decided, shift,
+                                             preserve_shift, parameters, progress));
+            } catch (const scancam::Error& e) {
+              // One bad scan of several: the others still open.
+              if (info.scans.size() == 1) throw;
+              clouds.push_back(nullptr);  // keeps scan indexes for the images
+              if (first_error.empty()) first_error = e.what();
+              ccLog::Warning(QString("[E57] scan %1 not loaded: %2")
+                                 .arg(s)
+                                 .arg(QString::fromStdString(e.what())));
+            }
+          }
+        });
     if (!info.scans.empty() && std::count(clouds.begin(), clouds.end(), nullptr) ==
                                    static_cast<std::ptrdiff_t>(clouds.size()))
       throw scancam::Error(first_error);
@@ -469,45 +462,43 @@ CC_FILE_ERROR E57Filter::saveToFile(ccHObject* entity, const QString& filename,
       throw scancam::Error(cloud->getName().toStdString() +
                            ": E57 export needs a scan grid (a cloud opened from E57 or PTX); "
                            "this cloud has none");
-    RunWithCcProgress(parameters.parentWidget, "Saving E57 file",
-                      [&](const scancam::Progress& progress) {
-                        CloudScan cs = ScanFromGrid(*cloud, 0, progress);
-                        // Back into the cloud's frame (the frame CloudCompare shows).
-                        Eigen::Isometry3d T_cloud_scan;
-                        T_cloud_scan.matrix() =
-                            Eigen::Map<const Eigen::Matrix4d>(cloud->grid(0)->sensorPosition.data());
-                        scancam::OrderedScan& scan = *cs.scan;
-                        const Eigen::Matrix3f R = T_cloud_scan.linear().cast<float>();
-                        for (std::size_t k = 0; k < scan.size(); ++k) {
-                          if (scan.valid(k))
-                            scan.point_m[k] = (T_cloud_scan * scan.point_m[k].cast<double>())
-                                                  .cast<float>();
-                          if (scan.beam_dir[k].allFinite()) scan.beam_dir[k] = R * scan.beam_dir[k];
-                        }
-                        scan.origin_m = T_cloud_scan.translation();
-                        std::vector<std::array<std::uint8_t, 3>> rgb;
-                        std::vector<std::uint8_t> coloured;
-                        if (cloud->hasColors()) {
-                          rgb.assign(scan.size(), {0, 0, 0});
-                          coloured.assign(scan.size(), 0);
-                          // Which points have a colour: ScanCam's visibility field (3 =
-                          // coloured by the camera), else the file's (kColourValidSfName).
-                          int flag = cloud->getScalarFieldIndexByName(kVisibilitySfName);
-                          const float want = flag >= 0 ? 3.f : 1.f;
-                          if (flag < 0) flag = cloud->getScalarFieldIndexByName(kColourValidSfName);
-                          const auto* flag_sf = flag >= 0 ? cloud->getScalarField(flag) : nullptr;
-                          for (std::size_t k = 0; k < scan.size(); ++k) {
-                            const int idx = cs.cell_to_point[k];
-                            if (idx < 0) continue;
-                            const ccColor::Rgba& c = cloud->getPointColor(unsigned(idx));
-                            rgb[k] = {c.r, c.g, c.b};
-                            coloured[k] = !flag_sf || flag_sf->getValue(unsigned(idx)) == want;
-                          }
-                        }
-                        scancam::WriteE57(path, scan, rgb.empty() ? nullptr : &rgb,
-                                          coloured.empty() ? nullptr : &coloured,
-                                          progress);
-                      });
+    RunWithCcProgress(
+        parameters.parentWidget, "Saving E57 file", [&](const scancam::Progress& progress) {
+          CloudScan cs = ScanFromGrid(*cloud, 0, progress);
+          // Back into the cloud's frame (the frame CloudCompare shows).
+          Eigen::Isometry3d T_cloud_scan;
+          T_cloud_scan.matrix() =
+              Eigen::Map<const Eigen::Matrix4d>(cloud->grid(0)->sensorPosition.data());
+          scancam::OrderedScan& scan = *cs.scan;
+          const Eigen::Matrix3f R = T_cloud_scan.linear().cast<float>();
+          for (std::size_t k = 0; k < scan.size(); ++k) {
+            if (scan.valid(k))
+              scan.point_m[k] = (T_cloud_scan * scan.point_m[k].cast<double>()).cast<float>();
+            if (scan.beam_dir[k].allFinite()) scan.beam_dir[k] = R * scan.beam_dir[k];
+          }
+          scan.origin_m = T_cloud_scan.translation();
+          std::vector<std::array<std::uint8_t, 3>> rgb;
+          std::vector<std::uint8_t> coloured;
+          if (cloud->hasColors()) {
+            rgb.assign(scan.size(), {0, 0, 0});
+            coloured.assign(scan.size(), 0);
+            // Which points have a colour: ScanCam's visibility field (3 =
+            // coloured by the camera), else the file's (kColourValidSfName).
+            int flag = cloud->getScalarFieldIndexByName(kVisibilitySfName);
+            const float want = flag >= 0 ? 3.f : 1.f;
+            if (flag < 0) flag = cloud->getScalarFieldIndexByName(kColourValidSfName);
+            const auto* flag_sf = flag >= 0 ? cloud->getScalarField(flag) : nullptr;
+            for (std::size_t k = 0; k < scan.size(); ++k) {
+              const int idx = cs.cell_to_point[k];
+              if (idx < 0) continue;
+              const ccColor::Rgba& c = cloud->getPointColor(unsigned(idx));
+              rgb[k] = {c.r, c.g, c.b};
+              coloured[k] = !flag_sf || flag_sf->getValue(unsigned(idx)) == want;
+            }
+          }
+          scancam::WriteE57(path, scan, rgb.empty() ? nullptr : &rgb,
+                            coloured.empty() ? nullptr : &coloured, progress);
+        });
     if (cloud->isShifted())
       ccLog::Warning(QString("[E57] %1: saved in CloudCompare's shifted coordinates (the global "
                              "shift is not stored in the file)")

@@ -11,7 +11,8 @@
 //   - points in the file's frame: X_file = R X_scan + t (the scan's pose applied, as
 //     CloudCompare's PTX filter applies a PTX scan's transformation), minus a global shift
 //     when CloudCompare asks for one (large coordinates);
-//   - (gridded scans) the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid: h = OrderedScan
+//   - (gridded scans) the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid: h =
+//   OrderedScan
 //     rows, w = columns, cell r * w + c -> point index, sensorPosition = the scan's pose), so
 //     that the qScanCam window (cloud_adapter.h ScanFromGrid) finds the very same ordered scan;
 //     and a ccGBLSensor (ccGriddedTools::ComputeBestSensor) at the pose, as for PTX;
