@@ -38,6 +38,25 @@ Eigen::Isometry3d PoseOf(const scancam::E57Pose& pose, const CCVector3d& shift) 
   return T;
 }
 
+// CloudCompare's global shift (large coordinates in float clouds), decided per scan on its first
+// point (file frame) through FileIOFilter::HandleGlobalShift (its dialog, or the command line's
+// mode); a shift already chosen for an earlier scan of the file is reused when it fits.
+struct GlobalShift {
+  FileIOFilter::LoadParameters& parameters;
+  CCVector3d last{0, 0, 0};
+
+  /// The shift of one scan (local = global + shift); `preserve`: keep it in the cloud.
+  CCVector3d Decide(const Eigen::Vector3d& p, bool& preserve) {
+    CCVector3d shift = last;
+    preserve = true;
+    if (!FileIOFilter::HandleGlobalShift(CCVector3d(p.x(), p.y(), p.z()), shift, preserve,
+                                         parameters, last.norm2() > 0))
+      shift = CCVector3d(0, 0, 0);
+    if (shift.norm2() > 0) last = shift;
+    return shift;
+  }
+};
+
 ccGLMatrixd ToCc(const Eigen::Isometry3d& T) {
   const Eigen::Matrix4d m = T.matrix();  // column-major, as ccGLMatrixd
   return ccGLMatrixd(m.data());
@@ -78,6 +97,24 @@ std::vector<std::array<std::uint8_t, 4>> CellColours(const std::string& path, in
   return cells;
 }
 
+// Holds one reference to a scalar field (CloudCompare's fields are reference counted: the
+// cloud takes its own when the field is added), so that an exception does not leak it.
+class ScalarFieldRef {
+ public:
+  explicit ScalarFieldRef(ccScalarField* sf) : sf_(sf) {
+    if (sf_) sf_->link();
+  }
+  ~ScalarFieldRef() {
+    if (sf_) sf_->release();
+  }
+  ScalarFieldRef(const ScalarFieldRef&) = delete;
+  ScalarFieldRef& operator=(const ScalarFieldRef&) = delete;
+  ccScalarField* get() const { return sf_; }
+
+ private:
+  ccScalarField* sf_;
+};
+
 // Adds the intensity field as CloudCompare's PTX filter shows it (grey ramp).
 void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf) {
   sf->computeMinAndMax();
@@ -114,11 +151,10 @@ QString ScanName(const scancam::E57ScanInfo& info, int index) {
   return info.name.empty() ? QString("Scan %1").arg(index) : QString::fromStdString(info.name);
 }
 
-// A scan with rowIndex / columnIndex as a cloud with its grid (see the header). `shift` is
-// decided on the first valid point of the file when not yet done.
+// A scan with rowIndex / columnIndex as a cloud with its grid (see the header). `shift`: the
+// global shift applied to its points.
 ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
-                               bool& shift_decided, CCVector3d& shift, bool& preserve_shift,
-                               FileIOFilter::LoadParameters& parameters,
+                               GlobalShift& global, CCVector3d& shift,
                                const scancam::Progress& progress) {
   scancam::E57LoadOptions options;
   options.scan_index = index;
@@ -127,15 +163,11 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
 
   const Eigen::Matrix3d R = info.pose.rotation.normalized().toRotationMatrix();
   const Eigen::Vector3d t = info.pose.translation;
-  if (!shift_decided) {
-    for (std::size_t k = 0; k < scan.size(); ++k) {
-      if (!scan.valid(k)) continue;
-      const Eigen::Vector3d p = R * scan.point_m[k].cast<double>() + t;
-      FileIOFilter::HandleGlobalShift(CCVector3d(p.x(), p.y(), p.z()), shift, preserve_shift,
-                                      parameters);
-      break;
-    }
-    shift_decided = true;
+  bool preserve_shift = true;
+  for (std::size_t k = 0; k < scan.size(); ++k) {
+    if (!scan.valid(k)) continue;
+    shift = global.Decide(R * scan.point_m[k].cast<double>() + t, preserve_shift);
+    break;
   }
   const Eigen::Isometry3d T_cloud_scan = PoseOf(info.pose, shift);
 
@@ -149,14 +181,9 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
   grid->h = static_cast<unsigned>(scan.rows);
   grid->w = static_cast<unsigned>(scan.cols);
   grid->indexes.assign(scan.size(), -1);
-  ccScalarField* sf = nullptr;
-  if (scan.has_intensity()) {
-    sf = new ccScalarField(kIntensityName);
-    if (!sf->reserveSafe(valid)) {
-      sf->release();
-      throw std::bad_alloc();
-    }
-  }
+  ScalarFieldRef sf_ref(scan.has_intensity() ? new ccScalarField(kIntensityName) : nullptr);
+  ccScalarField* sf = sf_ref.get();
+  if (sf && !sf->reserveSafe(valid)) throw std::bad_alloc();
   const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
   std::vector<std::uint8_t> colour_valid;  // one per point when the scan has colours
   for (std::size_t k = 0; k < scan.size(); ++k) {
@@ -216,8 +243,7 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
 // with estimated steps, cloud_adapter.h ScanOfUngriddedCloud): nothing is dropped, unlike the
 // re-gridded OrderedScan the CLI works on (one point per cell).
 ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57ScanInfo& info,
-                                 int index, bool& shift_decided, CCVector3d& shift,
-                                 bool& preserve_shift, FileIOFilter::LoadParameters& parameters,
+                                 int index, GlobalShift& global, CCVector3d& shift,
                                  const scancam::Progress& progress) {
   const Eigen::Matrix3d R = info.pose.rotation.normalized().toRotationMatrix();
   const Eigen::Vector3d t = info.pose.translation;
@@ -227,20 +253,17 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
         path, "",
         "scan " + std::to_string(index) + " has more points than a CloudCompare cloud holds");
   if (!cloud->reserve(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
-  ccScalarField* sf = nullptr;
-  std::unique_ptr<ccScalarField, void (*)(ccScalarField*)> sf_guard(
-      nullptr, [](ccScalarField* f) { f->release(); });
-  if (info.has_intensity) {
-    sf = new ccScalarField(kIntensityName);
-    sf->link();
-    sf_guard.reset(sf);
-    if (!sf->reserveSafe(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
-  }
-  // Intensity scaled to [0, 1] by intensityLimits, as LoadE57 does.
+  ScalarFieldRef sf_ref(info.has_intensity ? new ccScalarField(kIntensityName) : nullptr);
+  ccScalarField* sf = sf_ref.get();
+  if (sf && !sf->reserveSafe(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
+  // Intensity scaled to [0, 1] by intensityLimits, as LoadE57 does (LoadE57 also scales an
+  // integer intensity without intensityLimits by its field's range: not done here, the values
+  // stay as in the file).
   const bool scale = info.has_intensity_limits && info.intensity_max > info.intensity_min;
   const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
   std::vector<std::uint8_t> colour_valid;
-  Eigen::Vector3d shift_e(shift.x, shift.y, shift.z);
+  bool shift_decided = false, preserve_shift = true;
+  Eigen::Vector3d shift_e = Eigen::Vector3d::Zero();
   scancam::ReadE57Points(
       path, index,
       [&](const scancam::E57Point* p, std::size_t n) {
@@ -249,8 +272,7 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
           const Eigen::Vector3d x = R * Eigen::Vector3d(p[i].xyz[0], p[i].xyz[1], p[i].xyz[2]) + t;
           if (!x.allFinite()) continue;
           if (!shift_decided) {
-            FileIOFilter::HandleGlobalShift(CCVector3d(x.x(), x.y(), x.z()), shift, preserve_shift,
-                                            parameters);
+            shift = global.Decide(x, preserve_shift);
             shift_e = Eigen::Vector3d(shift.x, shift.y, shift.z);
             shift_decided = true;
           }
@@ -279,7 +301,6 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
   if (sf) {
     sf->resizeSafe(cloud->size());
     FinishIntensity(*cloud, sf);
-    sf_guard.reset();
   }
   AddColourValidField(*cloud, colour_valid);
   if (preserve_shift) cloud->setGlobalShift(shift);
@@ -299,21 +320,19 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
 }
 
 ccPointCloud* LoadScanCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
-                            bool& shift_decided, CCVector3d& shift, bool& preserve_shift,
-                            FileIOFilter::LoadParameters& parameters,
+                            GlobalShift& global, CCVector3d& shift,
                             const scancam::Progress& progress) {
-  return info.has_grid_index ? LoadGriddedCloud(path, info, index, shift_decided, shift,
-                                                preserve_shift, parameters, progress)
-                             : LoadUnorderedCloud(path, info, index, shift_decided, shift,
-                                                  preserve_shift, parameters, progress);
+  return info.has_grid_index ? LoadGriddedCloud(path, info, index, global, shift, progress)
+                             : LoadUnorderedCloud(path, info, index, global, shift, progress);
 }
 
-// A pinhole image's camera (see the header), or null for other representations.
+// A pinhole representation with what a camera sensor needs.
 bool UsablePinhole(const scancam::E57ImageInfo& image) {
   return image.representation == "pinhole" && image.pixel_width_m > 0 && image.pixel_height_m > 0 &&
          image.focal_length_m > 0 && image.width_px > 0 && image.height_px > 0;
 }
 
+// A pinhole image's camera (see the header), or null for other representations.
 ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector3d& shift) {
   if (!UsablePinhole(image)) return nullptr;
   ccCameraSensor::IntrinsicParameters params;
@@ -337,20 +356,23 @@ ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector
 // Cameras go under their scan's cloud (the first cloud when the image names none; the file's
 // group when the file has no scan).
 void AddImages(const scancam::E57FileInfo& info, const std::vector<ccPointCloud*>& clouds,
-               const CCVector3d& shift, ccHObject& container) {
+               const std::vector<CCVector3d>& shifts, ccHObject& container) {
   for (std::size_t i = 0; i < info.images.size(); ++i) {
     const scancam::E57ImageInfo& image = info.images[i];
     const QString name =
         image.name.empty() ? QString("image %1").arg(i) : QString::fromStdString(image.name);
-    ccHObject* owner = &container;
+    // Its scan's cloud, else the first cloud, else the file's group (no shift).
+    std::size_t at = clouds.size();
     if (image.associated_scan >= 0 && std::size_t(image.associated_scan) < clouds.size() &&
         clouds[std::size_t(image.associated_scan)])
-      owner = clouds[std::size_t(image.associated_scan)];
-    else if (const auto first = std::find_if(clouds.begin(), clouds.end(),
-                                             [](const ccPointCloud* c) { return c != nullptr; });
-             first != clouds.end())
-      owner = *first;
-    ccCameraSensor* camera = PinholeCamera(image, shift);
+      at = std::size_t(image.associated_scan);
+    else
+      at = std::size_t(std::find_if(clouds.begin(), clouds.end(),
+                                    [](const ccPointCloud* c) { return c != nullptr; }) -
+                       clouds.begin());
+    ccHObject* owner = at < clouds.size() ? clouds[at] : &container;
+    ccCameraSensor* camera =
+        PinholeCamera(image, at < clouds.size() ? shifts[at] : CCVector3d(0, 0, 0));
     if (camera) {
       owner->addChild(camera);
       ccLog::Print(
@@ -412,19 +434,21 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
                                "with a focal length, pixel size and image size (" +
                                    std::to_string(info.images.size()) +
                                    " images: `scancam e57-info` lists them)");
-    bool shift_decided = false, preserve_shift = true;
-    CCVector3d shift(0, 0, 0);
+    GlobalShift global{parameters};
+    std::vector<CCVector3d> shifts;  // applied to each scan's cloud
     std::string first_error;
     RunWithCcProgress(
         parameters.parentWidget, "Loading E57 file", [&](const scancam::Progress& progress) {
           for (std::size_t s = 0; s < info.scans.size(); ++s) {
+            CCVector3d shift(0, 0, 0);
             try {
-              clouds.push_back(LoadScanCloud(path, info.scans[s], int(s), shift_decided, shift,
-                                             preserve_shift, parameters, progress));
+              clouds.push_back(LoadScanCloud(path, info.scans[s], int(s), global, shift, progress));
+              shifts.push_back(shift);
             } catch (const scancam::Error& e) {
               // One bad scan of several: the others still open.
               if (info.scans.size() == 1) throw;
               clouds.push_back(nullptr);  // keeps scan indexes for the images
+              shifts.push_back(shift);
               if (first_error.empty()) first_error = e.what();
               ccLog::Warning(QString("[E57] scan %1 not loaded: %2")
                                  .arg(s)
@@ -435,7 +459,7 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
     if (!info.scans.empty() && std::count(clouds.begin(), clouds.end(), nullptr) ==
                                    static_cast<std::ptrdiff_t>(clouds.size()))
       throw scancam::Error(first_error);
-    AddImages(info, clouds, shift, container);
+    AddImages(info, clouds, shifts, container);
   } catch (const scancam::Cancelled&) {
     for (ccPointCloud* c : clouds) delete c;
     return CC_FERR_CANCELED_BY_USER;

@@ -9,8 +9,10 @@
 // CLI re-grids it, keeping one point per cell: here nothing is dropped) and with a ccGBLSensor
 // at its pose, about which the qScanCam window re-grids it. In both cases:
 //   - points in the file's frame: X_file = R X_scan + t (the scan's pose applied, as
-//     CloudCompare's PTX filter applies a PTX scan's transformation), minus a global shift
-//     when CloudCompare asks for one (large coordinates);
+//     CloudCompare's PTX filter applies a PTX scan's transformation), plus a global shift
+//     when CloudCompare chooses one for large coordinates (decided per scan on its first point:
+//     its dialog in the GUI, the -GLOBAL_SHIFT mode on the command line; a shift chosen for an
+//     earlier scan is reused when it fits), kept in the cloud;
 //   - (gridded scans) the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid: h =
 //   OrderedScan
 //     rows, w = columns, cell r * w + c -> point index, sensorPosition = the scan's pose), so

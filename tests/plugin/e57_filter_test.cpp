@@ -13,8 +13,10 @@
 #include <ccScalarField.h>
 
 #include <QString>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -240,6 +242,115 @@ TEST(E57Filter, GriddedScanOpensWithItsGridAsTheWindowReadsIt) {
     ++checked;
   }
   EXPECT_GT(checked, 1000u);
+  std::filesystem::remove_all(dir);
+}
+
+std::uint64_t GetLe(const std::string& s, std::size_t at) {
+  std::uint64_t v = 0;
+  for (int i = 7; i >= 0; --i) v = (v << 8) | static_cast<std::uint8_t>(s[at + std::size_t(i)]);
+  return v;
+}
+void PutLe(std::string& s, std::size_t at, std::uint64_t v) {
+  for (int i = 0; i < 8; ++i) s[at + std::size_t(i)] = static_cast<char>((v >> (8 * i)) & 0xff);
+}
+
+// Copies the E57 file `in` to `out` with its XML section (the file's last section, as WriteE57
+// writes it) edited by `edit`: pages and their CRC-32C rebuilt, the header's lengths updated.
+void RewriteXml(const std::string& in, const std::string& out,
+                const std::function<std::string(const std::string&)>& edit) {
+  std::ifstream f(in, std::ios::binary);
+  const std::string phys((std::istreambuf_iterator<char>(f)), {});
+  std::string logical;
+  for (std::size_t p = 0; p + 1024 <= phys.size(); p += 1024) logical += phys.substr(p, 1020);
+  const std::uint64_t xml_phys = GetLe(logical, 24), xml_len = GetLe(logical, 32);
+  const std::size_t xml_at = std::size_t(xml_phys / 1024 * 1020 + xml_phys % 1024);
+  const std::string xml = edit(logical.substr(xml_at, std::size_t(xml_len)));
+  logical = logical.substr(0, xml_at) + xml;
+  while (logical.size() % 1020) logical.push_back('\0');
+  const std::size_t pages = logical.size() / 1020;
+  PutLe(logical, 16, pages * 1024);
+  PutLe(logical, 32, xml.size());
+  std::string bytes;
+  for (std::size_t p = 0; p < pages; ++p) {
+    bytes += logical.substr(p * 1020, 1020);
+    const std::uint32_t crc =
+        scancam::E57Crc32c(reinterpret_cast<const std::uint8_t*>(logical.data() + p * 1020), 1020);
+    for (int i = 3; i >= 0; --i) bytes.push_back(static_cast<char>((crc >> (8 * i)) & 0xff));
+  }
+  std::ofstream(out, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
+}
+
+// Two scans (the same points) in one file: "left" at the identity, "right" turned 90 deg about z
+// and moved far away (1000 km east: CloudCompare's global shift). Each is one cloud in the file's
+// frame (pose applied), and the window's scan of each is the scan in its own frame.
+TEST(E57Filter, SeveralScansWithTheirPoses) {
+  const std::string dir = TempDir("poses");
+  const GriddedFile f = WriteGridded(dir);
+  const Eigen::Vector3d t(1.0e6, 2.0, 3.0);
+  RewriteXml(f.path, dir + "/two.e57", [&](const std::string& xml) {
+    const std::size_t a = xml.find("<vectorChild"), b = xml.find("</vectorChild>") + 14;
+    EXPECT_NE(a, std::string::npos);
+    std::string left = xml.substr(a, b - a), right = left;
+    auto replace = [](std::string& s, const std::string& from, const std::string& to) {
+      const std::size_t at = s.find(from);
+      ASSERT_NE(at, std::string::npos) << from;
+      s.replace(at, from.size(), to);
+    };
+    replace(left, "<![CDATA[ScanCam scan]]>", "<![CDATA[left]]>");
+    replace(right, "<![CDATA[ScanCam scan]]>", "<![CDATA[right]]>");
+    replace(right, "{scancam-scan-", "{scancam-scan-right-");  // its own guid
+    const double h = std::sqrt(0.5);
+    replace(right,
+            "<w type=\"Float\">1</w><x type=\"Float\">0</x><y type=\"Float\">0</y>"
+            "<z type=\"Float\">0</z>",
+            "<w type=\"Float\">" + std::to_string(h) +
+                "</w><x type=\"Float\">0</x><y type=\"Float\">0</y><z type=\"Float\">" +
+                std::to_string(h) + "</z>");
+    replace(right, "<translation type=\"Structure\"><x type=\"Float\">0</x>",
+            "<translation type=\"Structure\"><x type=\"Float\">1000000</x>");
+    replace(right, "<y type=\"Float\">0</y><z type=\"Float\">0</z></translation>",
+            "<y type=\"Float\">2</y><z type=\"Float\">3</z></translation>");
+    return xml.substr(0, a) + left + right + xml.substr(b);
+  });
+  ASSERT_EQ(scancam::ReadE57Info(dir + "/two.e57").scans.size(), 2u);
+
+  Loaded l;
+  TheLog().errors.clear();
+  E57Filter filter;
+  FileIOFilter::LoadParameters params;
+  params.alwaysDisplayLoadDialog = false;
+  params.shiftHandlingMode = ccGlobalShiftManager::NO_DIALOG_AUTO_SHIFT;
+  l.result = filter.loadFile(QString::fromStdString(dir + "/two.e57"), l.container, params);
+  ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
+  ASSERT_EQ(l.container.getChildrenNumber(), 2u);
+  ccPointCloud* left = l.cloud(0);
+  ccPointCloud* right = l.cloud(1);
+  ASSERT_TRUE(left && right);
+  EXPECT_EQ(left->getName(), QString("left"));
+  EXPECT_EQ(right->getName(), QString("right"));
+  ASSERT_EQ(left->size(), f.scan.valid_count());
+  ASSERT_EQ(right->size(), f.scan.valid_count());
+  // The far scan is shifted (its own global shift, decided on its first point), the near one not.
+  EXPECT_EQ(left->getGlobalShift().norm(), 0.0);
+  const CCVector3d shift = right->getGlobalShift();
+  EXPECT_GT(std::abs(shift.x), 1e5);
+  ASSERT_TRUE(scancam::plugin::HasScanGrid(*right));
+  const scancam::plugin::CloudScan cs = scancam::plugin::ScanFromGrid(*right, 0);
+  std::size_t checked = 0;
+  for (std::size_t k = 0; k < f.scan.size(); ++k) {
+    if (!f.scan.valid(k)) continue;
+    // In the file's frame: X_file = R X_scan + t (90 deg about z: (x, y) -> (-y, x)).
+    const Eigen::Vector3d x = f.scan.point_m[k].cast<double>();
+    const Eigen::Vector3d want = Eigen::Vector3d(-x.y(), x.x(), x.z()) + t;
+    const CCVector3* P = right->getPoint(unsigned(cs.cell_to_point[k]));
+    const Eigen::Vector3d got =
+        Eigen::Vector3d(P->x, P->y, P->z) - Eigen::Vector3d(shift.x, shift.y, shift.z);  // global
+    ASSERT_LT((got - want).norm(), 1e-4) << k;
+    // The window's scan: back in the scanner's frame.
+    ASSERT_LT((cs.scan->point_m[k] - f.scan.point_m[k]).norm(), 1e-4f) << k;
+    ++checked;
+  }
+  EXPECT_EQ(checked, f.scan.valid_count());
   std::filesystem::remove_all(dir);
 }
 
