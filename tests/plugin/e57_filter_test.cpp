@@ -71,6 +71,13 @@ void Load(const std::string& path, Loaded& out) {
   out.errors = TheLog().errors;
 }
 
+// A dataset file through the filter: its first cloud (null when it did not load).
+ccPointCloud* OpenDataset(const std::string& name, Loaded& l) {
+  Load(E57(name), l);
+  EXPECT_EQ(l.result, CC_FERR_NO_ERROR) << name;
+  return l.result == CC_FERR_NO_ERROR ? l.cloud() : nullptr;
+}
+
 int CountChildren(const ccHObject& o, CC_CLASS_ENUM type) {
   int n = 0;
   for (unsigned i = 0; i < o.getChildrenNumber(); ++i) n += o.getChild(i)->isA(type) ? 1 : 0;
@@ -88,10 +95,8 @@ TEST(E57Filter, DatasetsOpenWithTheirPointsColoursAndIntensity) {
   SCANCAM_REQUIRE_SHARED();
   {
     Loaded l;
-    Load(E57("bunnyFloat.e57"), l);
-    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
-    ASSERT_EQ(l.container.getChildrenNumber(), 1u);
-    ccPointCloud* c = l.cloud();
+    ccPointCloud* c = OpenDataset("bunnyFloat.e57", l);
+    EXPECT_EQ(l.container.getChildrenNumber(), 1u);
     ASSERT_NE(c, nullptr);
     EXPECT_EQ(c->size(), 30571u);  // every record: a scan without indices keeps all its points
     EXPECT_EQ(c->getName(), QString("bunny"));
@@ -101,9 +106,7 @@ TEST(E57Filter, DatasetsOpenWithTheirPointsColoursAndIntensity) {
   }
   {
     Loaded l;
-    Load(E57("tinyCartesianFloatRgb.e57"), l);
-    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
-    ccPointCloud* c = l.cloud();
+    ccPointCloud* c = OpenDataset("tinyCartesianFloatRgb.e57", l);
     ASSERT_NE(c, nullptr);
     EXPECT_EQ(c->size(), 2090u);
     ASSERT_TRUE(c->hasColors());
@@ -117,9 +120,7 @@ TEST(E57Filter, DatasetsOpenWithTheirPointsColoursAndIntensity) {
   }
   {
     Loaded l;
-    Load(E57("integer_intensity.e57"), l);
-    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
-    ccPointCloud* c = l.cloud();
+    ccPointCloud* c = OpenDataset("integer_intensity.e57", l);
     ASSERT_NE(c, nullptr);
     EXPECT_EQ(c->size(), 2u);
     EXPECT_GE(c->getScalarFieldIndexByName("Intensity"), 0);
@@ -127,9 +128,7 @@ TEST(E57Filter, DatasetsOpenWithTheirPointsColoursAndIntensity) {
   {
     // Pinhole image -> camera sensor under the scan; the other representations are listed.
     Loaded l;
-    Load(E57("tiny_pc_and_images.e57"), l);
-    ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
-    ccPointCloud* c = l.cloud();
+    ccPointCloud* c = OpenDataset("tiny_pc_and_images.e57", l);
     ASSERT_NE(c, nullptr);
     EXPECT_EQ(CountChildren(*c, CC_TYPES::CAMERA_SENSOR), 1);
     ccCameraSensor* cam = nullptr;
