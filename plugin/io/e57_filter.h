@@ -13,13 +13,16 @@
 //     when CloudCompare chooses one for large coordinates (decided per scan on its first point:
 //     its dialog in the GUI, the -GLOBAL_SHIFT mode on the command line; a shift chosen for an
 //     earlier scan is reused when it fits), kept in the cloud;
-//   - (gridded scans) the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid: h =
-//   OrderedScan
-//     rows, w = columns, cell r * w + c -> point index, sensorPosition = the scan's pose), so
-//     that the qScanCam window (cloud_adapter.h ScanFromGrid) finds the very same ordered scan;
-//     and a ccGBLSensor (ccGriddedTools::ComputeBestSensor) at the pose, as for PTX;
+//   - (gridded scans) the grid as CloudCompare's PTX filter attaches it (ccPointCloud::Grid:
+//     h = OrderedScan rows, w = columns, cell r * w + c -> point index, sensorPosition = the
+//     scan's pose), so that the qScanCam window (cloud_adapter.h ScanFromGrid) finds the very
+//     same ordered scan; and a ccGBLSensor (ccGriddedTools::ComputeBestSensor) at the pose, as
+//     for PTX. A record's colour goes to the cell whose point it is (several returns: the one
+//     LoadE57 kept);
 //   - "Intensity" scalar field when the scan has intensities (scaled to [0, 1] by the file's
-//     intensityLimits, as LoadE57 does; NaN where the file marks it invalid);
+//     intensityLimits, as LoadE57 does; NaN where the file marks it invalid. A scan without
+//     indices and without intensityLimits keeps the file's values, where LoadE57 scales an
+//     integer intensity by its field's range);
 //   - colours when the scan has colorRed/Green/Blue; a point whose colour the file marks
 //     invalid gets grey 128 (CloudCompare colours every point or none) and 0 in the
 //     "E57 colour valid" field (added only when some point has no valid colour).
@@ -30,7 +33,9 @@
 // (`scancam e57-info --extract-image` gives their pictures).
 // Errors (truncated file, CRC mismatch, unknown version, a scan without points...): the core's
 // message, naming the file, the place and the problem, goes to CloudCompare's console (an
-// error dialog in the GUI, exit code 1 on the command line); nothing is half-loaded.
+// error dialog in the GUI, exit code 1 on the command line) and nothing is loaded. In a file
+// with several scans, a scan that cannot be read is named in a console warning and the others
+// open.
 //
 // Saving (one cloud with a scan grid, e.g. opened from E57 or PTX): WriteE57 with the grid's
 // row/column indices, the "Intensity" field and the colours; points in the cloud's frame as
