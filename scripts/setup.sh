@@ -12,6 +12,6 @@ export CCACHE_BASEDIR="$root" CCACHE_NOHASHDIR=1
 cmake -S . -B build -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX="$HOME/.local"
 cmake --build build -j"$jobs"
 cmake --install build
-echo "[setup] installed: $HOME/.local/bin/scancam and the qScanCam plugin in" \
+echo "[setup] installed: $HOME/.local/bin/scancam and the qScanCam and qScanCamIO (E57) plugins in" \
      "$(grep -E '^SCANCAM_PLUGIN_INSTALL_DIR' build/CMakeCache.txt | cut -d= -f2)"
 bash scripts/demo.sh "$root/build/core/scancam" "$root/out/sample"
