@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "scancam/camera/camera_io.h"
+#include "scancam/camera/e57_camera.h"
 #include "scancam/camera/valid_region.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
@@ -59,6 +60,67 @@ ColourView LoadView(const ViewPaths& paths, const ViewLoadOptions& options,
   if (!paths.calib.empty()) v.T_cam_scan = LoadExtrinsic(paths.calib);
   v.mask = ChooseViewRegion(v.camera, v.image, paths.mask, options, region_how);
   if (!v.image.empty()) CheckView(v);
+  return v;
+}
+
+ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Pose& scan_pose,
+                       bool scan_pose_applied, const ViewPaths& overrides,
+                       const ViewLoadOptions& options, std::string* region_how) {
+  const E57FileInfo info = ReadE57Info(e57_path);
+  const int n = static_cast<int>(info.images.size());
+  if (image_index < 0 || image_index >= n) {
+    throw FileError(e57_path, "",
+                    "E57 image " + std::to_string(image_index) + " asked for, but the file has " +
+                        std::to_string(n) + " image" + (n == 1 ? "" : "s"));
+  }
+  const E57ImageInfo& im = info.images[static_cast<std::size_t>(image_index)];
+  const std::string where = "image " + std::to_string(image_index);
+  ColourView v;
+  v.name = e57_path + " " + where;
+  if (!overrides.camera.empty()) {
+    v.camera = LoadCameraForImage(overrides.camera, overrides.image);
+  } else {
+    v.camera = E57ImageCamera(e57_path, im, image_index);
+  }
+  if (!overrides.image.empty()) {
+    v.name = overrides.image;
+    v.image = ReadViewImage(overrides.image, v.camera);
+  } else {
+    if (im.blob_type != "jpeg" && im.blob_type != "png")
+      throw FileError(e57_path, where, "the image is neither JPEG nor PNG");
+    const std::vector<std::uint8_t> bytes = ReadE57ImageBlob(e57_path, image_index);
+    cv::Mat decoded;
+    try {
+      decoded = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    } catch (const cv::Exception&) {
+      decoded.release();
+    }
+    if (decoded.empty()) {
+      throw FileError(e57_path, where,
+                      "the " + im.blob_type + " blob (" + std::to_string(bytes.size()) +
+                          " bytes) does not decode as an image");
+    }
+    if (decoded.cols != im.width_px || decoded.rows != im.height_px) {
+      throw FileError(e57_path, where,
+                      "the decoded image is " + std::to_string(decoded.cols) + " x " +
+                          std::to_string(decoded.rows) + " px but the file says " +
+                          std::to_string(im.width_px) + " x " + std::to_string(im.height_px));
+    }
+    CheckImageSize(v.camera, decoded.cols, decoded.rows, v.name);
+    v.image = decoded;
+  }
+  if (!overrides.calib.empty()) {
+    v.T_cam_scan = LoadExtrinsic(overrides.calib);
+  } else {
+    if (im.representation != "pinhole" && im.representation != "spherical") {
+      throw FileError(e57_path, where,
+                      "a " + im.representation +
+                          " image has no camera pose here: give the pose with --calib");
+    }
+    v.T_cam_scan = E57ImageTCamScan(im, scan_pose, scan_pose_applied);
+  }
+  v.mask = ChooseViewRegion(v.camera, v.image, overrides.mask, options, region_how);
+  CheckView(v);
   return v;
 }
 
