@@ -2,8 +2,8 @@
 // occlusion), export coloured clouds and textured meshes, and draw the overlays that show
 // whether the calibration is right (paper Fig. 8).
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>

@@ -89,8 +89,8 @@ int RunE57Info(const Args& args) {
       o << "    Leica distortion: type '" << d.type << "', camera " << d.camera_number
         << ", fx fy cx cy = " << d.fx_px << " " << d.fy_px << " " << d.cx_px << " " << d.cy_px
         << " px, k1..k6 = " << d.k[0] << " " << d.k[1] << " " << d.k[2] << " " << d.k[3] << " "
-        << d.k[4] << " " << d.k[5] << ", p1 p2 = " << d.p[0] << " " << d.p[1] << ", "
-        << d.width_px << " x " << d.height_px << " px\n";
+        << d.k[4] << " " << d.k[5] << ", p1 p2 = " << d.p[0] << " " << d.p[1] << ", " << d.width_px
+        << " x " << d.height_px << " px\n";
     }
     // As a camera (colorize --e57-image): the model, or why not.
     try {
@@ -128,7 +128,8 @@ Command MakeE57InfoCommand() {
       "Prints the E57 file's version, its scans (points, coordinates, fields, grid, pose) and "
       "its images (representation, size, blob type, pose, Leica distortion, and the camera "
       "model `colorize --e57-image N` uses, or why the image cannot be one). Every page's CRC "
-      "on the way is checked. With --extract-image, writes image N's JPEG or PNG blob as it is in the file.";
+      "on the way is checked. With --extract-image, writes image N's JPEG or PNG blob as it is in "
+      "the file.";
   c.options = {
       {"--check", "",
        "Also decode every record of every scan and print the counts and the read speed."},

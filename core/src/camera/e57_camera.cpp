@@ -51,8 +51,9 @@ CameraModel E57ImageCamera(const std::string& path, const E57ImageInfo& im, int 
   auto fail = [&](const std::string& what) { throw FileError(path, where, what); };
   const std::string& rep = im.representation;
   if (rep == "visualReference") {
-    fail("a visual-reference image (a picture without a projection model): listed, but it "
-         "cannot serve as a camera");
+    fail(
+        "a visual-reference image (a picture without a projection model): listed, but it "
+        "cannot serve as a camera");
   }
   if (rep == "cylindrical") fail("cylindrical images are not supported as cameras yet");
   if (rep != "pinhole" && rep != "spherical") {

@@ -3,8 +3,6 @@
 // writer needed); the organised PCD goes through PCL so PCL-based tools read it natively.
 #include "scancam/colour/export.h"
 
-#include "scancam/io/ptx.h"
-
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -21,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "scancam/error.h"
+#include "scancam/io/ptx.h"
 #include "scancam/output_file.h"
 #include "scancam/scan/continuity.h"
 

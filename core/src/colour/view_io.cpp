@@ -113,9 +113,9 @@ ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Po
     v.T_cam_scan = LoadExtrinsic(overrides.calib);
   } else {
     if (im.representation != "pinhole" && im.representation != "spherical") {
-      throw FileError(e57_path, where,
-                      "a " + im.representation +
-                          " image has no camera pose here: give the pose with --calib");
+      throw FileError(
+          e57_path, where,
+          "a " + im.representation + " image has no camera pose here: give the pose with --calib");
     }
     v.T_cam_scan = E57ImageTCamScan(im, scan_pose, scan_pose_applied);
   }

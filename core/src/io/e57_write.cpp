@@ -104,9 +104,9 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
       const std::string& rep = im.info.representation;
       if ((rep != "pinhole" && rep != "spherical") ||
           (im.info.blob_type != "jpeg" && im.info.blob_type != "png") || im.bytes.empty()) {
-        throw FileError(path, "",
-                        "image '" + im.info.name +
-                            "': only pinhole or spherical JPEG/PNG images are written");
+        throw FileError(
+            path, "",
+            "image '" + im.info.name + "': only pinhole or spherical JPEG/PNG images are written");
       }
       blob_logical.push_back(blobs_end);
       blobs_end += (16 + im.bytes.size() + 3) / 4 * 4;
@@ -119,7 +119,8 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
   std::ostringstream x;
   x.precision(17);
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-       "<e57Root type=\"Structure\" xmlns=\"http://www.astm.org/COMMIT/E57/2010-e57-v1.0\">\n"
+       "<e57Root type=\"Structure\" xmlns=\"http://www.astm.org/COMMIT/E57/2010-e57-v1.0\"\n"
+       "         xmlns:dist=\"http://www.libe57.org/E57_LEICA_Camera_Distortion.txt\">\n"
        "  <formatName type=\"String\"><![CDATA[ASTM E57 3D Imaging Data File]]></formatName>\n"
        "  <guid type=\"String\"><![CDATA[{scancam-file-"
     << cells.size() << "-" << scan.rows << "x" << scan.cols
@@ -190,7 +191,8 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
   for (std::size_t i = 0; images && i < images->size(); ++i) {
     const E57ImageInfo& m = (*images)[i].info;
     const E57Pose& pose = m.pose;
-    x << "    <vectorChild type=\"Structure\">\n      <guid type=\"String\"><![CDATA[{scancam-image-"
+    x << "    <vectorChild type=\"Structure\">\n      <guid "
+         "type=\"String\"><![CDATA[{scancam-image-"
       << i << "}]]></guid>\n      <name type=\"String\"><![CDATA[" << m.name
       << "]]></name>\n      <associatedData3DGuid type=\"String\"><![CDATA[{scancam-scan-"
       << cells.size() << "-" << scan.rows << "x" << scan.cols << "}]]></associatedData3DGuid>\n"
@@ -201,8 +203,8 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
       << "</z></rotation><translation type=\"Structure\"><x type=\"Float\">"
       << XmlNumber(pose.translation.x()) << "</x><y type=\"Float\">"
       << XmlNumber(pose.translation.y()) << "</y><z type=\"Float\">"
-      << XmlNumber(pose.translation.z()) << "</z></translation></pose>\n      <"
-      << m.representation << "Representation type=\"Structure\">\n        <" << m.blob_type
+      << XmlNumber(pose.translation.z()) << "</z></translation></pose>\n      <" << m.representation
+      << "Representation type=\"Structure\">\n        <" << m.blob_type
       << "Image type=\"Blob\" fileOffset=\"" << PagedFile::ToPhysical(blob_logical[i])
       << "\" length=\"" << (*images)[i].bytes.size()
       << "\"/>\n        <imageWidth type=\"Integer\">" << m.width_px
@@ -216,7 +218,29 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
         << "</principalPointX><principalPointY type=\"Float\">" << XmlNumber(m.principal_y_px)
         << "</principalPointY>\n";
     }
-    x << "      </" << m.representation << "Representation>\n    </vectorChild>\n";
+    x << "      </" << m.representation << "Representation>\n";
+    if (m.representation == "pinhole" && m.has_leica_distortion) {  // Leica's extension
+      const E57LeicaDistortion& d = m.leica;
+      auto f = [&](const std::string& name, double v) {
+        x << "        <dist:" << name << " type=\"Float\">" << XmlNumber(v) << "</dist:" << name
+          << ">\n";
+      };
+      x << "      <dist:distortion type=\"Structure\">\n        <dist:CameraNumber "
+           "type=\"Integer\">"
+        << d.camera_number << "</dist:CameraNumber>\n        <dist:Type type=\"String\"><![CDATA["
+        << d.type << "]]></dist:Type>\n";
+      for (int k = 0; k < 6; ++k) f("CV_K" + std::to_string(k + 1), d.k[k]);
+      f("CV_P1", d.p[0]);
+      f("CV_P2", d.p[1]);
+      f("CV_CX", d.cx_px);
+      f("CV_CY", d.cy_px);
+      f("CV_FX", d.fx_px);
+      f("CV_FY", d.fy_px);
+      x << "        <dist:CV_HEIGHT type=\"Integer\">" << d.height_px
+        << "</dist:CV_HEIGHT>\n        <dist:CV_WIDTH type=\"Integer\">" << d.width_px
+        << "</dist:CV_WIDTH>\n      </dist:distortion>\n";
+    }
+    x << "    </vectorChild>\n";
   }
   x << "  </images2D>\n</e57Root>\n";
   const std::string xml = x.str();

@@ -68,10 +68,10 @@ struct E57ScanInfo {
 /// E57_LEICA_Camera_Distortion.txt): OpenCV's pinhole intrinsics and rational distortion, in
 /// an element whose name ends in ":distortion" (any namespace prefix). Empty numbers read as 0.
 struct E57LeicaDistortion {
-  long long camera_number = 0;  ///< CameraNumber (1..n in a multi-camera rig)
-  std::string type;             ///< Type ("OpenCV"; "" when empty)
-  double k[6] = {0, 0, 0, 0, 0, 0};  ///< CV_K1..CV_K6 (OpenCV's k1 k2 k3 k4 k5 k6)
-  double p[2] = {0, 0};              ///< CV_P1, CV_P2 (tangential)
+  long long camera_number = 0;                        ///< CameraNumber (1..n in a multi-camera rig)
+  std::string type;                                   ///< Type ("OpenCV"; "" when empty)
+  double k[6] = {0, 0, 0, 0, 0, 0};                   ///< CV_K1..CV_K6 (OpenCV's k1 k2 k3 k4 k5 k6)
+  double p[2] = {0, 0};                               ///< CV_P1, CV_P2 (tangential)
   double fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;  ///< CV_FX, CV_FY, CV_CX, CV_CY
   long long width_px = 0, height_px = 0;              ///< CV_WIDTH, CV_HEIGHT
   std::vector<std::string> unknown;  ///< other children's local names (not understood)
@@ -164,8 +164,10 @@ std::vector<std::uint8_t> ReadE57ImageBlob(const std::string& path, int image_in
 
 /// An image to write into an E57 file's images2D (WriteE57): `info`'s name, representation
 /// ("pinhole" or "spherical"), width/height, pixel sizes, focal length, principal point and
-/// pose are written (blob_type "jpeg" or "png" says which the bytes are); the image is
-/// associated with the file's scan.
+/// pose are written (blob_type "jpeg" or "png" says which the bytes are), and for a pinhole
+/// with has_leica_distortion, Leica's distortion extension (`leica`; prefix dist, namespace
+/// http://www.libe57.org/E57_LEICA_Camera_Distortion.txt); the image is associated with the
+/// file's scan.
 struct E57ImageToWrite {
   E57ImageInfo info;
   std::vector<std::uint8_t> bytes;
