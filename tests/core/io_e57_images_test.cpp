@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "scancam/camera/e57_camera.h"
@@ -230,6 +231,24 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
             0)
       << test::ReadFile(dir + "/stderr.txt");
   EXPECT_NE(test::ReadFile(dir + "/identity.ply"), a);
+
+  // calibrate --e57-image: camera and photo from the file, the solution compared with the
+  // file's own registration, which is the simulator's truth: the same error as with --truth.
+  for (const std::string& how : {std::string("e57"), std::string("truth")}) {
+    ASSERT_EQ(test::RunCli(dir, "calibrate --scan " + e57 + " --e57-image 0 --pairs " + sim +
+                                    "/pairs.csv --out " + dir + "/cal_" + how + ".json --quiet" +
+                                    (how == "truth" ? " --truth " + sim + "/ground_truth.json"
+                                                    : std::string())),
+              0)
+        << test::ReadFile(dir + "/stderr.txt");
+  }
+  const nlohmann::json ce = nlohmann::json::parse(test::ReadFile(dir + "/cal_e57.json"));
+  const nlohmann::json ct = nlohmann::json::parse(test::ReadFile(dir + "/cal_truth.json"));
+  EXPECT_NE(ce["error_vs_truth"]["truth"].get<std::string>().find("image 0"), std::string::npos);
+  EXPECT_NEAR(ce["error_vs_truth"]["rotation_deg"].get<double>(),
+              ct["error_vs_truth"]["rotation_deg"].get<double>(), 1e-9);
+  EXPECT_NEAR(ce["error_vs_truth"]["translation_m"].get<double>(),
+              ct["error_vs_truth"]["translation_m"].get<double>(), 1e-12);
 
   // The coloured PTX written by the CLI: the E57's grid, cell by cell, and the colours of the
   // library's colouring (grey where no image saw the point, 0 0 0 where no return).
