@@ -18,11 +18,6 @@ Eigen::Isometry3d PoseOf(const E57Pose& p) {
   return t;
 }
 
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
 }  // namespace
 
 Eigen::Matrix3d E57CameraToOpenCv(const std::string& representation) {
@@ -97,7 +92,11 @@ CameraModel E57ImageCamera(const std::string& path, const E57ImageInfo& im, int 
     double dist[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     if (im.has_leica_distortion) {
       const E57LeicaDistortion& d = im.leica;
-      if (!d.type.empty() && Lower(d.type) != "opencv") {
+      const bool opencv = d.type.size() == 6 &&
+                          std::equal(d.type.begin(), d.type.end(), "opencv", [](char a, char b) {
+                            return std::tolower(static_cast<unsigned char>(a)) == b;
+                          });
+      if (!d.type.empty() && !opencv) {
         fail("Leica distortion type '" + d.type +
              "' is not supported (only OpenCV's rational model, Type \"OpenCV\")");
       }
