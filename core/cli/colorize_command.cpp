@@ -238,6 +238,9 @@ int RunColorize(const Args& args) {
   std::vector<std::string> notes;
   if (from_e57) {
     // The scan file's images; T_cam_scan from the image's pose and the loaded scan's.
+    if (load.format != "e57" && !(load.format == "auto" && Ext(scan_path) == ".e57"))
+      throw Error("option --e57-image: the images are read from the --scan E57 file, but '" +
+                  scan_path + "' is not one (.e57 or --format e57)");
     const E57FileInfo info = ReadE57Info(scan_path);
     const int s = load.e57_scan_index;
     if (s < 0 || s >= static_cast<int>(info.scans.size()))

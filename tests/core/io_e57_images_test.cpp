@@ -152,6 +152,48 @@ TEST(E57Images, LeicaDistortionParametersAsInTheXml) {
   ExpectError([&] { E57ImageCamera(path, info.images[1], 1); }, {path, "image 1", "pixelWidth"});
 }
 
+// An image blob that is not what the XML says fails with the E57 file and the image named.
+TEST(E57Images, BadImageBlobsFailClearly) {
+  const std::string dir = test::TempDir();
+  OrderedScan scan = OrderedScan::Empty(2, 2);
+  for (int r = 0; r < 2; ++r)
+    for (int c = 0; c < 2; ++c) scan.set_point(r, c, Eigen::Vector3f(1.f + r, 0.1f * c, 2.f), 0.5f);
+  E57ImageToWrite im;
+  im.info.name = "bad";
+  im.info.representation = "pinhole";
+  im.info.blob_type = "png";
+  im.info.width_px = 8;
+  im.info.height_px = 8;
+  im.info.pixel_width_m = im.info.pixel_height_m = 1e-5;
+  im.info.focal_length_m = 1e-4;
+  im.info.principal_x_px = im.info.principal_y_px = 3.5;
+  const std::string garbage = "this is not a PNG file at all, only text";
+  im.bytes.assign(garbage.begin(), garbage.end());
+  const std::string a = dir + "/garbage.e57";
+  const std::vector<E57ImageToWrite> one = {im};
+  WriteE57(a, scan, nullptr, nullptr, {}, &one);
+  ExpectError([&] { colour::LoadE57View(a, 0, {}, false); }, {a, "image 0"});
+  // A real PNG of another size than the XML's 8 x 8.
+  std::vector<std::uint8_t> png;
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(6, 10, CV_8UC3, cv::Scalar(1, 2, 3)), png));
+  std::vector<E57ImageToWrite> other = {im};
+  other[0].bytes = png;
+  const std::string b = dir + "/other_size.e57";
+  WriteE57(b, scan, nullptr, nullptr, {}, &other);
+  ExpectError([&] { colour::LoadE57View(b, 0, {}, false); }, {b, "image 0", "10"});
+  // The same PNG at its size reads, and the CLI refuses --e57-image on a scan that is no E57.
+  other[0].bytes.clear();
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)), other[0].bytes));
+  WriteE57(b, scan, nullptr, nullptr, {}, &other);
+  EXPECT_EQ(colour::LoadE57View(b, 0, {}, false).image.at<cv::Vec3b>(4, 4), cv::Vec3b(1, 2, 3));
+  std::string out;
+  EXPECT_EQ(
+      test::RunCli(dir, "colorize --scan " + dir + "/x.ptx --e57-image 0 --out " + dir + "/o.ply",
+                   &out),
+      1);
+  EXPECT_NE(out.find("is not one"), std::string::npos) << out;
+}
+
 // A simulated scan and its pinhole photo (with distortion), written to one E57 file with the
 // photo in images2D: colouring with --e57-image gives the same colours as the separate camera,
 // image and pose files; the coloured PTX reads back with the same grid and colours.

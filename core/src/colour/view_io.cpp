@@ -1,6 +1,10 @@
 // Loading one camera view from its files (colour/view_io.h).
 #include "scancam/colour/view_io.h"
 
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
 #include "scancam/camera/camera_io.h"
@@ -88,26 +92,41 @@ ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Po
   } else {
     if (im.blob_type != "jpeg" && im.blob_type != "png")
       throw FileError(e57_path, where, "the image is neither JPEG nor PNG");
-    const std::vector<std::uint8_t> bytes = ReadE57ImageBlob(e57_path, image_index);
-    cv::Mat decoded;
+    // The blob through a temporary file, so that it gets every check an image file gets
+    // (ReadImage: size from the header before decoding, damaged PNG/JPEG data).
+    const std::string tmp =
+        (std::filesystem::temp_directory_path() /
+         ("scancam-e57-" + std::to_string(::getpid()) + "-" + std::to_string(image_index) + "." +
+          (im.blob_type == "png" ? "png" : "jpg")))
+            .string();
+    std::string problem;
     try {
-      decoded = cv::imdecode(bytes, cv::IMREAD_COLOR);
-    } catch (const cv::Exception&) {
-      decoded.release();
+      // A scratch file, not an output: written directly (an open OutputBatch would only stage
+      // an atomic write until the end of the run).
+      const std::vector<std::uint8_t> bytes = ReadE57ImageBlob(e57_path, image_index);
+      {
+        std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+        f.write(reinterpret_cast<const char*>(bytes.data()),
+                static_cast<std::streamsize>(bytes.size()));
+        if (!f) throw Error(tmp + ": cannot write a scratch copy of the E57 image");
+      }
+      v.image = ReadViewImage(tmp, v.camera);
+    } catch (const Error& e) {
+      problem = e.what();
     }
-    if (decoded.empty()) {
-      throw FileError(e57_path, where,
-                      "the " + im.blob_type + " blob (" + std::to_string(bytes.size()) +
-                          " bytes) does not decode as an image");
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    if (!problem.empty()) {
+      for (std::size_t at; (at = problem.find(tmp)) != std::string::npos;)
+        problem.replace(at, tmp.size(), e57_path + ":" + where + "'s " + im.blob_type + " blob");
+      throw Error(problem);
     }
-    if (decoded.cols != im.width_px || decoded.rows != im.height_px) {
+    if (v.image.cols != im.width_px || v.image.rows != im.height_px) {
       throw FileError(e57_path, where,
-                      "the decoded image is " + std::to_string(decoded.cols) + " x " +
-                          std::to_string(decoded.rows) + " px but the file says " +
+                      "the decoded image is " + std::to_string(v.image.cols) + " x " +
+                          std::to_string(v.image.rows) + " px but the file says " +
                           std::to_string(im.width_px) + " x " + std::to_string(im.height_px));
     }
-    CheckImageSize(v.camera, decoded.cols, decoded.rows, v.name);
-    v.image = decoded;
   }
   if (!overrides.calib.empty()) {
     v.T_cam_scan = LoadExtrinsic(overrides.calib);
