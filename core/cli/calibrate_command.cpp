@@ -15,6 +15,7 @@
 #include "scancam/colour/view_io.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
+#include "scancam/io/e57.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
 #include "scancam/output_file.h"
@@ -114,7 +115,10 @@ std::string ScenePath(const std::string& path, std::size_t k) {
 int RunCalibrate(const Args& args) {
   if (!args.positional().empty())
     throw Error("unexpected argument '" + args.positional()[0] + "' (see --help)");
-  const std::string camera_path = args.required("--camera");
+  // --e57-image N: camera and photo from image N of the (one) --scan E57 file; its own pose
+  // (the scanner's camera registration) is what the solution is compared with.
+  const bool from_e57 = args.has("--e57-image");
+  const std::string camera_path = from_e57 ? args.get("--camera") : args.required("--camera");
   args.required("--pairs");
   // Scenes: the k-th --pairs, --scan and --image belong to scene k.
   const std::vector<std::string> pairs_paths = args.all("--pairs");
@@ -157,17 +161,41 @@ int RunCalibrate(const Args& args) {
   for (const auto& p : scan_paths) inputs.push_back({"--scan", p});
   for (const auto& p : image_paths) inputs.push_back({"--image", p});
   CheckOutputs(outputs, inputs);
+  if (from_e57 && (scenes != 1 || scan_paths.size() != 1))
+    throw Error(
+        "--e57-image needs one scene: one --pairs and the --scan E57 file holding the image");
 
   // The first image's view (camera, image, valid region: a mask file wins, else the region
   // found from the camera and the image, if given); the other scenes' images share the camera.
   std::string region_how;
-  const colour::ColourView view = colour::LoadView(
-      {camera_path, image_paths.empty() ? std::string() : image_paths[0], "", args.get("--mask")},
-      ParseViewLoadOptions(args), &region_how);
+  const std::string first_image = image_paths.empty() ? std::string() : image_paths[0];
+  std::optional<Eigen::Isometry3d> e57_T_cam_scan;
+  std::string e57_label;
+  colour::ColourView view;
+  if (from_e57) {
+    const ScanLoadOptions load = ParseScanLoadOptions(args);
+    const E57FileInfo info = ReadE57Info(scan_paths[0]);
+    const int s = load.e57_scan_index;
+    if (s < 0 || s >= static_cast<int>(info.scans.size()))
+      throw FileError(scan_paths[0], "",
+                      "E57 scan " + std::to_string(s) + " asked for, but the file has " +
+                          std::to_string(info.scans.size()));
+    const int i = args.get_int("--e57-image", 0);
+    view =
+        colour::LoadE57View(scan_paths[0], i, info.scans[static_cast<std::size_t>(s)].pose,
+                            load.e57_apply_pose, {camera_path, first_image, "", args.get("--mask")},
+                            ParseViewLoadOptions(args), &region_how);
+    e57_T_cam_scan = view.T_cam_scan;
+    e57_label = scan_paths[0] + " image " + std::to_string(i) + " (the file's own registration)";
+  } else {
+    view = colour::LoadView({camera_path, first_image, "", args.get("--mask")},
+                            ParseViewLoadOptions(args), &region_how);
+  }
   const CameraModel& camera = view.camera;
   std::vector<cv::Mat> images;
   for (std::size_t k = 0; k < image_paths.size(); ++k)
     images.push_back(k == 0 ? view.image : colour::ReadViewImage(image_paths[k], camera));
+  if (from_e57 && images.empty()) images.push_back(view.image);
   const cv::Mat image = images.empty() ? cv::Mat() : images[0];
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");
@@ -236,16 +264,20 @@ int RunCalibrate(const Args& args) {
   if (args.has("--snap")) json_inputs["snapped"] = true;
   if (have_scan) json_inputs["scan"] = names(scan_paths);
   if (!image_paths.empty()) json_inputs["image"] = names(image_paths);
+  if (from_e57) json_inputs["e57_image"] = args.get_int("--e57-image", 0);
   nlohmann::json out = CalibrationToJson(cal, json_inputs);
-  if (args.has("--truth")) {
-    // Compare with a known answer (the simulator's ground_truth.json).
-    const Eigen::Isometry3d T_true = colour::LoadExtrinsic(args.get("--truth"));
+  if (args.has("--truth") || e57_T_cam_scan) {
+    // Compare with a known answer (the simulator's ground_truth.json, or the E57 file's own
+    // registration of the image).
+    const std::string truth_label = args.has("--truth") ? args.get("--truth") : e57_label;
+    const Eigen::Isometry3d T_true =
+        args.has("--truth") ? colour::LoadExtrinsic(args.get("--truth")) : *e57_T_cam_scan;
     const double rot_deg =
         Eigen::AngleAxisd(T_true.linear().transpose() * cal.T_cam_scan.linear()).angle() * 180.0 /
         M_PI;
     const double t_m = (T_true.translation() - cal.T_cam_scan.translation()).norm();
     out["error_vs_truth"] = {
-        {"rotation_deg", rot_deg}, {"translation_m", t_m}, {"truth", args.get("--truth")}};
+        {"rotation_deg", rot_deg}, {"translation_m", t_m}, {"truth", truth_label}};
     // Is the error what the reported uncertainty allows? Mahalanobis distance of (rotation
     // vector, t) under the 6x6 covariance (R_true = exp(delta) R_est, calibrate.h).
     std::string verdict;
@@ -281,7 +313,7 @@ int RunCalibrate(const Args& args) {
       verdict += m.str();
     }
     if (!quiet)
-      std::cout << "against " << args.get("--truth") << ": rotation error " << rot_deg
+      std::cout << "against " << truth_label << ": rotation error " << rot_deg
                 << " deg, translation error " << t_m << " m" << verdict << "\n";
   }
   WriteJsonFile(out_path, out);
@@ -338,7 +370,7 @@ Command MakeCalibrateCommand() {
           {"--camera", "FILE",
            "Camera file: OCamCalib calib_results.txt, OpenCV YAML/JSON, Kalibr camchain, ROS "
            "camera_info, OpenCalib JSON, KITTI calib.txt (camera 2; its image size from --image). "
-           "Required."},
+           "Required (unless --e57-image)."},
           {"--pairs", "FILE",
            "Pairs CSV. Required. Repeat for several scenes of one rig (the k-th --pairs, "
            "--scan and --image are scene k).",
@@ -396,6 +428,10 @@ Command MakeCalibrateCommand() {
            "pair's shifts. The pairs file is not changed."},
           {"--snap-out", "FILE",
            "With --snap: write the snapped pairs to this new pairs file (never the input)."},
+          {"--e57-image", "N",
+           "Camera and photo from image N (0-based) of the --scan E57 file (one scene; "
+           "--camera/--image given as well win); the solution is compared with the file's own "
+           "registration of the image (as --truth; --truth wins)."},
           {"--truth", "FILE",
            "The true T_cam_scan: a JSON with \"T_cam_scan\" (e.g. the simulator's "
            "ground_truth.json), an OpenCalib extrinsic or a KITTI calib.txt: print and store the "

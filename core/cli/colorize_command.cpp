@@ -3,6 +3,7 @@
 // whether the calibration is right (paper Fig. 8).
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
@@ -110,11 +111,24 @@ int RunColorize(const Args& args) {
     throw Error("unexpected argument '" + args.positional()[0] + "' (the scan is --scan SCAN)");
   const bool quiet = args.has("--quiet");
   const std::string scan_path = args.required("--scan");
-  const std::vector<std::string> images = args.all("--image");
-  if (images.empty()) throw Error("missing required option --image (see --help)");
-  const std::size_t n = images.size();
-  const auto cameras = PerImageValues(args, "--camera", n, true);
-  const auto calibs = PerImageValues(args, "--calib", n, true);
+  // --e57-image N (repeatable): the views are the scan file's own images; --image, --camera
+  // and --calib (once for all or once per --e57-image) replace the file's photo, camera, pose.
+  std::vector<int> e57_images;
+  for (const std::string& v : args.all("--e57-image")) {
+    char* end = nullptr;
+    const long k = std::strtol(v.c_str(), &end, 10);
+    if (v.empty() || *end != '\0' || k < 0 || k > 1000000)
+      throw Error("option --e57-image: '" + v + "' is not an image index (0, 1, ...)");
+    e57_images.push_back(static_cast<int>(k));
+  }
+  const bool from_e57 = !e57_images.empty();
+  std::vector<std::string> images = args.all("--image");
+  if (!from_e57 && images.empty())
+    throw Error("missing required option --image (or --e57-image; see --help)");
+  const std::size_t n = from_e57 ? e57_images.size() : images.size();
+  if (from_e57) images = PerImageValues(args, "--image", n, false);
+  const auto cameras = PerImageValues(args, "--camera", n, !from_e57);
+  const auto calibs = PerImageValues(args, "--calib", n, !from_e57);
   const auto masks = PerImageValues(args, "--mask", n, false);
 
   const std::string out_ply = args.get("--out");
@@ -130,8 +144,9 @@ int RunColorize(const Args& args) {
     throw Error(
         "nothing to write: give --out, --pcd, --e57, --mesh, --overlay, --edge-overlay, "
         "--grid-image or --valid-region-out (see --help)");
-  if (!out_ply.empty() && Ext(out_ply) != ".ply")
-    throw Error("option --out: '" + out_ply + "' must end in .ply (use --pcd for PCD)");
+  if (!out_ply.empty() && Ext(out_ply) != ".ply" && Ext(out_ply) != ".ptx")
+    throw Error("option --out: '" + out_ply +
+                "' must end in .ply or .ptx (use --pcd for PCD, --e57 for E57)");
   if (!out_pcd.empty() && Ext(out_pcd) != ".pcd")
     throw Error("option --pcd: '" + out_pcd + "' must end in .pcd");
   if (!out_e57.empty() && Ext(out_e57) != ".e57")
@@ -219,13 +234,42 @@ int RunColorize(const Args& args) {
   std::vector<ColourView> views(n);
   std::vector<std::string> region_how(n);
   const ViewLoadOptions view_options = ParseViewLoadOptions(args);
-  for (std::size_t k = 0; k < n; ++k) {
-    // A mask file wins; else the valid region found from the camera and the image.
-    views[k] = LoadView({cameras[k], images[k], calibs[k], masks[k]}, view_options, &region_how[k]);
+  const ScanLoadOptions load = ParseScanLoadOptions(args);
+  std::vector<std::string> notes;
+  if (from_e57) {
+    // The scan file's images; T_cam_scan from the image's pose and the loaded scan's.
+    if (load.format != "e57" && !(load.format == "auto" && Ext(scan_path) == ".e57"))
+      throw Error("option --e57-image: the images are read from the --scan E57 file, but '" +
+                  scan_path + "' is not one (.e57 or --format e57)");
+    const E57FileInfo info = ReadE57Info(scan_path);
+    const int s = load.e57_scan_index;
+    if (s < 0 || s >= static_cast<int>(info.scans.size()))
+      throw FileError(scan_path, "",
+                      "E57 scan " + std::to_string(s) + " asked for, but the file has " +
+                          std::to_string(info.scans.size()));
+    for (std::size_t k = 0; k < n; ++k) {
+      const int i = e57_images[k];
+      views[k] = LoadE57View(scan_path, i, info.scans[static_cast<std::size_t>(s)].pose,
+                             load.e57_apply_pose, {cameras[k], images[k], calibs[k], masks[k]},
+                             view_options, &region_how[k]);
+      images[k] = views[k].name;
+      const int assoc = info.images[static_cast<std::size_t>(i)].associated_scan;
+      if (assoc >= 0 && assoc != s) {
+        notes.push_back("E57 image " + std::to_string(i) + " belongs to scan " +
+                        std::to_string(assoc) + ", used with scan " + std::to_string(s) +
+                        " through the two scans' poses");
+      }
+    }
+  } else {
+    for (std::size_t k = 0; k < n; ++k) {
+      // A mask file wins; else the valid region found from the camera and the image.
+      views[k] =
+          LoadView({cameras[k], images[k], calibs[k], masks[k]}, view_options, &region_how[k]);
+    }
   }
   // The scan after the views: a bad camera, image, mask or pose file fails before a long scan
   // import.
-  const OrderedScan scan = LoadScan(scan_path, ParseScanLoadOptions(args), progress);
+  const OrderedScan scan = LoadScan(scan_path, load, progress);
   std::vector<std::string> written;
   if (!region_out.empty()) {
     for (std::size_t k = 0; k < n; ++k) {
@@ -237,7 +281,10 @@ int RunColorize(const Args& args) {
 
   const ColouredScan coloured = Colourise(scan, views, co, progress);
   if (!out_ply.empty()) {
-    WriteColouredPly(out_ply, scan, coloured, eo);
+    if (Ext(out_ply) == ".ptx")
+      WriteColouredPtx(out_ply, scan, coloured, eo);
+    else
+      WriteColouredPly(out_ply, scan, coloured, eo);
     written.push_back(out_ply);
   }
   if (!out_pcd.empty()) {
@@ -293,6 +340,7 @@ int RunColorize(const Args& args) {
   }
 
   for (const auto& w : coloured.warnings) std::cerr << "scancam colorize: warning: " << w << "\n";
+  for (const auto& w : notes) std::cerr << "scancam colorize: note: " << w << "\n";
   if (!quiet) {
     std::ostringstream o;
     o << "scan:   " << scan_path << " (" << scan.rows << " x " << scan.cols << " cells, "
@@ -336,7 +384,8 @@ Command MakeColorizeCommand() {
       "textured OBJ/GLB, overlays";
   c.usage =
       "scancam colorize --scan SCAN --image IMG --camera CAM --calib CALIB [--image IMG2 ...] "
-      "--out coloured.ply [options]";
+      "--out coloured.ply [options]\n"
+      "       scancam colorize --scan SCAN.e57 --e57-image N --out coloured.ply [options]";
   c.description =
       "Projects every valid scan point into the image(s) with CALIB's T_cam_scan (X_cam =\n"
       "R X_scan + t) and the camera model, and gives it the image's colour there (bilinear,\n"
@@ -349,6 +398,11 @@ Command MakeColorizeCommand() {
       "--camera/--calib/--mask for all or one per image); each point takes the colour of the\n"
       "image that sees it best (most image pixels per metre of surface), or a weighted mean\n"
       "(--blend weighted).\n"
+      "\n"
+      "E57 images: with --e57-image N the scan file's own photo N is the view: its camera\n"
+      "model from the image's representation (pinhole, with Leica's distortion; spherical as\n"
+      "an equirectangular panorama), T_cam_scan from the image's pose and the scan's\n"
+      "(camera/e57_camera.h). Cylindrical and visual-reference images are refused.\n"
       "\n"
       "Valid region: without --mask, the pixels that show the scene are found from the camera\n"
       "and the image (camera/valid_region.h): the model's own domain, the near-black border\n"
@@ -365,6 +419,10 @@ Command MakeColorizeCommand() {
       "  --out X.ply         binary PLY: x y z, red green blue, scalar_scancam_state (1 out of\n"
       "                      view, 2 occluded, 3 coloured), scalar_quality (image px per metre\n"
       "                      of surface); CloudCompare loads both as scalar fields\n"
+      "  --out X.ptx         PTX with RGB: the whole grid (PTX columns = scan rows), x y z\n"
+      "                      intensity r g b per cell, no-return cells 0 0 0 0 0 0 0; PTX has\n"
+      "                      no 'no colour': unseen points get --uncoloured-rgb (or become\n"
+      "                      0 0 0 cells with --drop-uncoloured)\n"
       "  --pcd X.pcd         organised PCD (PointXYZRGB, scan rows x cols, NaN = no return)\n"
       "  --e57 X.e57         E57: valid points with their row/column indices, intensity and\n"
       "                      colour (isColorInvalid where no image saw the point)\n"
@@ -387,7 +445,8 @@ Command MakeColorizeCommand() {
   c.options = Concat(
       {
           {"--scan", "SCAN", "The scan (.txt/.rot rotating, .ptx, .pcd, .rawlog, .e57). Required."},
-          {"--image", "IMG", "A camera image (8-bit; read as BGR). Required; repeatable.", true},
+          {"--image", "IMG",
+           "A camera image (8-bit; read as BGR). Required (unless --e57-image); repeatable.", true},
           {"--camera", "CAM",
            "Camera file (OpenCV YAML/JSON, OCamCalib calib_results.txt, Kalibr, ROS, OpenCalib, "
            "KITTI calib.txt: camera 2, its size from the image). "
@@ -402,7 +461,13 @@ Command MakeColorizeCommand() {
            "Mask image (0 = unusable pixel, e.g. outside a mirror). Once or per image. Without "
            "it the valid region is found automatically (see --no-auto-mask).",
            true},
-          {"--out", "X.ply", "Coloured cloud, binary PLY."},
+          {"--e57-image", "N",
+           "Colour from image N (0-based) of the --scan E57 file: its camera, photo and pose "
+           "(with the scan's pose); --image/--camera/--calib given as well replace them. "
+           "Repeatable. `scancam e57-info FILE` lists the images.",
+           true},
+          {"--out", "X.ply|X.ptx",
+           "Coloured cloud: binary PLY, or PTX with RGB (by the extension)."},
           {"--pcd", "X.pcd", "Coloured organised cloud, PCD (pcl::PointXYZRGB)."},
           {"--e57", "X.e57", "Coloured scan, ASTM E57 (grid indices kept)."},
           {"--mesh", "X.glb|X.obj", "Textured mesh; repeatable (e.g. both formats).", true},

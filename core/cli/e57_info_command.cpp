@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "command.h"
+#include "scancam/camera/e57_camera.h"
 #include "scancam/error.h"
 #include "scancam/io/e57.h"
 #include "scancam/output_file.h"
@@ -83,6 +84,21 @@ int RunE57Info(const Args& args) {
     if (m.has_leica_distortion) o << ", Leica distortion parameters";
     if (m.associated_scan >= 0) o << ", of scan " << m.associated_scan;
     o << "\n    pose: " << PoseText(m.pose) << "\n";
+    if (m.has_leica_distortion) {
+      const E57LeicaDistortion& d = m.leica;
+      o << "    Leica distortion: type '" << d.type << "', camera " << d.camera_number
+        << ", fx fy cx cy = " << d.fx_px << " " << d.fy_px << " " << d.cx_px << " " << d.cy_px
+        << " px, k1..k6 = " << d.k[0] << " " << d.k[1] << " " << d.k[2] << " " << d.k[3] << " "
+        << d.k[4] << " " << d.k[5] << ", p1 p2 = " << d.p[0] << " " << d.p[1] << ", " << d.width_px
+        << " x " << d.height_px << " px\n";
+    }
+    // As a camera (colorize --e57-image): the model, or why not.
+    try {
+      const CameraModel cam = E57ImageCamera(path, m, static_cast<int>(k));
+      o << "    camera: " << cam.Describe() << " (colorize --e57-image " << k << ")\n";
+    } catch (const Error& e) {
+      o << "    camera: none: " << e.what() << "\n";
+    }
   }
   std::cout << o.str();
   if (args.has("--check")) {
@@ -110,8 +126,10 @@ Command MakeE57InfoCommand() {
   c.usage = "scancam e57-info FILE.e57 [--check] [--extract-image N --out IMAGE]";
   c.description =
       "Prints the E57 file's version, its scans (points, coordinates, fields, grid, pose) and "
-      "its images (representation, size, blob type, pose). Every page's CRC on the way is "
-      "checked. With --extract-image, writes image N's JPEG or PNG blob as it is in the file.";
+      "its images (representation, size, blob type, pose, Leica distortion, and the camera "
+      "model `colorize --e57-image N` uses, or why the image cannot be one). Every page's CRC "
+      "on the way is checked. With --extract-image, writes image N's JPEG or PNG blob as it is in "
+      "the file.";
   c.options = {
       {"--check", "",
        "Also decode every record of every scan and print the counts and the read speed."},

@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "scancam/error.h"
+#include "scancam/io/ptx.h"
 #include "scancam/output_file.h"
 #include "scancam/scan/continuity.h"
 
@@ -120,6 +121,36 @@ void WriteColouredPly(const std::string& path, const OrderedScan& scan,
   }
   f.write(buf.data(), static_cast<std::streamsize>(buf.size()));
   Finish(f, path);
+}
+
+void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
+                      const ColouredScan& coloured, const ExportOptions& options) {
+  CheckSizes(scan, coloured, path);
+  PtxScan ptx;
+  if (scan.origin_m == Eigen::Vector3d::Zero()) {
+    ptx = PtxFromOrderedScan(scan);
+  } else {  // points in a registered frame: the scanner frame in the file, the pose in the header
+    OrderedScan local = scan;
+    for (std::size_t i = 0; i < local.size(); ++i)
+      if (local.valid(i)) local.point_m[i] -= scan.origin_m.cast<float>();
+    local.origin_m.setZero();
+    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+    pose.block<3, 1>(0, 3) = scan.origin_m;
+    ptx = PtxFromOrderedScan(local, pose);
+  }
+  ptx.rgb.assign(ptx.size(), {0, 0, 0});
+  for (std::size_t i = 0; i < scan.size(); ++i) {  // PTX file order = the grid's index
+    if (!scan.valid(i)) continue;
+    const bool col = coloured.state[i] == PointState::kColoured;
+    if (options.drop_uncoloured && !col) {
+      ptx.xyz[i] = Eigen::Vector3f::Zero();
+      ptx.intensity[i] = 0.f;
+      continue;
+    }
+    const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
+    ptx.rgb[i] = {c.r, c.g, c.b};
+  }
+  WritePtx(path, {ptx});
 }
 
 void WriteColouredPcd(const std::string& path, const OrderedScan& scan,

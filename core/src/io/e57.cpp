@@ -255,9 +255,17 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options,
   return scan;
 }
 
-std::string ExtractE57Image(const std::string& path, int image_index, const std::string& out_path) {
-  PagedFile file(path);
+namespace {
+
+// The blob section of image `image_index`: its first data byte (logical) and length, checked.
+struct BlobPlace {
+  E57ImageInfo info;
+  std::uint64_t data_logical = 0;
+};
+
+BlobPlace FindBlob(PagedFile& file, int image_index) {
   const ParsedFile pf = Parse(file);
+  const std::string& path = file.path();
   const int n = static_cast<int>(pf.info.images.size());
   if (image_index < 0 || image_index >= n) {
     throw FileError(path, "",
@@ -265,6 +273,12 @@ std::string ExtractE57Image(const std::string& path, int image_index, const std:
                         std::to_string(n) + " image" + (n == 1 ? "" : "s"));
   }
   const E57ImageInfo& im = pf.info.images[static_cast<std::size_t>(image_index)];
+  if (im.representation.empty()) {
+    throw FileError(path, "",
+                    "E57 image " + std::to_string(image_index) +
+                        " has no representation (no pinhole, spherical, cylindrical or "
+                        "visualReference element): no image data");
+  }
   const std::string what = "image " + std::to_string(image_index) + "'s blob";
   const std::uint64_t start = file.ToLogical(im.blob_offset, what);
   std::uint8_t head[16];
@@ -277,6 +291,25 @@ std::string ExtractE57Image(const std::string& path, int image_index, const std:
                         " bytes (section id " + std::to_string(head[0]) + ", length " +
                         std::to_string(length) + ")");
   }
+  return {im, start + 16};
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> ReadE57ImageBlob(const std::string& path, int image_index) {
+  PagedFile file(path);
+  const BlobPlace b = FindBlob(file, image_index);
+  std::vector<std::uint8_t> bytes(static_cast<std::size_t>(b.info.blob_length));
+  const std::string what = "image " + std::to_string(image_index) + "'s blob";
+  if (!bytes.empty()) file.Read(b.data_logical, bytes.data(), bytes.size(), what.c_str());
+  return bytes;
+}
+
+std::string ExtractE57Image(const std::string& path, int image_index, const std::string& out_path) {
+  PagedFile file(path);
+  const BlobPlace b = FindBlob(file, image_index);
+  const E57ImageInfo& im = b.info;
+  const std::string what = "image " + std::to_string(image_index) + "'s blob";
   WriteFileAtomically(out_path, [&](const std::string& tmp) {
     std::FILE* f = std::fopen(tmp.c_str(), "wb");
     if (!f) throw FileError(out_path, "", "cannot open the file for writing");
@@ -286,7 +319,7 @@ std::string ExtractE57Image(const std::string& path, int image_index, const std:
       for (std::uint64_t done = 0; done < im.blob_length;) {
         const std::size_t take =
             static_cast<std::size_t>(std::min<std::uint64_t>(buf.size(), im.blob_length - done));
-        file.Read(start + 16 + done, buf.data(), take, what.c_str());
+        file.Read(b.data_logical + done, buf.data(), take, what.c_str());
         ok = ok && std::fwrite(buf.data(), 1, take, f) == take;
         done += take;
       }

@@ -53,7 +53,8 @@ std::string XmlNumber(double v) {
 
 void WriteE57(const std::string& path, const OrderedScan& scan,
               const std::vector<std::array<std::uint8_t, 3>>* rgb,
-              const std::vector<std::uint8_t>* coloured, const Progress& progress) {
+              const std::vector<std::uint8_t>* coloured, const Progress& progress,
+              const std::vector<E57ImageToWrite>* images) {
   CheckScan(scan, scan.source.empty() ? std::string("scan") : scan.source);
   if ((rgb && rgb->size() != scan.size()) || (coloured && coloured->size() != scan.size())) {
     throw FileError(path, "", "colours do not match the scan's grid");
@@ -95,14 +96,31 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
   for (std::size_t done = 0; done < cells.size(); done += kPerPacket)
     data_bytes += packet_bytes(std::min(kPerPacket, cells.size() - done));
   const std::uint64_t section_logical = 48, section_length = 32 + data_bytes;
-  const std::uint64_t xml_logical = section_logical + section_length;
+  // Image blobs after the points: a 16-byte section header, the bytes, zeros up to 4 bytes.
+  std::vector<std::uint64_t> blob_logical;
+  std::uint64_t blobs_end = section_logical + section_length;
+  if (images) {
+    for (const E57ImageToWrite& im : *images) {
+      const std::string& rep = im.info.representation;
+      if ((rep != "pinhole" && rep != "spherical") ||
+          (im.info.blob_type != "jpeg" && im.info.blob_type != "png") || im.bytes.empty()) {
+        throw FileError(
+            path, "",
+            "image '" + im.info.name + "': only pinhole or spherical JPEG/PNG images are written");
+      }
+      blob_logical.push_back(blobs_end);
+      blobs_end += (16 + im.bytes.size() + 3) / 4 * 4;
+    }
+  }
+  const std::uint64_t xml_logical = blobs_end;
 
   if (!(imin <= imax)) imin = imax = 0.0;
   const bool unit = imin >= 0.0 && imax <= 1.0;
   std::ostringstream x;
   x.precision(17);
   x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-       "<e57Root type=\"Structure\" xmlns=\"http://www.astm.org/COMMIT/E57/2010-e57-v1.0\">\n"
+       "<e57Root type=\"Structure\" xmlns=\"http://www.astm.org/COMMIT/E57/2010-e57-v1.0\"\n"
+       "         xmlns:dist=\"http://www.libe57.org/E57_LEICA_Camera_Distortion.txt\">\n"
        "  <formatName type=\"String\"><![CDATA[ASTM E57 3D Imaging Data File]]></formatName>\n"
        "  <guid type=\"String\"><![CDATA[{scancam-file-"
     << cells.size() << "-" << scan.rows << "x" << scan.cols
@@ -169,7 +187,62 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
     << "\"/>\n        </prototype>\n"
        "        <codecs type=\"Vector\" allowHeterogeneousChildren=\"1\"/>\n"
        "      </points>\n    </vectorChild>\n  </data3D>\n"
-       "  <images2D type=\"Vector\" allowHeterogeneousChildren=\"1\"/>\n</e57Root>\n";
+       "  <images2D type=\"Vector\" allowHeterogeneousChildren=\"1\">\n";
+  for (std::size_t i = 0; images && i < images->size(); ++i) {
+    const E57ImageInfo& m = (*images)[i].info;
+    const E57Pose& pose = m.pose;
+    x << "    <vectorChild type=\"Structure\">\n      <guid "
+         "type=\"String\"><![CDATA[{scancam-image-"
+      << i << "}]]></guid>\n      <name type=\"String\"><![CDATA[" << m.name
+      << "]]></name>\n      <associatedData3DGuid type=\"String\"><![CDATA[{scancam-scan-"
+      << cells.size() << "-" << scan.rows << "x" << scan.cols << "}]]></associatedData3DGuid>\n"
+      << "      <pose type=\"Structure\"><rotation type=\"Structure\"><w type=\"Float\">"
+      << XmlNumber(pose.rotation.w()) << "</w><x type=\"Float\">" << XmlNumber(pose.rotation.x())
+      << "</x><y type=\"Float\">" << XmlNumber(pose.rotation.y()) << "</y><z type=\"Float\">"
+      << XmlNumber(pose.rotation.z())
+      << "</z></rotation><translation type=\"Structure\"><x type=\"Float\">"
+      << XmlNumber(pose.translation.x()) << "</x><y type=\"Float\">"
+      << XmlNumber(pose.translation.y()) << "</y><z type=\"Float\">"
+      << XmlNumber(pose.translation.z()) << "</z></translation></pose>\n      <" << m.representation
+      << "Representation type=\"Structure\">\n        <" << m.blob_type
+      << "Image type=\"Blob\" fileOffset=\"" << PagedFile::ToPhysical(blob_logical[i])
+      << "\" length=\"" << (*images)[i].bytes.size()
+      << "\"/>\n        <imageWidth type=\"Integer\">" << m.width_px
+      << "</imageWidth><imageHeight type=\"Integer\">" << m.height_px
+      << "</imageHeight>\n        <pixelWidth type=\"Float\">" << XmlNumber(m.pixel_width_m)
+      << "</pixelWidth><pixelHeight type=\"Float\">" << XmlNumber(m.pixel_height_m)
+      << "</pixelHeight>\n";
+    if (m.representation == "pinhole") {
+      x << "        <focalLength type=\"Float\">" << XmlNumber(m.focal_length_m)
+        << "</focalLength><principalPointX type=\"Float\">" << XmlNumber(m.principal_x_px)
+        << "</principalPointX><principalPointY type=\"Float\">" << XmlNumber(m.principal_y_px)
+        << "</principalPointY>\n";
+    }
+    x << "      </" << m.representation << "Representation>\n";
+    if (m.representation == "pinhole" && m.has_leica_distortion) {  // Leica's extension
+      const E57LeicaDistortion& d = m.leica;
+      auto f = [&](const std::string& name, double v) {
+        x << "        <dist:" << name << " type=\"Float\">" << XmlNumber(v) << "</dist:" << name
+          << ">\n";
+      };
+      x << "      <dist:distortion type=\"Structure\">\n        <dist:CameraNumber "
+           "type=\"Integer\">"
+        << d.camera_number << "</dist:CameraNumber>\n        <dist:Type type=\"String\"><![CDATA["
+        << d.type << "]]></dist:Type>\n";
+      for (int k = 0; k < 6; ++k) f("CV_K" + std::to_string(k + 1), d.k[k]);
+      f("CV_P1", d.p[0]);
+      f("CV_P2", d.p[1]);
+      f("CV_CX", d.cx_px);
+      f("CV_CY", d.cy_px);
+      f("CV_FX", d.fx_px);
+      f("CV_FY", d.fy_px);
+      x << "        <dist:CV_HEIGHT type=\"Integer\">" << d.height_px
+        << "</dist:CV_HEIGHT>\n        <dist:CV_WIDTH type=\"Integer\">" << d.width_px
+        << "</dist:CV_WIDTH>\n      </dist:distortion>\n";
+    }
+    x << "    </vectorChild>\n";
+  }
+  x << "  </images2D>\n</e57Root>\n";
   const std::string xml = x.str();
   const std::uint64_t total_logical = xml_logical + xml.size();
   const std::uint64_t pages = (total_logical + kPageData - 1) / kPageData;
@@ -249,6 +322,17 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
       w.Write(packet.data(), packet.size());
       if ((done / kPerPacket) % 64 == 0)
         progress(double(done) / double(cells.size()), "writing E57");
+    }
+    for (std::size_t i = 0; images && i < images->size(); ++i) {
+      const std::vector<std::uint8_t>& bytes = (*images)[i].bytes;
+      if (w.logical() != blob_logical[i]) throw Error("E57 writer: blob offset mismatch (a bug)");
+      std::vector<std::uint8_t> bh;
+      PutLe(bh, 0, 8);  // section id 0 (blob) and 7 reserved bytes
+      PutLe(bh, (16 + bytes.size() + 3) / 4 * 4, 8);
+      w.Write(bh.data(), bh.size());
+      w.Write(bytes.data(), bytes.size());
+      const std::uint8_t zeros[4] = {0, 0, 0, 0};
+      w.Write(zeros, (4 - (16 + bytes.size()) % 4) % 4);
     }
     if (w.logical() != xml_logical) throw Error("E57 writer: section size mismatch (a bug)");
     w.WriteString(xml);

@@ -185,6 +185,49 @@ void ReadPrototype(const Xml& xml, const pugi::xml_node& node, const std::string
   }
 }
 
+// Leica's distortion extension: children named PREFIX:CameraNumber, PREFIX:Type, PREFIX:CV_*.
+void ReadLeicaDistortion(const Xml& xml, const pugi::xml_node& node, E57LeicaDistortion& d) {
+  for (pugi::xml_node c = node.first_child(); c; c = c.next_sibling()) {
+    if (c.type() != pugi::node_element) continue;
+    std::string n = c.name();
+    const std::size_t colon = n.find(':');
+    if (colon != std::string::npos) n = n.substr(colon + 1);
+    double* target = nullptr;
+    if (n == "Type") {
+      d.type = c.text().get();
+      continue;
+    }
+    if (n == "CameraNumber") {
+      d.camera_number = static_cast<long long>(xml.Number(c));
+      continue;
+    }
+    if (n == "CV_WIDTH" || n == "CV_HEIGHT") {
+      const double v = xml.Number(c);
+      if (v < 0 || v > 1e9) xml.Fail(c, "expected an image size in pixels");
+      (n == "CV_WIDTH" ? d.width_px : d.height_px) = static_cast<long long>(v);
+      continue;
+    }
+    if (n.size() == 5 && n.compare(0, 4, "CV_K") == 0 && n[4] >= '1' && n[4] <= '6') {
+      target = &d.k[n[4] - '1'];
+    } else if (n == "CV_P1" || n == "CV_P2") {
+      target = &d.p[n[4] - '1'];
+    } else if (n == "CV_FX") {
+      target = &d.fx_px;
+    } else if (n == "CV_FY") {
+      target = &d.fy_px;
+    } else if (n == "CV_CX") {
+      target = &d.cx_px;
+    } else if (n == "CV_CY") {
+      target = &d.cy_px;
+    }
+    if (!target) {
+      d.unknown.push_back(n);
+      continue;
+    }
+    *target = xml.Number(c);
+  }
+}
+
 bool Has(const std::vector<Field>& f, const char* name) {
   return std::any_of(f.begin(), f.end(), [&](const Field& x) { return x.name == name; });
 }
@@ -320,8 +363,10 @@ ParsedFile Parse(PagedFile& file) {
     }
     for (pugi::xml_node c = m.first_child(); c; c = c.next_sibling()) {
       const std::string n = c.name();
-      if (n.size() > 11 && n.compare(n.size() - 11, 11, ":distortion") == 0)
+      if (n.size() > 11 && n.compare(n.size() - 11, 11, ":distortion") == 0) {
         im.has_leica_distortion = true;
+        ReadLeicaDistortion(xml, c, im.leica);
+      }
     }
     pf.info.images.push_back(im);
   }

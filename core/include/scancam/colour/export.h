@@ -14,6 +14,13 @@
 //     with drop_uncoloured. The "scalar_" prefix is CloudCompare's own convention: it loads
 //     them as the scalar fields "scancam_state" and "quality" without asking (also with
 //     -SILENT; tests/plugin/cc_opens_exports_test.sh).
+//   PTX (WriteColouredPtx): the whole grid as one PTX scan with RGB (io/ptx.h's grid
+//     convention: PTX columns = scan rows), header pose identity (a scan whose origin_m is not
+//     0: the translation to it, points relative to it), x y z intensity r g b per
+//     cell (intensity 0 when the scan has none); no-return cells are "0 0 0 0 0 0 0" as PTX
+//     writes them. PTX cannot say "no colour": valid points without one get uncoloured_rgb,
+//     or become 0 0 0 cells with drop_uncoloured (PLY's state field and E57's isColorInvalid
+//     keep the difference).
 //   PCD (WriteColouredPcd): organised pcl::PointXYZRGB, height = scan rows, width = scan
 //     columns (cell (r, c) at row r, column c), binary, is_dense = false; cells without a
 //     return (and uncoloured cells with drop_uncoloured) have NaN x, y, z.
@@ -83,6 +90,10 @@ struct ExportOptions {
 
 /// Writes the coloured cloud as binary little-endian PLY (see the file comment).
 void WriteColouredPly(const std::string& path, const OrderedScan& scan,
+                      const ColouredScan& coloured, const ExportOptions& options = {});
+
+/// Writes the coloured scan as PTX with RGB (see the file comment), atomically.
+void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
                       const ColouredScan& coloured, const ExportOptions& options = {});
 
 /// Writes the coloured cloud as an organised binary PCD of pcl::PointXYZRGB.

@@ -21,6 +21,7 @@
 
 #include "scancam/camera/camera_model.h"
 #include "scancam/colour/colourise.h"
+#include "scancam/io/e57.h"
 
 namespace scancam::colour {
 
@@ -60,5 +61,16 @@ cv::Mat ChooseViewRegion(const CameraModel& camera, const cv::Mat& image,
 /// With an image, the result passes CheckView. *region_how as ChooseViewRegion's `how`.
 ColourView LoadView(const ViewPaths& paths, const ViewLoadOptions& options = {},
                     std::string* region_how = nullptr);
+
+/// A view from image `image_index` of an E57 file (camera/e57_camera.h): camera from its
+/// representation, image decoded from its blob (8-bit BGR, its size checked against the
+/// camera), T_cam_scan from its pose and `scan_pose` (the pose of the scan the view is used
+/// with; `scan_pose_applied`: that scan's points are already in the file frame). Non-empty
+/// `overrides` win: overrides.camera / .image / .calib replace the file's camera, photo and
+/// pose; .mask as in LoadView. name = "FILE image N". Throws scancam::Error naming the file and
+/// the image (a visual-reference or cylindrical image cannot be a camera).
+ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Pose& scan_pose,
+                       bool scan_pose_applied, const ViewPaths& overrides = {},
+                       const ViewLoadOptions& options = {}, std::string* region_how = nullptr);
 
 }  // namespace scancam::colour

@@ -64,6 +64,19 @@ struct E57ScanInfo {
   E57Pose pose;                                     ///< scan frame -> file frame
 };
 
+/// Leica's camera-distortion extension of a pinhole image (libe57.org
+/// E57_LEICA_Camera_Distortion.txt): OpenCV's pinhole intrinsics and rational distortion, in
+/// an element whose name ends in ":distortion" (any namespace prefix). Empty numbers read as 0.
+struct E57LeicaDistortion {
+  long long camera_number = 0;                        ///< CameraNumber (1..n in a multi-camera rig)
+  std::string type;                                   ///< Type ("OpenCV"; "" when empty)
+  double k[6] = {0, 0, 0, 0, 0, 0};                   ///< CV_K1..CV_K6 (OpenCV's k1 k2 k3 k4 k5 k6)
+  double p[2] = {0, 0};                               ///< CV_P1, CV_P2 (tangential)
+  double fx_px = 0, fy_px = 0, cx_px = 0, cy_px = 0;  ///< CV_FX, CV_FY, CV_CX, CV_CY
+  long long width_px = 0, height_px = 0;              ///< CV_WIDTH, CV_HEIGHT
+  std::vector<std::string> unknown;  ///< other children's local names (not understood)
+};
+
 /// One images2D entry.
 struct E57ImageInfo {
   std::string name, guid, description;
@@ -80,6 +93,7 @@ struct E57ImageInfo {
   double principal_x_px = 0.0, principal_y_px = 0.0;  ///< pinhole (x), pinhole/cylindrical (y)
   double radius_m = 0.0;                              ///< cylindrical
   bool has_leica_distortion = false;  ///< the Leica camera-distortion extension is present
+  E57LeicaDistortion leica;           ///< its values (when has_leica_distortion)
   E57Pose pose;                       ///< camera frame -> file frame
 };
 
@@ -144,6 +158,21 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options = {},
 /// (scancam/output_file.h), page CRCs checked. Returns the blob type ("jpeg" or "png").
 std::string ExtractE57Image(const std::string& path, int image_index, const std::string& out_path);
 
+/// Image `image_index`'s blob (JPEG or PNG bytes, as in the file), page CRCs checked. The blob
+/// is bounded by the file's size. Throws scancam::Error naming the file on a bad index or blob.
+std::vector<std::uint8_t> ReadE57ImageBlob(const std::string& path, int image_index);
+
+/// An image to write into an E57 file's images2D (WriteE57): `info`'s name, representation
+/// ("pinhole" or "spherical"), width/height, pixel sizes, focal length, principal point and
+/// pose are written (blob_type "jpeg" or "png" says which the bytes are), and for a pinhole
+/// with has_leica_distortion, Leica's distortion extension (`leica`; prefix dist, namespace
+/// http://www.libe57.org/E57_LEICA_Camera_Distortion.txt); the image is associated with the
+/// file's scan.
+struct E57ImageToWrite {
+  E57ImageInfo info;
+  std::vector<std::uint8_t> bytes;
+};
+
 /// Writes `scan` as an E57 file with one data3D scan (streamed page by page, CRC per page,
 /// atomically: scancam/output_file.h). One record per valid cell, in row-major order:
 /// cartesianX/Y/Z (single floats, the frame of point_m; identity pose), rowIndex/columnIndex
@@ -151,11 +180,14 @@ std::string ExtractE57Image(const std::string& path, int image_index, const std:
 /// float, when the scan has it; isIntensityInvalid where it is NaN; intensityLimits 0..1 when
 /// every value lies in [0, 1], else the values' range) and, when `rgb` is given (rows*cols
 /// colours), colorRed/Green/Blue with isColorInvalid = 1 where `coloured` (rows*cols, may be
-/// null: all coloured) is 0: a point no camera saw keeps no colour. LoadE57 gives back the same
-/// grid, points and intensities; ReadE57Cloud the colours. Throws scancam::Error naming the file.
+/// null: all coloured) is 0: a point no camera saw keeps no colour. `images` (may be null) go
+/// into images2D as blob sections after the points. LoadE57 gives back the same grid, points and
+/// intensities; ReadE57Cloud the colours; ReadE57Info / ReadE57ImageBlob the images. Throws
+/// scancam::Error naming the file.
 void WriteE57(const std::string& path, const OrderedScan& scan,
               const std::vector<std::array<std::uint8_t, 3>>* rgb = nullptr,
-              const std::vector<std::uint8_t>* coloured = nullptr, const Progress& progress = {});
+              const std::vector<std::uint8_t>* coloured = nullptr, const Progress& progress = {},
+              const std::vector<E57ImageToWrite>* images = nullptr);
 
 /// CRC-32C (Castagnoli), the checksum of E57 pages: each page's last 4 bytes hold
 /// E57Crc32c(page, 1020), big-endian.
