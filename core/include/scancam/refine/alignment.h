@@ -40,6 +40,14 @@ struct AlignmentOptions {
   int occlusion_cell_px = 4;           ///< depth buffer cell, px
   double occlusion_tolerance_m = 0.3;  ///< a point is hidden when it is farther than the
   double occlusion_tolerance_fraction = 0.05;  ///< nearest of its cell by both
+  double min_range_m = 0.0;  ///< points nearer than this to the scanner are left out
+  double max_range_m = 0.0;  ///< ... and farther than this (0: no limit)
+  /// The image edge field: false: gradient magnitude (above); true: the distance d (px) to the
+  /// nearest Canny edge of the grey image, as exp(-d / edge_sigma_px).
+  bool edge_distance_field = false;
+  /// NID: each point counts in the joint histogram with weight nid_gradient_floor +
+  /// edge_field at its pixel (textured places count more); < 0: every point counts 1.
+  double nid_gradient_floor = -1.0;
   int tile_rows = 4;   ///< grid tiles (AlignmentData::*_tile) for held-out and resampled
   int tile_cols = 16;  ///< subsets: tile (r / tile_rows, c / tile_cols)
 };
