@@ -39,6 +39,7 @@ refine::AlignmentOptions OptionsFromEnv() {
   a.edge_sigma_px = Env("EDGE_SIGMA", a.edge_sigma_px);
   a.nid_gradient_floor = Env("NID_GW", a.nid_gradient_floor);
   a.no_return_is_edge = std::getenv("NO_RETURN_EDGE") != nullptr;
+  a.edge_at_boundary = Env("EDGE_MID", a.edge_at_boundary) != 0.0;
   return a;
 }
 }  // namespace
@@ -132,6 +133,7 @@ int main(int argc, char** argv) {
         ro.inner_margin_px = Env("INNER_MARGIN", ro.inner_margin_px);
         ro.edge_weight = Env("EDGE_W", ro.edge_weight);
         ro.search_on_all_points = Env("TRAIN_ALL", 0) != 0;
+        ro.polish_on_all_points = Env("POLISH_ALL", 0) != 0;
         ro.reanchor_rounds = static_cast<int>(Env("REANCHOR", ro.reanchor_rounds));
         if (std::getenv("EDGE_W")) ro.edge_weight = std::atof(std::getenv("EDGE_W"));
         if (std::getenv("LEVELS")) {  // "s0,s1,s2"

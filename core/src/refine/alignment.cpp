@@ -101,21 +101,31 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
   }
   if (!options.edge_distance_field) d.edge_field = cv::min(mag / p99, 1.0);
 
-  // Depth-discontinuity points: the nearer side of a jump between grid neighbours; a return
-  // next to a cell without one (the sky, a window) is a silhouette too.
-  std::vector<std::uint8_t> edge(scan.size(), 0);
+  // Depth-discontinuity points: the nearer side of a jump between grid neighbours (with
+  // edge_at_boundary, moved halfway towards the farther neighbour's direction: the silhouette
+  // lies between the two beams, not on the nearer one); a return next to a cell without one
+  // (the sky, a window) is a silhouette too. One point per jump, by the nearer cell.
+  std::vector<std::pair<std::size_t, Eigen::Vector3f>> edge_at;
+  const Eigen::Vector3f origin = scan.origin_m.cast<float>();
   auto jump = [&](std::size_t a, std::size_t b) {
     const bool va = scan.valid(a), vb = scan.valid(b);
     if (va && !vb) {
-      if (options.no_return_is_edge) edge[a] = 1;
+      if (options.no_return_is_edge) edge_at.emplace_back(a, scan.point_m[a]);
     } else if (vb && !va) {
-      if (options.no_return_is_edge) edge[b] = 1;
+      if (options.no_return_is_edge) edge_at.emplace_back(b, scan.point_m[b]);
     } else if (va && vb) {
       const float ra = scan.range_m[a], rb = scan.range_m[b];
       const float nearer = std::min(ra, rb);
       if (std::abs(ra - rb) >
           std::max(options.depth_jump_m, options.depth_jump_fraction * double(nearer))) {
-        edge[ra < rb ? a : b] = 1;
+        const std::size_t n = ra < rb ? a : b, f = ra < rb ? b : a;
+        Eigen::Vector3f p = scan.point_m[n];
+        if (options.edge_at_boundary) {
+          const Eigen::Vector3f q = origin + (scan.point_m[f] - origin) *
+                                                 (scan.range_m[n] / scan.range_m[f]);
+          p = 0.5f * (p + q);
+        }
+        edge_at.emplace_back(n, p);
       }
     }
   };
@@ -126,10 +136,14 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
       if (r + 1 < scan.rows) jump(i, scan.index(r + 1, c));
     }
   }
+  std::stable_sort(edge_at.begin(), edge_at.end(),
+                   [](const auto& x, const auto& y) { return x.first < y.first; });
   std::vector<float> intensities;
   const int tr = std::max(1, options.tile_rows), tc = std::max(1, options.tile_cols);
   const std::uint32_t tiles_per_row = static_cast<std::uint32_t>(scan.cols / tc + 1);
+  std::size_t e = 0;
   for (std::size_t i = 0; i < scan.size(); ++i) {
+    while (e < edge_at.size() && edge_at[e].first < i) ++e;
     if (!scan.valid(i)) continue;
     const float range = scan.range_m[i];
     if (range < options.min_range_m || (options.max_range_m > 0.0 && range > options.max_range_m))
@@ -139,8 +153,8 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
         static_cast<std::uint32_t>(r / tr) * tiles_per_row + static_cast<std::uint32_t>(c / tc);
     d.all_points.push_back(scan.point_m[i]);
     d.all_tile.push_back(tile);
-    if (edge[i]) {
-      d.edge_points.push_back(scan.point_m[i]);
+    for (; e < edge_at.size() && edge_at[e].first == i; ++e) {
+      d.edge_points.push_back(edge_at[e].second);
       d.edge_tile.push_back(tile);
     }
     if (scan.has_intensity()) intensities.push_back(scan.intensity[i]);

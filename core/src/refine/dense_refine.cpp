@@ -340,9 +340,18 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   // a local search on it; repeated.
   for (int r = 0; r < o.reanchor_rounds && o.inner_margin_px >= 0.0; ++r) {
     anchors = {best.T};
-    const Levels L = subset(train_half);
+    const Levels L = o.polish_on_all_points
+                         ? subset([](std::uint32_t, const Eigen::Vector3f&) { return true; })
+                         : subset(train_half);
     best = SimplexSearch(L, best.T, o.initial_step_deg / 4, o.initial_step_m / 4, o,
                          res.evaluations + budget_per_start, progress, 0.8, 0.8);
+  }
+  // Every end scored on the same points as the best (the agreement check below compares them).
+  if (o.inner_margin_px >= 0.0) {
+    anchors = {best.T};
+    const Levels fin = subset(train_half);
+    for (SearchResult& e : ends) e.f = fin.objective.back()(e.T);
+    best.f = fin.objective.back()(best.T);
   }
   // The start and the best compared on the points inside the image from both.
   anchors = {start, best.T};

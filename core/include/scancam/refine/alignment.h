@@ -35,6 +35,9 @@ struct AlignmentOptions {
   double depth_jump_m = 0.3;           ///< a range jump counts from this ...
   double depth_jump_fraction = 0.1;    ///< ... and this fraction of the nearer range
   bool no_return_is_edge = false;      ///< a return beside a cell without one is an edge point
+  /// An edge point halfway between the nearer beam and the farther one's direction (at the
+  /// nearer range), where the silhouette is; false: on the nearer beam.
+  bool edge_at_boundary = true;
   int nid_bins = 16;                   ///< histogram bins per variable (NID)
   double nid_weight = 0.5;             ///< weight of NID in `combined`
   int occlusion_cell_px = 4;           ///< depth buffer cell, px

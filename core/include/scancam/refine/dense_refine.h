@@ -69,12 +69,14 @@ struct DenseRefineOptions {
   /// start pose, for the whole refinement (a fixed set: points entering or leaving the image
   /// as the pose moves would bias NID); < 0: every point within 30 % of the image's size
   /// around it.
-  double inner_margin_px = -1.0;
+  double inner_margin_px = 20.0;
   /// With inner_margin_px >= 0: after the searches, this many local searches, each on the
   /// point set fixed at the best pose so far.
   int reanchor_rounds = 2;
   /// The searches use every point (the held-out half then only checks, it is not independent).
   bool search_on_all_points = false;
+  /// The re-anchored local searches use every point.
+  bool polish_on_all_points = false;
   int resamples = 8;                ///< uncertainty (see the file comment); < 2: none
   double curvature_step_deg = 0.2;  ///< finite-difference steps of the uncertainty
   double curvature_step_m = 0.02;
