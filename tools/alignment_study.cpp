@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "edge points %zu, intensity points %zu\n", data.edge_points.size(),
                  data.intensity_bin.size());
-    if (std::getenv("SWEEP_DIR")) {  // "rx,ry,rz,tx,ty,tz" (deg, m; camera frame): the line
+    if (std::getenv("SWEEP_DIR")) {      // "rx,ry,rz,tx,ty,tz" (deg, m; camera frame): the line
       double v[6] = {0, 0, 0, 0, 0, 0};  // from the reference through ref * that, -0.5..1.5
       std::sscanf(std::getenv("SWEEP_DIR"), "%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3],
                   &v[4], &v[5]);
@@ -90,8 +90,8 @@ int main(int argc, char** argv) {
         const double s = k / 8.0;
         Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
         if (w.norm() > 0)
-          d.linear() = Eigen::AngleAxisd(s * w.norm() * M_PI / 180.0, w.normalized())
-                           .toRotationMatrix();
+          d.linear() =
+              Eigen::AngleAxisd(s * w.norm() * M_PI / 180.0, w.normalized()).toRotationMatrix();
         d.translation() = s * Eigen::Vector3d(v[3], v[4], v[5]);
         const refine::AlignmentScore sc = refine::ScoreAlignment(data, d * ref);
         std::printf("%6.3f nid %.5f edge %.5f\n", s, sc.nid, sc.edge);

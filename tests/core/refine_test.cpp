@@ -137,7 +137,7 @@ TEST(DenseRefine, RotatingScannerComesBackFromTwoDegreesAndTwentyCentimetres) {
       refine::DenseRefine({{&s.sim.scan, s.view}}, start, refine::DenseRefineOptions{});
   EXPECT_TRUE(r.accepted) << r.reason;
   // Issue 16's target: within 0.05 deg / 1 cm of the truth (measured 0.042 deg / 2 mm: the 1 x
-  // 0.5 deg cells leave little margin; it was 0.43 deg / 2.1 cm before).
+  // 0.5 deg cells leave little margin; docs/refine.md had 0.38-0.43 deg before).
   EXPECT_LT(AngleDeg(r.T_cam_scan, s.sim.T_cam_scan), 0.05) << r.reason;
   EXPECT_LT(OffsetM(r.T_cam_scan, s.sim.T_cam_scan), 0.01) << r.reason;
 }

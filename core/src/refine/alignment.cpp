@@ -121,8 +121,8 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
         const std::size_t n = ra < rb ? a : b, f = ra < rb ? b : a;
         Eigen::Vector3f p = scan.point_m[n];
         if (options.edge_at_boundary) {
-          const Eigen::Vector3f q = origin + (scan.point_m[f] - origin) *
-                                                 (scan.range_m[n] / scan.range_m[f]);
+          const Eigen::Vector3f q =
+              origin + (scan.point_m[f] - origin) * (scan.range_m[n] / scan.range_m[f]);
           p = 0.5f * (p + q);
         }
         edge_at.emplace_back(n, p);

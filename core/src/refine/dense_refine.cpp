@@ -274,11 +274,11 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       F.edge_weight = o.edge_weight;
       F.evaluations = &res.evaluations;
       for (const AlignmentData& d : all)
-        F.scenes.push_back(Smoothed(
-            SubsetAlignment(d, [&](std::uint32_t t, const Eigen::Vector3f& p) {
-              return keep(t, p) && inside(d, p);
-            }),
-            sigma));
+        F.scenes.push_back(Smoothed(SubsetAlignment(d,
+                                                    [&](std::uint32_t t, const Eigen::Vector3f& p) {
+                                                      return keep(t, p) && inside(d, p);
+                                                    }),
+                                    sigma));
       L.objective.push_back(std::move(F));
     }
     L.min_step_deg = o.level_min_step_deg;

@@ -11,6 +11,11 @@
 // start and from `starts - 1` random starts spread by start_spread_* around it (seeded); the
 // best end point on the training half of the data wins.
 //
+// The points scored are a fixed set (inner_margin_px): those inside the image by a margin at
+// the start for the searches above, then at the best pose for reanchor_rounds local searches;
+// a set that changed with the pose (points entering at the image's borders) biased NID (on
+// kitti-000000 it fell steadily along the viewing direction, docs/refine.md).
+//
 // Never worse: the scan's grid tiles (AlignmentOptions::tile_rows x tile_cols cells) are split
 // at random into a training half (the optimisation) and a held-out half. The result is
 // accepted only when the held-out objective is lower than the start's; otherwise the start is
@@ -73,9 +78,9 @@ struct DenseRefineOptions {
   /// With inner_margin_px >= 0: after the searches, this many local searches, each on the
   /// point set fixed at the best pose so far.
   int reanchor_rounds = 2;
-  /// The searches use every point (the held-out half then only checks, it is not independent).
+  /// The searches (or only the re-anchored ones) use every point, not the training half; the
+  /// held-out check is then not independent. Measured not to help (docs/refine.md).
   bool search_on_all_points = false;
-  /// The re-anchored local searches use every point.
   bool polish_on_all_points = false;
   int resamples = 8;                ///< uncertainty (see the file comment); < 2: none
   double curvature_step_deg = 0.2;  ///< finite-difference steps of the uncertainty
