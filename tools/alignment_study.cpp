@@ -23,6 +23,27 @@
 using namespace scancam;
 using namespace scancam::colour;
 
+namespace {
+double Env(const char* name, double fallback) {
+  const char* v = std::getenv(name);
+  return v ? std::atof(v) : fallback;
+}
+// Alignment options from the environment (NID_BINS, MIN_RANGE, MAX_RANGE, EDGE_DIST=1,
+// EDGE_SIGMA, NID_GW=floor), the defaults otherwise.
+refine::AlignmentOptions OptionsFromEnv() {
+  refine::AlignmentOptions a;
+  a.nid_bins = static_cast<int>(Env("NID_BINS", a.nid_bins));
+  a.min_range_m = Env("MIN_RANGE", a.min_range_m);
+  a.max_range_m = Env("MAX_RANGE", a.max_range_m);
+  a.edge_distance_field = Env("EDGE_DIST", a.edge_distance_field) != 0.0;
+  a.edge_sigma_px = Env("EDGE_SIGMA", a.edge_sigma_px);
+  a.nid_gradient_floor = Env("NID_GW", a.nid_gradient_floor);
+  a.no_return_is_edge = std::getenv("NO_RETURN_EDGE") != nullptr;
+  a.edge_at_boundary = Env("EDGE_MID", a.edge_at_boundary) != 0.0;
+  return a;
+}
+}  // namespace
+
 int main(int argc, char** argv) {
   if (argc < 5) {
     std::cerr << "usage: alignment_study SCAN CAMERA IMAGE CALIB [ANGLE_DEG] [OFFSET_M] [N] "
@@ -36,7 +57,7 @@ int main(int argc, char** argv) {
   try {
     const OrderedScan scan = LoadScan(argv[1]);
     ColourView view;
-    view.camera = LoadCamera(argv[2]);
+    view.camera = LoadCameraForImage(argv[2], argv[3]);
     view.image = ReadViewImage(argv[3]);  // the view rule (colour/view_io.h), size see below
     if (view.image.rows != view.camera.height()) {  // road2-pinhole: 1080 in the file, 1200 image
       std::fprintf(stderr, "camera height %d -> image height %d\n", view.camera.height(),
@@ -48,9 +69,35 @@ int main(int argc, char** argv) {
     view.T_cam_scan = LoadExtrinsic(argv[4]);
     const Eigen::Isometry3d ref = view.T_cam_scan;
 
-    const refine::AlignmentData data = refine::PrepareAlignment(scan, view);
+    refine::AlignmentData data = refine::PrepareAlignment(scan, view, OptionsFromEnv());
+    if (std::getenv("FIXED_MARGIN")) {  // only the points inside the image by a margin at ref
+      const double m = std::atof(std::getenv("FIXED_MARGIN"));
+      const CameraModel cam = view.camera;
+      data = refine::SubsetAlignment(data, [&](std::uint32_t, const Eigen::Vector3f& p) {
+        const auto uv = cam.ProjectUnbounded(ref * p.cast<double>());
+        return uv && uv->x() > m && uv->x() < cam.width() - m && uv->y() > m &&
+               uv->y() < cam.height() - m;
+      });
+    }
     std::fprintf(stderr, "edge points %zu, intensity points %zu\n", data.edge_points.size(),
                  data.intensity_bin.size());
+    if (std::getenv("SWEEP_DIR")) {      // "rx,ry,rz,tx,ty,tz" (deg, m; camera frame): the line
+      double v[6] = {0, 0, 0, 0, 0, 0};  // from the reference through ref * that, -0.5..1.5
+      std::sscanf(std::getenv("SWEEP_DIR"), "%lf,%lf,%lf,%lf,%lf,%lf", &v[0], &v[1], &v[2], &v[3],
+                  &v[4], &v[5]);
+      const Eigen::Vector3d w(v[0], v[1], v[2]);
+      for (int k = -4; k <= 12; ++k) {
+        const double s = k / 8.0;
+        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+        if (w.norm() > 0)
+          d.linear() =
+              Eigen::AngleAxisd(s * w.norm() * M_PI / 180.0, w.normalized()).toRotationMatrix();
+        d.translation() = s * Eigen::Vector3d(v[3], v[4], v[5]);
+        const refine::AlignmentScore sc = refine::ScoreAlignment(data, d * ref);
+        std::printf("%6.3f nid %.5f edge %.5f\n", s, sc.nid, sc.edge);
+      }
+      return 0;
+    }
     if (std::getenv("SWEEP")) {  // SWEEP=0..5: rx ry rz (deg) tx ty tz (m), camera frame
       const int axis = std::atoi(std::getenv("SWEEP"));
       for (int k = -12; k <= 12; ++k) {
@@ -81,6 +128,13 @@ int main(int argc, char** argv) {
         }
         const auto t0 = std::chrono::steady_clock::now();
         refine::DenseRefineOptions ro;
+        ro.alignment = OptionsFromEnv();
+        ro.hops = static_cast<int>(Env("HOPS", ro.hops));
+        ro.inner_margin_px = Env("INNER_MARGIN", ro.inner_margin_px);
+        ro.edge_weight = Env("EDGE_W", ro.edge_weight);
+        ro.search_on_all_points = Env("TRAIN_ALL", 0) != 0;
+        ro.polish_on_all_points = Env("POLISH_ALL", 0) != 0;
+        ro.reanchor_rounds = static_cast<int>(Env("REANCHOR", ro.reanchor_rounds));
         if (std::getenv("EDGE_W")) ro.edge_weight = std::atof(std::getenv("EDGE_W"));
         if (std::getenv("LEVELS")) {  // "s0,s1,s2"
           ro.level_sigma_px.clear();
@@ -97,7 +151,6 @@ int main(int argc, char** argv) {
           ro.start_spread_deg = std::atof(std::getenv("SPREAD"));
           ro.start_spread_m = ro.start_spread_deg / 10.0;
         }
-        if (std::getenv("NO_RETURN_EDGE")) ro.alignment.no_return_is_edge = true;
         const refine::DenseRefineResult r = refine::DenseRefine({scene}, d * ref, ro);
         const double sec =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -115,6 +168,11 @@ int main(int argc, char** argv) {
             r.translation_std_m_cam_xyz[2], r.reason.c_str());
         const Eigen::Vector3d ea = Eigen::AngleAxisd(e.linear()).axis() *
                                    Eigen::AngleAxisd(e.linear()).angle() * 180 / M_PI;
+        const Eigen::Vector3d eba = Eigen::AngleAxisd(eb.linear()).axis() *
+                                    Eigen::AngleAxisd(eb.linear()).angle() * 180 / M_PI;
+        std::printf("   best's error, camera frame: rot %.3f %.3f %.3f deg, t %.3f %.3f %.3f m\n",
+                    eba.x(), eba.y(), eba.z(), eb.translation().x(), eb.translation().y(),
+                    eb.translation().z());
         std::printf(
             "   error in the camera frame: rot %.3f %.3f %.3f deg, t %.3f %.3f %.3f m; "
             "heldout %.6f -> %.6f nid %.5f -> %.5f edge %.4f -> %.4f\n",

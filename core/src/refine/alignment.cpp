@@ -11,7 +11,7 @@ namespace scancam::refine {
 
 namespace {
 
-float Bilinear(const cv::Mat& f, float u, float v) {
+inline float Bilinear(const cv::Mat& f, float u, float v) {
   // OpenCV pixel convention: pixel (x, y) has its centre at (x, y).
   const int x0 = static_cast<int>(std::floor(u)), y0 = static_cast<int>(std::floor(v));
   if (x0 < 0 || y0 < 0 || x0 + 1 >= f.cols || y0 + 1 >= f.rows) return 0.f;
@@ -66,10 +66,31 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
     cv::erode(d.mask, inner, cv::Mat(), cv::Point(-1, -1), 3);
     mag.setTo(0.f, inner == 0);
   }
-  if (options.edge_sigma_px > 0.0) cv::GaussianBlur(mag, mag, cv::Size(), options.edge_sigma_px);
+  if (options.edge_distance_field) {
+    // exp(-d / sigma), d the distance to the nearest Canny edge (thresholds from the gradient
+    // magnitude's percentiles).
+    std::vector<float> g;
+    for (int y = 0; y < mag.rows; y += 2)
+      for (int x = 0; x < mag.cols; x += 2) g.push_back(mag.at<float>(y, x));
+    std::nth_element(g.begin(), g.begin() + g.size() * 90 / 100, g.end());
+    const double hi = g[g.size() * 90 / 100];
+    cv::Mat s8, edges, dist;
+    smooth.convertTo(s8, CV_8U);
+    cv::Canny(s8, edges, 0.5 * hi, hi, 3, true);
+    if (!d.mask.empty()) {
+      cv::Mat inner;
+      cv::erode(d.mask, inner, cv::Mat(), cv::Point(-1, -1), 3);
+      edges.setTo(0, inner == 0);
+    }
+    cv::distanceTransform(255 - edges, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+    cv::exp(-dist / std::max(0.5, options.edge_sigma_px), d.edge_field);
+    mag.release();
+  } else if (options.edge_sigma_px > 0.0) {
+    cv::GaussianBlur(mag, mag, cv::Size(), options.edge_sigma_px);
+  }
   std::vector<float> sample;
   const int step = std::max(1, static_cast<int>(std::sqrt(mag.total() / 200000.0)));
-  for (int y = 0; y < mag.rows; y += step) {
+  for (int y = 0; y < mag.rows && !options.edge_distance_field; y += step) {
     for (int x = 0; x < mag.cols; x += step) sample.push_back(mag.at<float>(y, x));
   }
   float p99 = 1.f;
@@ -78,23 +99,33 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
     std::nth_element(sample.begin(), sample.begin() + static_cast<std::ptrdiff_t>(k), sample.end());
     p99 = std::max(sample[k], 1e-6f);
   }
-  d.edge_field = cv::min(mag / p99, 1.0);
+  if (!options.edge_distance_field) d.edge_field = cv::min(mag / p99, 1.0);
 
-  // Depth-discontinuity points: the nearer side of a jump between grid neighbours; a return
-  // next to a cell without one (the sky, a window) is a silhouette too.
-  std::vector<std::uint8_t> edge(scan.size(), 0);
+  // Depth-discontinuity points: the nearer side of a jump between grid neighbours (with
+  // edge_at_boundary, moved halfway towards the farther neighbour's direction: the silhouette
+  // lies between the two beams, not on the nearer one); a return next to a cell without one
+  // (the sky, a window) is a silhouette too. One point per jump, by the nearer cell.
+  std::vector<std::pair<std::size_t, Eigen::Vector3f>> edge_at;
+  const Eigen::Vector3f origin = scan.origin_m.cast<float>();
   auto jump = [&](std::size_t a, std::size_t b) {
     const bool va = scan.valid(a), vb = scan.valid(b);
     if (va && !vb) {
-      if (options.no_return_is_edge) edge[a] = 1;
+      if (options.no_return_is_edge) edge_at.emplace_back(a, scan.point_m[a]);
     } else if (vb && !va) {
-      if (options.no_return_is_edge) edge[b] = 1;
+      if (options.no_return_is_edge) edge_at.emplace_back(b, scan.point_m[b]);
     } else if (va && vb) {
       const float ra = scan.range_m[a], rb = scan.range_m[b];
       const float nearer = std::min(ra, rb);
       if (std::abs(ra - rb) >
           std::max(options.depth_jump_m, options.depth_jump_fraction * double(nearer))) {
-        edge[ra < rb ? a : b] = 1;
+        const std::size_t n = ra < rb ? a : b, f = ra < rb ? b : a;
+        Eigen::Vector3f p = scan.point_m[n];
+        if (options.edge_at_boundary) {
+          const Eigen::Vector3f q =
+              origin + (scan.point_m[f] - origin) * (scan.range_m[n] / scan.range_m[f]);
+          p = 0.5f * (p + q);
+        }
+        edge_at.emplace_back(n, p);
       }
     }
   };
@@ -105,18 +136,25 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
       if (r + 1 < scan.rows) jump(i, scan.index(r + 1, c));
     }
   }
+  std::stable_sort(edge_at.begin(), edge_at.end(),
+                   [](const auto& x, const auto& y) { return x.first < y.first; });
   std::vector<float> intensities;
   const int tr = std::max(1, options.tile_rows), tc = std::max(1, options.tile_cols);
   const std::uint32_t tiles_per_row = static_cast<std::uint32_t>(scan.cols / tc + 1);
+  std::size_t e = 0;
   for (std::size_t i = 0; i < scan.size(); ++i) {
+    while (e < edge_at.size() && edge_at[e].first < i) ++e;
     if (!scan.valid(i)) continue;
+    const float range = scan.range_m[i];
+    if (range < options.min_range_m || (options.max_range_m > 0.0 && range > options.max_range_m))
+      continue;
     const int r = static_cast<int>(i / scan.cols), c = static_cast<int>(i % scan.cols);
     const std::uint32_t tile =
         static_cast<std::uint32_t>(r / tr) * tiles_per_row + static_cast<std::uint32_t>(c / tc);
     d.all_points.push_back(scan.point_m[i]);
     d.all_tile.push_back(tile);
-    if (edge[i]) {
-      d.edge_points.push_back(scan.point_m[i]);
+    for (; e < edge_at.size() && edge_at[e].first == i; ++e) {
+      d.edge_points.push_back(edge_at[e].second);
       d.edge_tile.push_back(tile);
     }
     if (scan.has_intensity()) intensities.push_back(scan.intensity[i]);
@@ -145,12 +183,15 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   const int cell = std::max(1, o.occlusion_cell_px);
   const int gw = (W + cell - 1) / cell, gh = (H + cell - 1) / cell;
   const std::size_t n = d.all_points.size();
-  std::vector<Eigen::Vector2f> uv(n);
-  std::vector<std::uint8_t> ok(n);
+  // Scratch reused between calls (a refinement scores thousands of poses).
+  thread_local std::vector<Eigen::Vector2f> uv, euv;
+  thread_local std::vector<std::uint8_t> ok, eok;
+  thread_local std::vector<float> dist, zbuf;
+  uv.resize(n);
+  ok.resize(n);
   d.camera.ProjectBatch(T_cam_scan, d.all_points.data(), n, uv.data(), ok.data());
-  std::vector<float> dist(n, 0.f);
-  std::vector<float> zbuf(static_cast<std::size_t>(gw) * gh,
-                          std::numeric_limits<float>::infinity());
+  dist.assign(n, 0.f);
+  zbuf.assign(static_cast<std::size_t>(gw) * gh, std::numeric_limits<float>::infinity());
   const Eigen::Matrix3f R = T_cam_scan.linear().cast<float>();
   const Eigen::Vector3f t = T_cam_scan.translation().cast<float>();
   auto cell_of = [&](const Eigen::Vector2f& p) {
@@ -186,10 +227,13 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
       const float x = std::clamp(g / 256.f * bins - 0.5f, 0.f, float(bins - 1));
       const int b0 = std::min(static_cast<int>(x), bins - 2);
       const float w1 = x - float(b0);
+      const double w = o.nid_gradient_floor < 0.0
+                           ? 1.0
+                           : o.nid_gradient_floor + Bilinear(d.edge_field, uv[i].x(), uv[i].y());
       double* row = &joint[static_cast<std::size_t>(d.intensity_bin[i]) * bins];
-      row[b0] += 1.0 - w1;
-      row[b0 + 1] += w1;
-      total += 1.0;
+      row[b0] += w * (1.0 - w1);
+      row[b0 + 1] += w * w1;
+      total += w;
     }
     if (total > 0.0) {
       std::vector<double> pi(bins, 0.0), pg(bins, 0.0);
@@ -209,8 +253,8 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   }
   // Edge term.
   const std::size_t m = d.edge_points.size();
-  std::vector<Eigen::Vector2f> euv(m);
-  std::vector<std::uint8_t> eok(m);
+  euv.resize(m);
+  eok.resize(m);
   d.camera.ProjectBatch(T_cam_scan, d.edge_points.data(), m, euv.data(), eok.data());
   double sum = 0.0;
   for (std::size_t i = 0; i < m; ++i) {

@@ -256,6 +256,19 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     all.push_back(std::move(near));
   }
   const std::uint64_t split_seed = Mix(o.seed ^ 0x5ca1ab1eull);
+  // The fixed point set (see inner_margin_px): inside the image by the margin at every anchor.
+  std::vector<Eigen::Isometry3d> anchors = {start};
+  auto inside = [&](const AlignmentData& d, const Eigen::Vector3f& p) {
+    if (o.inner_margin_px < 0.0) return true;
+    const double m = o.inner_margin_px;
+    for (const Eigen::Isometry3d& T : anchors) {
+      const auto uv = d.camera.ProjectUnbounded(T * p.cast<double>());
+      if (!uv || uv->x() < m || uv->y() < m || uv->x() > d.camera.width() - 1 - m ||
+          uv->y() > d.camera.height() - 1 - m)
+        return false;
+    }
+    return true;
+  };
   auto subset = [&](auto keep) {
     Levels L;
     for (const double sigma : o.level_sigma_px) {
@@ -263,23 +276,30 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       F.edge_weight = o.edge_weight;
       F.evaluations = &res.evaluations;
       for (const AlignmentData& d : all)
-        F.scenes.push_back(Smoothed(SubsetAlignment(d, keep), sigma));
+        F.scenes.push_back(Smoothed(SubsetAlignment(d,
+                                                    [&](std::uint32_t t, const Eigen::Vector3f& p) {
+                                                      return keep(t, p) && inside(d, p);
+                                                    }),
+                                    sigma));
       L.objective.push_back(std::move(F));
     }
     L.min_step_deg = o.level_min_step_deg;
     return L;
   };
-  Levels train_levels = subset(
-      [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ split_seed) & 1) == 0; });
-  for (Objective& F : train_levels.objective) F.prior = &o.prior;  // the search's only
-  const Levels held_levels = subset(
-      [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ split_seed) & 1) == 1; });
+  auto train_half = [&](std::uint32_t t, const Eigen::Vector3f&) {
+    return o.search_on_all_points || (Mix(t ^ split_seed) & 1) == 0;
+  };
+  auto held_half = [&](std::uint32_t t, const Eigen::Vector3f&) {
+    return (Mix(t ^ split_seed) & 1) == 1;
+  };
+  // The picked pairs' prior (options.prior) joins the search's objective only: the held-out
+  // half, the NID / edge figures and the uncertainty stay the scan's alone.
+  auto with_prior = [&](Levels L) {
+    for (Objective& F : L.objective) F.prior = &o.prior;
+    return L;
+  };
+  const Levels train_levels = with_prior(subset(train_half));
   const Objective& train = train_levels.objective.back();
-  const Objective& held = held_levels.objective.back();
-  Objective full;
-  full.edge_weight = o.edge_weight;
-  full.evaluations = &res.evaluations;
-  full.scenes = all;
 
   // Searches from the start and random starts.
   std::mt19937_64 rng(o.seed);
@@ -326,12 +346,34 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   }
   const auto best_it = std::min_element(ends.begin(), ends.end(),
                                         [](const auto& a, const auto& b) { return a.f < b.f; });
-  const SearchResult best = *best_it;
+  SearchResult best = *best_it;
+  // Re-anchoring: the point set fixed at the best pose (nearer the answer than the start), and
+  // a local search on it; repeated.
+  for (int r = 0; r < o.reanchor_rounds && o.inner_margin_px >= 0.0; ++r) {
+    anchors = {best.T};
+    const Levels L = with_prior(
+        o.polish_on_all_points
+            ? subset([](std::uint32_t, const Eigen::Vector3f&) { return true; })
+            : subset(train_half));
+    best = SimplexSearch(L, best.T, o.initial_step_deg / 4, o.initial_step_m / 4, o,
+                         res.evaluations + budget_per_start, progress, 0.8, 0.8);
+  }
+  // Every end scored on the same points as the best (the agreement check below compares them).
+  if (o.inner_margin_px >= 0.0) {
+    anchors = {best.T};
+    const Levels fin = with_prior(subset(train_half));
+    for (SearchResult& e : ends) e.f = fin.objective.back()(e.T);
+    best.f = fin.objective.back()(best.T);
+  }
+  // The start and the best compared on the points inside the image from both.
+  anchors = {start, best.T};
+  const Levels train_both = with_prior(subset(train_half)), held_both = subset(held_half);
   res.T_best = best.T;
-  res.train_start = train(start);
-  res.train_best = best.f;
-  res.heldout_start = held(start);
-  res.heldout_best = held(best.T);
+  res.train_start = train_both.objective.back()(start);
+  res.train_best = train_both.objective.back()(best.T);
+  res.heldout_start = held_both.objective.back()(start);
+  res.heldout_best = held_both.objective.back()(best.T);
+  anchors = {best.T};
   for (const AlignmentData& d : all) {
     const AlignmentScore a = ScoreAlignment(d, start), b = ScoreAlignment(d, best.T);
     res.nid_start += a.nid / all.size();
@@ -446,8 +488,9 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     } else {
       res.verdict = "converged";
       res.reason = "the held-out half confirms it; " + std::to_string(res.starts_agreeing) +
-                   " of " + std::to_string(starts) +
-                   " starts reach the best objective (the others stop in worse local optima)";
+                   " of " + std::to_string(ends.size()) +
+                   " searches (the starts, then restarts near the best) reach the best objective"
+                   " (the others stop in worse local optima)";
     }
   }
   res.accepted = res.verdict != "diverged";

@@ -6,8 +6,10 @@
 // image, inside the view's mask, not hidden by a nearer scan point: a depth buffer of cells of
 // occlusion_cell_px pixels):
 //   edge  the mean of the image's edge field at the projected depth-discontinuity points of the
-//         scan (the nearer side of a range jump between grid neighbours, larger than
-//         depth_jump_m and depth_jump_fraction of the range): the field is the grey image's
+//         scan (one per range jump between grid neighbours larger than depth_jump_m and
+//         depth_jump_fraction of the range: at the nearer range, halfway between the nearer
+//         beam and the farther one's direction, where the silhouette is; edge_at_boundary):
+//         the field is the grey image's
 //         gradient magnitude (Sobel on a 1-px Gaussian), smoothed with a Gaussian of
 //         edge_sigma_px and divided by its 99th percentile, clipped to [0, 1]. Higher is better.
 //   nid   the normalised information distance between the scan's intensity (in nid_bins
@@ -31,15 +33,28 @@
 namespace scancam::refine {
 
 struct AlignmentOptions {
-  double edge_sigma_px = 2.0;          ///< smoothing of the image edge field, px
-  double depth_jump_m = 0.3;           ///< a range jump counts from this ...
-  double depth_jump_fraction = 0.1;    ///< ... and this fraction of the nearer range
-  bool no_return_is_edge = false;      ///< a return beside a cell without one is an edge point
-  int nid_bins = 16;                   ///< histogram bins per variable (NID)
-  double nid_weight = 0.5;             ///< weight of NID in `combined`
-  int occlusion_cell_px = 4;           ///< depth buffer cell, px
-  double occlusion_tolerance_m = 0.3;  ///< a point is hidden when it is farther than the
+  double edge_sigma_px = 2.0;        ///< smoothing of the image edge field, px
+  double depth_jump_m = 0.3;         ///< a range jump counts from this ...
+  double depth_jump_fraction = 0.1;  ///< ... and this fraction of the nearer range
+  bool no_return_is_edge = false;    ///< a return beside a cell without one is an edge point
+  /// An edge point halfway between the nearer beam and the farther one's direction (at the
+  /// nearer range), where the silhouette is; false: on the nearer beam.
+  bool edge_at_boundary = true;
+  int nid_bins = 16;                           ///< histogram bins per variable (NID)
+  double nid_weight = 0.5;                     ///< weight of NID in `combined`
+  int occlusion_cell_px = 4;                   ///< depth buffer cell, px
+  double occlusion_tolerance_m = 0.3;          ///< a point is hidden when it is farther than the
   double occlusion_tolerance_fraction = 0.05;  ///< nearest of its cell by both
+  // The four options below were measured not to help on kitti-000000 (docs/refine.md); they
+  // stay for the study tool (tools/alignment_study).
+  double min_range_m = 0.0;  ///< points nearer than this to the scanner are left out
+  double max_range_m = 0.0;  ///< ... and farther than this (0: no limit)
+  /// The image edge field: false: gradient magnitude (above); true: the distance d (px) to the
+  /// nearest Canny edge of the grey image, as exp(-d / edge_sigma_px).
+  bool edge_distance_field = false;
+  /// NID: each point counts in the joint histogram with weight nid_gradient_floor +
+  /// edge_field at its pixel (textured places count more); < 0: every point counts 1.
+  double nid_gradient_floor = -1.0;
   int tile_rows = 4;   ///< grid tiles (AlignmentData::*_tile) for held-out and resampled
   int tile_cols = 16;  ///< subsets: tile (r / tile_rows, c / tile_cols)
 };

@@ -11,6 +11,11 @@
 // start and from `starts - 1` random starts spread by start_spread_* around it (seeded); the
 // best end point on the training half of the data wins.
 //
+// The points scored are a fixed set (inner_margin_px): those inside the image by a margin at
+// the start for the searches above, then at the best pose for reanchor_rounds local searches;
+// a set that changed with the pose (points entering at the image's borders) biased NID (on
+// kitti-000000 it fell steadily along the viewing direction, docs/refine.md).
+//
 // Never worse: the scan's grid tiles (AlignmentOptions::tile_rows x tile_cols cells) are split
 // at random into a training half (the optimisation) and a held-out half. The result is
 // accepted only when the held-out objective is lower than the start's; otherwise the start is
@@ -66,6 +71,18 @@ struct DenseRefineOptions {
   /// the rotation step is at least level_min_step_deg[l]; the last level below that.
   std::vector<double> level_sigma_px = {0.0};
   std::vector<double> level_min_step_deg = {0.5, 0.12};
+  /// The points scored: those that project inside the image shrunk by inner_margin_px at the
+  /// start pose, for the whole refinement (a fixed set: points entering or leaving the image
+  /// as the pose moves would bias NID); < 0: every point within 30 % of the image's size
+  /// around it.
+  double inner_margin_px = 20.0;
+  /// With inner_margin_px >= 0: after the searches, this many local searches, each on the
+  /// point set fixed at the best pose so far.
+  int reanchor_rounds = 2;
+  /// The searches (or only the re-anchored ones) use every point, not the training half; the
+  /// held-out check is then not independent. Measured not to help (docs/refine.md).
+  bool search_on_all_points = false;
+  bool polish_on_all_points = false;
   int resamples = 8;                ///< uncertainty (see the file comment); < 2: none
   double curvature_step_deg = 0.2;  ///< finite-difference steps of the uncertainty
   double curvature_step_m = 0.02;
