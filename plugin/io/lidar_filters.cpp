@@ -114,7 +114,9 @@ bool Unplaced(const Returns& returns, const scancam::OrderedScan& scan, ExtraPoi
 }
 
 QString Percent(std::size_t part, std::size_t whole) {
-  return QString::number(whole ? 100.0 * double(part) / double(whole) : 100.0, 'f', 2);
+  // Rounded down: 2 returns of 85546 left out is 99.99 %, not 100.00 %.
+  const double p = whole ? std::floor(10000.0 * double(part) / double(whole)) / 100.0 : 100.0;
+  return QString::number(p, 'f', 2);
 }
 
 CC_FILE_ERROR LoadLidar(const QString& filename, const char* format, const char* tag,
@@ -147,21 +149,20 @@ CC_FILE_ERROR LoadLidar(const QString& filename, const char* format, const char*
       rest = extra.points_m.empty()
                  ? QString()
                  : QString(", %1 kept as points without a cell").arg(extra.points_m.size());
-    else if (returns.points_m.size() > in_cell)
-      rest = QString(", %1 not loaded (its coordinates are not float32: not matched to cells)")
-                 .arg(returns.points_m.size() - in_cell);
+    else if (!returns.points_m.empty())
+      rest = QString(", %1 not loaded (not matched to cells)")
+                 .arg(returns.points_m.size() - std::min(returns.points_m.size(), in_cell));
+    else
+      rest = QString(" (returns in no cell not counted: the file's x y z are not float32)");
     const std::size_t total = std::max(returns.points_m.size(), in_cell);
-    ccLog::Print(
-        QString("[%1] %2: %3 rows x %4 columns (%5 x %6), %7 of %8 returns in a cell "
-                "(%9 %)%10%11")
-            .arg(tag, name)
-            .arg(scan.rows)
-            .arg(scan.cols)
-            .arg(QString::fromStdString(scan.row_axis), QString::fromStdString(scan.col_axis))
-            .arg(in_cell)
-            .arg(total)
-            .arg(Percent(in_cell, total), rest,
-                 scan.has_intensity() ? QString(", intensity") : QString()));
+    ccLog::Print(QString("[%1] %2: %3 rows x %4 columns, %5 of %6 returns in a cell (%7 %)%8%9")
+                     .arg(tag, name)
+                     .arg(scan.rows)
+                     .arg(scan.cols)
+                     .arg(in_cell)
+                     .arg(total)
+                     .arg(Percent(in_cell, total), rest,
+                          scan.has_intensity() ? QString(", intensity") : QString()));
     container.addChild(cloud.release());
   } catch (const scancam::Cancelled&) {
     return CC_FERR_CANCELED_BY_USER;
@@ -182,7 +183,10 @@ FileIOFilter::FilterInfo LidarFilter::Info(const char* id, float priority, const
   info.id = id;
   info.priority = priority;
   info.importExtensions = QStringList{ext};
-  info.defaultExtension = ext;
+  // No default extension: CloudCompare's -C_EXPORT_FMT picks the first filter whose default
+  // extension matches and takes its first export filter string, which an import-only filter
+  // does not have (CloudCompare 2.11.3 then crashes, e.g. on `-C_EXPORT_FMT BIN`).
+  info.defaultExtension.clear();
   info.importFileFilterStrings = QStringList{filter};
   info.features = FileIOFilter::Import;
   return info;

@@ -20,7 +20,8 @@
 // `.bin` is also CloudCompare's own BIN format: the KITTI filter is registered before it
 // (priority 0.5, CloudCompare's BIN filter has 1) and hands a file beginning with "CCB" (a
 // CloudCompare BIN file) to CloudCompare's BIN filter; any other `.bin` is read as KITTI (its
-// size must be a multiple of 16 bytes: otherwise the core's error).
+// size must be a multiple of 16 bytes: otherwise the core's error). Neither filter has a default
+// extension, so `-C_EXPORT_FMT BIN` still finds CloudCompare's BIN writer.
 // Errors: the core's plain message (file, place, problem) in CloudCompare's console (an error
 // dialog in the GUI, exit code 1 on the command line); nothing is loaded.
 #pragma once
