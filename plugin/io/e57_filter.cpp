@@ -1,9 +1,7 @@
 #include "e57_filter.h"
 
 #include <ccCameraSensor.h>
-#include <ccColorScalesManager.h>
 #include <ccGBLSensor.h>
-#include <ccGriddedTools.h>
 #include <ccLog.h>
 #include <ccPointCloud.h>
 #include <ccScalarField.h>
@@ -380,16 +378,9 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
                                    static_cast<std::ptrdiff_t>(clouds.size()))
       throw scancam::Error(first_error);
     AddImages(info, clouds, shifts, container);
-  } catch (const scancam::Cancelled&) {
+  } catch (...) {
     for (ccPointCloud* c : clouds) delete c;
-    return CC_FERR_CANCELED_BY_USER;
-  } catch (const std::bad_alloc&) {
-    for (ccPointCloud* c : clouds) delete c;
-    return CC_FERR_NOT_ENOUGH_MEMORY;
-  } catch (const std::exception& e) {
-    for (ccPointCloud* c : clouds) delete c;
-    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
-    return CC_FERR_CONSOLE_ERROR;
+    return CurrentExceptionResult();
   }
   for (ccPointCloud* c : clouds)
     if (c) container.addChild(c);
@@ -447,13 +438,8 @@ CC_FILE_ERROR E57Filter::saveToFile(ccHObject* entity, const QString& filename,
       ccLog::Warning(QString("[E57] %1: saved in CloudCompare's shifted coordinates (the global "
                              "shift is not stored in the file)")
                          .arg(cloud->getName()));
-  } catch (const scancam::Cancelled&) {
-    return CC_FERR_CANCELED_BY_USER;
-  } catch (const std::bad_alloc&) {
-    return CC_FERR_NOT_ENOUGH_MEMORY;
-  } catch (const std::exception& e) {
-    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
-    return CC_FERR_CONSOLE_ERROR;
+  } catch (...) {
+    return CurrentExceptionResult();
   }
   return CC_FERR_NO_ERROR;
 }

@@ -19,7 +19,6 @@
 
 #include "cc_progress.h"
 #include "scan_cloud.h"
-#include "scancam/error.h"
 #include "scancam/io/kitti.h"
 #include "scancam/io/scan_io.h"
 
@@ -164,13 +163,8 @@ CC_FILE_ERROR LoadLidar(const QString& filename, const char* format, const char*
                      .arg(Percent(in_cell, total), rest,
                           scan.has_intensity() ? QString(", intensity") : QString()));
     container.addChild(cloud.release());
-  } catch (const scancam::Cancelled&) {
-    return CC_FERR_CANCELED_BY_USER;
-  } catch (const std::bad_alloc&) {
-    return CC_FERR_NOT_ENOUGH_MEMORY;
-  } catch (const std::exception& e) {
-    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
-    return CC_FERR_CONSOLE_ERROR;
+  } catch (...) {
+    return CurrentExceptionResult();
   }
   return CC_FERR_NO_ERROR;
 }

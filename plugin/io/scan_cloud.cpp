@@ -3,10 +3,15 @@
 #include <ccColorScalesManager.h>
 #include <ccGBLSensor.h>
 #include <ccGriddedTools.h>
+#include <ccLog.h>
 #include <ccScalarField.h>
 
 #include <cmath>
+#include <exception>
 #include <new>
+
+#include "scancam/error.h"
+#include "scancam/progress.h"
 
 namespace scancam::plugin::io {
 
@@ -34,6 +39,21 @@ void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf) {
                                                                : ccColorScalesManager::GREY));
   const int idx = cloud.addScalarField(sf);
   cloud.setCurrentDisplayedScalarField(idx);
+}
+
+CC_FILE_ERROR CurrentExceptionResult() {
+  try {
+    throw;
+  } catch (const scancam::Cancelled&) {
+    return CC_FERR_CANCELED_BY_USER;
+  } catch (const std::bad_alloc&) {
+    return CC_FERR_NOT_ENOUGH_MEMORY;
+  } catch (const std::exception& e) {
+    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
+  } catch (...) {
+    ccLog::Error("unknown error");
+  }
+  return CC_FERR_CONSOLE_ERROR;
 }
 
 std::unique_ptr<ccPointCloud> GriddedCloud(const scancam::OrderedScan& scan,

@@ -12,6 +12,7 @@
 // where unknown or not finite). Per-cell colours when given.
 #pragma once
 
+#include <FileIOFilter.h>
 #include <ccPointCloud.h>
 #include <ccScalarField.h>
 
@@ -51,6 +52,11 @@ ccGLMatrixd ToCc(const Eigen::Isometry3d& T);
 
 /// Adds `sf` to the cloud as the displayed field, grey ramp (ABS_NORM_GREY when in [0, 1]).
 void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf);
+
+/// The filter's result for the exception being handled (call it in a catch block): cancelled,
+/// out of memory, else the core's plain message (scancam::PlainErrorMessage) in CloudCompare's
+/// console and CC_FERR_CONSOLE_ERROR.
+CC_FILE_ERROR CurrentExceptionResult();
 
 /// Points of the file that no cell of the grid holds, kept as points without a cell.
 struct ExtraPoints {
