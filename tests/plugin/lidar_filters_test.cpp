@@ -149,33 +149,30 @@ TEST(LidarFilters, KittiBin) {
   ExpectLidarCloud(path, l, KittiReturns(path), "velodyne.bin");
 }
 
+// A broken file: an error result, one console error naming the file, nothing loaded.
+void ExpectRefused(FileIOFilter& filter, const std::string& path, const std::string& name) {
+  Loaded l;
+  Load(filter, path, l);
+  EXPECT_EQ(l.result, CC_FERR_CONSOLE_ERROR);
+  EXPECT_EQ(l.container.getChildrenNumber(), 0u);
+  ASSERT_EQ(l.errors.size(), 1u);
+  EXPECT_NE(l.errors[0].find(name), std::string::npos) << l.errors[0];
+}
+
 TEST(LidarFilters, BrokenFilesGiveAnErrorAndNothing) {
   SCANCAM_REQUIRE_SHARED();
-  {  // a PCD cut in its data section
-    const std::string src = scancam::test::SharedDataset("road-pinhole/scan.pcd");
-    const std::string cut = TempFile("cut.pcd");
-    std::ifstream in(src, std::ios::binary);
-    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
-    PcdFilter filter;
-    Loaded l;
-    Load(filter, cut, l);
-    EXPECT_EQ(l.result, CC_FERR_CONSOLE_ERROR);
-    EXPECT_EQ(l.container.getChildrenNumber(), 0u);
-    ASSERT_EQ(l.errors.size(), 1u);
-    EXPECT_NE(l.errors[0].find("cut.pcd"), std::string::npos) << l.errors[0];
-  }
-  {  // 17 bytes: not a whole number of 16-byte records
-    const std::string odd = TempFile("odd.bin");
-    std::ofstream(odd, std::ios::binary) << std::string(17, '\x01');
-    KittiBinFilter filter;
-    Loaded l;
-    Load(filter, odd, l);
-    EXPECT_EQ(l.result, CC_FERR_CONSOLE_ERROR);
-    EXPECT_EQ(l.container.getChildrenNumber(), 0u);
-    ASSERT_EQ(l.errors.size(), 1u);
-    EXPECT_NE(l.errors[0].find("odd.bin"), std::string::npos) << l.errors[0];
-  }
+  // A PCD cut in its data section.
+  std::ifstream in(scancam::test::SharedDataset("road-pinhole/scan.pcd"), std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string cut = TempFile("cut.pcd");
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  PcdFilter pcd;
+  ExpectRefused(pcd, cut, "cut.pcd");
+  // 17 bytes: not a whole number of 16-byte records.
+  const std::string odd = TempFile("odd.bin");
+  std::ofstream(odd, std::ios::binary) << std::string(17, '\x01');
+  KittiBinFilter kitti;
+  ExpectRefused(kitti, odd, "odd.bin");
 }
 
 }  // namespace
