@@ -1,9 +1,7 @@
 #include "e57_filter.h"
 
 #include <ccCameraSensor.h>
-#include <ccColorScalesManager.h>
 #include <ccGBLSensor.h>
-#include <ccGriddedTools.h>
 #include <ccLog.h>
 #include <ccPointCloud.h>
 #include <ccScalarField.h>
@@ -21,14 +19,13 @@
 
 #include "cc_progress.h"
 #include "cloud_adapter.h"
+#include "scan_cloud.h"
 #include "scancam/error.h"
 #include "scancam/io/e57.h"
 
 namespace scancam::plugin::io {
 
 namespace {
-
-constexpr const char* kIntensityName = "Intensity";  // as CloudCompare's PTX filter names it
 
 // The scan's pose (scan frame -> file frame) with CloudCompare's global shift added.
 Eigen::Isometry3d PoseOf(const scancam::E57Pose& pose, const CCVector3d& shift) {
@@ -57,19 +54,14 @@ struct GlobalShift {
   }
 };
 
-ccGLMatrixd ToCc(const Eigen::Isometry3d& T) {
-  const Eigen::Matrix4d m = T.matrix();  // column-major, as ccGLMatrixd
-  return ccGLMatrixd(m.data());
-}
-
 // The colour of each cell of `scan` (LoadE57's grid of a scan with row/column indices): the
 // record at that cell (row - row minimum, column - column minimum, the minima from indexBounds
 // or else from the data, as LoadE57 takes them) whose point is the cell's point (several returns
 // in a cell: the one LoadE57 kept). [3] = 0: no record found, 1: the file marks the colour
 // invalid, 2: valid.
-std::vector<std::array<std::uint8_t, 4>> CellColours(const std::string& path, int scan_index,
-                                                     const scancam::E57ScanInfo& info,
-                                                     const scancam::OrderedScan& scan) {
+std::vector<CellColour> CellColours(const std::string& path, int scan_index,
+                                    const scancam::E57ScanInfo& info,
+                                    const scancam::OrderedScan& scan) {
   long long r0 = info.row_min, c0 = info.column_min;
   if (!info.has_index_bounds) {
     r0 = c0 = std::numeric_limits<long long>::max();
@@ -80,7 +72,7 @@ std::vector<std::array<std::uint8_t, 4>> CellColours(const std::string& path, in
       }
     });
   }
-  std::vector<std::array<std::uint8_t, 4>> cells(scan.size(), {0, 0, 0, 0});
+  std::vector<CellColour> cells(scan.size(), {0, 0, 0, 0});
   scancam::ReadE57Points(path, scan_index, [&](const scancam::E57Point* p, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) {
       if (p[i].state != 0) continue;
@@ -95,34 +87,6 @@ std::vector<std::array<std::uint8_t, 4>> CellColours(const std::string& path, in
     }
   });
   return cells;
-}
-
-// Holds one reference to a scalar field (CloudCompare's fields are reference counted: the
-// cloud takes its own when the field is added), so that an exception does not leak it.
-class ScalarFieldRef {
- public:
-  explicit ScalarFieldRef(ccScalarField* sf) : sf_(sf) {
-    if (sf_) sf_->link();
-  }
-  ~ScalarFieldRef() {
-    if (sf_) sf_->release();
-  }
-  ScalarFieldRef(const ScalarFieldRef&) = delete;
-  ScalarFieldRef& operator=(const ScalarFieldRef&) = delete;
-  ccScalarField* get() const { return sf_; }
-
- private:
-  ccScalarField* sf_;
-};
-
-// Adds the intensity field as CloudCompare's PTX filter shows it (grey ramp).
-void FinishIntensity(ccPointCloud& cloud, ccScalarField* sf) {
-  sf->computeMinAndMax();
-  const bool unit = sf->getMin() >= 0 && sf->getMax() <= 1;
-  sf->setColorScale(ccColorScalesManager::GetDefaultScale(unit ? ccColorScalesManager::ABS_NORM_GREY
-                                                               : ccColorScalesManager::GREY));
-  const int idx = cloud.addScalarField(sf);
-  cloud.setCurrentDisplayedScalarField(idx);
 }
 
 // When some points have no valid colour in the file (isColorInvalid): they are grey, and the
@@ -171,62 +135,16 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
   }
   const Eigen::Isometry3d T_cloud_scan = PoseOf(info.pose, shift);
 
-  std::vector<std::array<std::uint8_t, 4>> colours;
+  std::vector<CellColour> colours;
   if (info.has_colour) colours = CellColours(path, index, info, scan);
 
-  auto cloud = std::make_unique<ccPointCloud>(ScanName(info, index));
-  const unsigned valid = static_cast<unsigned>(scan.valid_count());
-  if (!cloud->reserve(valid)) throw std::bad_alloc();
-  ccPointCloud::Grid::Shared grid(new ccPointCloud::Grid);
-  grid->h = static_cast<unsigned>(scan.rows);
-  grid->w = static_cast<unsigned>(scan.cols);
-  grid->indexes.assign(scan.size(), -1);
-  ScalarFieldRef sf_ref(scan.has_intensity() ? new ccScalarField(kIntensityName) : nullptr);
-  ccScalarField* sf = sf_ref.get();
-  if (sf && !sf->reserveSafe(valid)) throw std::bad_alloc();
-  const bool with_colours = info.has_colour && cloud->reserveTheRGBTable();
   std::vector<std::uint8_t> colour_valid;  // one per point when the scan has colours
-  for (std::size_t k = 0; k < scan.size(); ++k) {
-    if (!scan.valid(k)) continue;
-    const Eigen::Vector3f& p_scan = scan.point_m[k];
-    const Eigen::Vector3d p = T_cloud_scan * p_scan.cast<double>();
-    grid->indexes[k] = static_cast<int>(cloud->size());
-    cloud->addPoint(CCVector3(static_cast<PointCoordinateType>(p.x()),
-                              static_cast<PointCoordinateType>(p.y()),
-                              static_cast<PointCoordinateType>(p.z())));
-    if (sf) {
-      const float v = scan.intensity[k];
-      sf->addElement(std::isfinite(v) ? static_cast<ScalarType>(v) : NAN_VALUE);
-    }
-    if (with_colours) {
-      ccColor::Rgba c(128, 128, 128, 255);
-      const auto& rec = colours[k];
-      const bool ok = rec[3] == 2;
-      if (ok) c = ccColor::Rgba(rec[0], rec[1], rec[2], 255);
-      colour_valid.push_back(ok ? 1 : 0);
-      cloud->addColor(c);
-    }
-  }
-  if (sf) FinishIntensity(*cloud, sf);
+  auto cloud = GriddedCloud(scan, T_cloud_scan, ScanName(info, index), nullptr,
+                            colours.empty() ? nullptr : &colours, &colour_valid);
+  const bool with_colours = cloud->hasColors();
+  const bool sf = cloud->hasScalarFields();
   AddColourValidField(*cloud, colour_valid);
   if (preserve_shift) cloud->setGlobalShift(shift);
-
-  // A scanner sensor, as CloudCompare's PTX filter adds one (yaw / pitch steps from the grid).
-  ccGLMatrix cloud_to_sensor(ToCc(T_cloud_scan.inverse()).data());
-  if (ccGBLSensor* sensor =
-          ccGriddedTools::ComputeBestSensor(cloud.get(), grid, &cloud_to_sensor)) {
-    sensor->setRigidTransformation(ccGLMatrix(ToCc(T_cloud_scan).data()));
-    cloud->addChild(sensor);
-  }
-  grid->validCount = cloud->size();
-  grid->minValidIndex = 0;
-  grid->maxValidIndex = cloud->size() ? cloud->size() - 1 : 0;
-  grid->sensorPosition = ToCc(T_cloud_scan);
-  cloud->addGrid(grid);
-
-  cloud->setVisible(true);
-  cloud->showColors(with_colours);
-  cloud->showSF(!with_colours && sf != nullptr);
   ccLog::Print(QString("[E57] %1: %2 points, grid %3 x %4 (%5)%6%7")
                    .arg(cloud->getName())
                    .arg(cloud->size())
@@ -253,7 +171,7 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
         path, "",
         "scan " + std::to_string(index) + " has more points than a CloudCompare cloud holds");
   if (!cloud->reserve(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
-  ScalarFieldRef sf_ref(info.has_intensity ? new ccScalarField(kIntensityName) : nullptr);
+  ScalarFieldRef sf_ref(info.has_intensity ? new ccScalarField(kIntensitySfName) : nullptr);
   ccScalarField* sf = sf_ref.get();
   if (sf && !sf->reserveSafe(static_cast<unsigned>(info.record_count))) throw std::bad_alloc();
   // Intensity scaled to [0, 1] by intensityLimits, as LoadE57 does (LoadE57 also scales an
@@ -460,16 +378,9 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
                                    static_cast<std::ptrdiff_t>(clouds.size()))
       throw scancam::Error(first_error);
     AddImages(info, clouds, shifts, container);
-  } catch (const scancam::Cancelled&) {
+  } catch (...) {
     for (ccPointCloud* c : clouds) delete c;
-    return CC_FERR_CANCELED_BY_USER;
-  } catch (const std::bad_alloc&) {
-    for (ccPointCloud* c : clouds) delete c;
-    return CC_FERR_NOT_ENOUGH_MEMORY;
-  } catch (const std::exception& e) {
-    for (ccPointCloud* c : clouds) delete c;
-    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
-    return CC_FERR_CONSOLE_ERROR;
+    return CurrentExceptionResult();
   }
   for (ccPointCloud* c : clouds)
     if (c) container.addChild(c);
@@ -527,13 +438,8 @@ CC_FILE_ERROR E57Filter::saveToFile(ccHObject* entity, const QString& filename,
       ccLog::Warning(QString("[E57] %1: saved in CloudCompare's shifted coordinates (the global "
                              "shift is not stored in the file)")
                          .arg(cloud->getName()));
-  } catch (const scancam::Cancelled&) {
-    return CC_FERR_CANCELED_BY_USER;
-  } catch (const std::bad_alloc&) {
-    return CC_FERR_NOT_ENOUGH_MEMORY;
-  } catch (const std::exception& e) {
-    ccLog::Error(QString::fromStdString(scancam::PlainErrorMessage(e)));
-    return CC_FERR_CONSOLE_ERROR;
+  } catch (...) {
+    return CurrentExceptionResult();
   }
   return CC_FERR_NO_ERROR;
 }
