@@ -23,6 +23,7 @@
 #include "scancam/io/e57.h"
 #include "scancam/io/scan_io.h"
 #include "scancam/output_file.h"
+#include "scancam/refine/alignment_check.h"
 #include "valid_region_options.h"
 
 namespace scancam::cli {
@@ -354,7 +355,18 @@ int RunColorize(const Args& args) {
         << s.behind_camera;
       if (!views[k].mask.empty()) o << ", outside the valid region " << s.outside_mask;
       o << ")\n  valid region: " << region_how[k] << "\n";
-      if (!edge_cells.empty()) PrintAlignment(o, scan, views[k], coloured, k, edge_cells);
+      if (!edge_cells.empty()) {
+        PrintAlignment(o, scan, views[k], coloured, k, edge_cells);
+        // The check that ranks a right pose first (refine/alignment_check.h).
+        try {
+          o << "  alignment check: "
+            << refine::CheckAlignment(refine::PrepareAlignment(scan, views[k]), views[k].T_cam_scan)
+                   .verdict
+            << "\n";
+        } catch (const Error& e) {
+          o << "  alignment check: not possible: " << e.what() << "\n";
+        }
+      }
     }
     if (coloured.ground) {
       o << "ground: " << DescribeGround(*coloured.ground, scan.origin_m, co.ground.up)
@@ -438,6 +450,10 @@ Command MakeColorizeCommand() {
       "Edge alignment (with --edge-overlay or --check): the distance from each projected BA\n"
       "edge point to the nearest image edge (Canny), and the same with the pose perturbed by\n"
       "+-0.5 deg / +-5 cm: a right calibration is better aligned than every perturbation.\n"
+      "This distance is weak where depth edges have little image contrast; the alignment\n"
+      "check printed after it (NID of the scan's intensity vs the image's grey level at the\n"
+      "pose and at 12 poses 0.5 deg / 5 cm away; edges only without intensity) is the one\n"
+      "that ranks a right pose first (measured on kitti-000000, road-pinhole, road2-pinhole).\n"
       "\n"
       "Prints per image how many points were coloured, occluded and out of view (and behind\n"
       "the camera); warns when (nearly) no point projects into an image (a transform that is\n"

@@ -690,6 +690,16 @@ void CalibrationSession::measureEdgeAlignment() {
   } catch (const std::exception& e) {
     alignment_text_ = tr("edge alignment not measured: %1").arg(e.what());
   }
+  // The check that ranks a right pose first (refine/alignment_check.h; NID of the scan's
+  // intensity vs the image's grey level here and 0.5 deg / 5 cm away).
+  try {
+    const colour::ColourView view = colourView();
+    const refine::AlignmentCheck c =
+        refine::CheckAlignment(refine::PrepareAlignment(*scan_, view), view.T_cam_scan);
+    alignment_text_ += tr(". Alignment check: %1").arg(QString::fromStdString(c.verdict));
+  } catch (const std::exception& e) {
+    alignment_text_ += tr(". Alignment check not possible: %1").arg(e.what());
+  }
 }
 
 QString CalibrationSession::exportModel(const QString& path) {

@@ -42,6 +42,7 @@
 #include "scancam/colour/colourise.h"
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
+#include "scancam/refine/alignment_check.h"
 #include "scancam/refine/dense_refine.h"
 #include "scancam/solve/calibrate.h"
 

@@ -336,6 +336,10 @@ class CalibrationWindowTest : public QObject {
     QVERIFY((w->pose()->matrix() - Sim().sim.T_cam_scan.matrix()).norm() < 1e-9);
     QVERIFY(w->colouringProblem().isEmpty());
     QVERIFY(w->resultView()->toPlainText().contains("Edge alignment"));
+    // The alignment check at the simulator's truth: every nearby pose lines up worse.
+    QVERIFY2(w->resultView()->toPlainText().contains("Alignment check: 1") &&
+                 w->resultView()->toPlainText().contains("line up best nearby"),
+             qPrintable(w->resultView()->toPlainText()));
     w->setAutoValidRegion(false);  // every pixel the model projects to
     QVERIFY(w->effectiveMask().empty());
     QVERIFY(!w->cameraView()->hasShade());
