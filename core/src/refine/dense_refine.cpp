@@ -352,9 +352,8 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   for (int r = 0; r < o.reanchor_rounds && o.inner_margin_px >= 0.0; ++r) {
     anchors = {best.T};
     const Levels L = with_prior(
-        o.polish_on_all_points
-            ? subset([](std::uint32_t, const Eigen::Vector3f&) { return true; })
-            : subset(train_half));
+        o.polish_on_all_points ? subset([](std::uint32_t, const Eigen::Vector3f&) { return true; })
+                               : subset(train_half));
     best = SimplexSearch(L, best.T, o.initial_step_deg / 4, o.initial_step_m / 4, o,
                          res.evaluations + budget_per_start, progress, 0.8, 0.8);
   }
