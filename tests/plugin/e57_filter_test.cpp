@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "cc_log_capture.h"
 #include "cloud_adapter.h"
 #include "scancam/io/e57.h"
 #include "scancam/sim/simulate.h"
@@ -31,23 +32,7 @@ namespace {
 
 using scancam::plugin::io::E57Filter;
 
-// Collects CloudCompare's console messages.
-class Log : public ccLog {
- public:
-  void logMessage(const QString& message, int level) override {
-    if (level & LOG_ERROR) errors.push_back(message.toStdString());
-  }
-  std::vector<std::string> errors;
-};
-
-Log& TheLog() {
-  static Log* log = [] {
-    auto* l = new Log;
-    ccLog::RegisterInstance(l);
-    return l;
-  }();
-  return *log;
-}
+using scancam::test::TheLog;
 
 std::string E57(const std::string& name) { return scancam::test::SharedDataset("e57/" + name); }
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "cc_log_capture.h"
 #include "cloud_adapter.h"
 #include "scancam/io/kitti.h"
 #include "scancam/io/scan_io.h"
@@ -25,22 +26,7 @@ namespace {
 using scancam::plugin::io::KittiBinFilter;
 using scancam::plugin::io::PcdFilter;
 
-class Log : public ccLog {
- public:
-  void logMessage(const QString& message, int level) override {
-    (level & LOG_ERROR ? errors : lines).push_back(message.toStdString());
-  }
-  std::vector<std::string> errors, lines;
-};
-
-Log& TheLog() {
-  static Log* log = [] {
-    auto* l = new Log;
-    ccLog::RegisterInstance(l);
-    return l;
-  }();
-  return *log;
-}
+using scancam::test::TheLog;
 
 struct Loaded {
   CC_FILE_ERROR result = CC_FERR_NO_ERROR;
