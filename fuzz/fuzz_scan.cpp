@@ -7,7 +7,9 @@
 // importer accepts must satisfy the OrderedScan invariants (CheckScan) and go through the first
 // thing every command does with it, the bearing-angle image, without a sanitizer report.
 #include <cstdint>
+#include <cstring>
 #include <string>
+#include <vector>
 
 #include "fuzz_util.h"
 #include "scancam/ba_image.h"
@@ -17,6 +19,27 @@
 
 #if !defined(SCANCAM_FUZZ_FORMAT) || !defined(SCANCAM_FUZZ_EXT)
 #error "fuzz/CMakeLists.txt defines SCANCAM_FUZZ_FORMAT and SCANCAM_FUZZ_EXT"
+#endif
+
+#ifdef SCANCAM_FUZZ_NO_MALLOC_LIMIT
+// The rawlog harness: MRPT decodes in a forked child that enforces its own memory budget
+// (mrpt_rawlog.cpp, sanitizer builds); libFuzzer's per-allocation limit (-malloc_limit_mb,
+// default -rss_limit_mb), inherited by the child, would report MRPT's refused allocations
+// there first as findings, ~1 s each. So the per-allocation limit is set out of the way unless
+// given; -rss_limit_mb still bounds this process.
+extern "C" int LLVMFuzzerInitialize(int* argc, char*** argv) {
+  for (int i = 1; i < *argc; ++i) {
+    if (std::strncmp((*argv)[i], "-malloc_limit_mb=", 17) == 0) return 0;
+  }
+  static std::vector<char*> args;
+  static char flag[] = "-malloc_limit_mb=1048576";  // 1 TiB, ASan's largest allocation
+  args.assign(*argv, *argv + *argc);
+  args.push_back(flag);
+  args.push_back(nullptr);
+  *argc += 1;
+  *argv = args.data();
+  return 0;
+}
 #endif
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
