@@ -358,11 +358,13 @@ std::string DecodeIsolated(const std::string& path, const RawlogBytes& bytes,
     }
     const bool reported =
         WIFEXITED(status) && WEXITSTATUS(status) == kChildEndedExit && w.ended_by == 2;
-    const std::string name = sig        ? std::string(strsignal(sig))
-                             : reported ? std::string("a memory error caught by the sanitizer")
-                                        : (WIFEXITED(status) && WEXITSTATUS(status) != 0
-                                               ? "exit code " + std::to_string(WEXITSTATUS(status))
-                                               : std::string("no reply"));
+    const std::string name =
+        sig ? std::string(strsignal(sig))
+        : reported
+            ? std::string("stopped by the sanitizer: a memory error or an allocation too large")
+            : (WIFEXITED(status) && WEXITSTATUS(status) != 0
+                   ? "exit code " + std::to_string(WEXITSTATUS(status))
+                   : std::string("no reply"));
     throw FileError(path, at,
                     "MRPT crashed (" + name + ") " + doing +
                         ": the file is damaged or not a rawlog (ScanCam itself goes on)");
