@@ -137,6 +137,7 @@ void CalibrationWindow::sync() {
   refreshOverlay();
   updateActions();
   refreshActiveInputs();
+  refreshSceneCombo();  // names and pair counts
 }
 
 template <typename F>

@@ -3,6 +3,7 @@
 // scene changes.
 #include <QAction>
 #include <QComboBox>
+#include <QFileInfo>
 #include <QMenuBar>
 #include <QSignalBlocker>
 #include <QTableView>
@@ -102,7 +103,10 @@ void CalibrationWindow::refreshSceneCombo() {
   const QSignalBlocker block(scene_combo_);
   scene_combo_->clear();
   for (int k = 0; k < session_->sceneCount(); ++k) {
+    // Clouds often share a file name (scan.pcd): the photo tells the scenes apart too.
+    const QString image = session_->sceneImagePath(k);
     QString text = tr("Scene %1: %2").arg(k + 1).arg(session_->sceneName(k));
+    if (!image.isEmpty()) text += tr(", %1").arg(QFileInfo(image).fileName());
     if (session_->sceneCloudClosed(k)) text += tr(" (cloud closed)");
     const int pairs = session_->scenePairs(k)->completeCount();
     text += tr(" - %1 pairs").arg(pairs);
