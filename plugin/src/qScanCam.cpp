@@ -90,8 +90,11 @@ void qScanCam::cloudClosed(int scene_id, const QString& name) {
         scene_id,
         tr("The cloud %1 was closed or deleted in CloudCompare: this window no longer acts on it "
            "(Apply / Restore colours and picking in the 3D view are off for its scene; the pairs "
-           "stay saved in %2). Open the window again on a loaded cloud to go on.")
-            .arg(name, file.isEmpty() ? tr("no file yet") : file));
+           "stay saved in %2).%3")
+            .arg(name, file.isEmpty() ? tr("no file yet") : file,
+                 s->sceneCount() > 1
+                     ? tr(" Its pairs stay in the joint solve; the other scenes go on.")
+                     : tr(" Open the window again on a loaded cloud to go on.")));
   } else if (m_app) {
     m_app->dispToConsole(tr("[ScanCam] the cloud %1 was closed").arg(name),
                          ccMainAppInterface::STD_CONSOLE_MESSAGE);
