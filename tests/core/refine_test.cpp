@@ -165,6 +165,34 @@ TEST(DenseRefine, KittiStartedAtTheReferenceStaysAndItsStdCoversTheSearchsBest) 
   EXPECT_LT(r.sampling_rotation_std_deg_cam_xyz.maxCoeff(), r.rotation_std_deg_cam_xyz.maxCoeff());
 }
 
+// Intensity per laser (AlignmentOptions::intensity_per_row): a laser twice as bright as the
+// next one must not make its points fall in the top bins.
+TEST(Alignment, IntensityPerRowRemovesEachLasersGain) {
+  const LidarScene& s = Lidar();
+  OrderedScan scan = s.sim.scan;
+  ASSERT_TRUE(scan.has_intensity());
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    scan.intensity[i] *= static_cast<float>(1 << ((i / scan.cols) % 2 * 3));  // odd rows x8
+  auto mean_bin_gap = [&](bool per_row) {
+    refine::AlignmentOptions o;
+    o.intensity_per_row = per_row;
+    const refine::AlignmentData d = refine::PrepareAlignment(scan, s.view, o);
+    double sum[2] = {0, 0}, n[2] = {0, 0};
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < scan.size(); ++i) {
+      if (!scan.valid(i)) continue;
+      if (d.intensity_bin[k] != 255) {
+        sum[(i / scan.cols) % 2] += d.intensity_bin[k];
+        ++n[(i / scan.cols) % 2];
+      }
+      ++k;
+    }
+    return sum[1] / n[1] - sum[0] / n[0];
+  };
+  EXPECT_GT(mean_bin_gap(false), 3.0);  // the bright lasers take the top bins
+  EXPECT_LT(std::abs(mean_bin_gap(true)), 1.0);
+}
+
 TEST(DenseRefine, StartedAtTheTruthItStaysThere) {
   const LidarScene& s = Lidar();
   refine::DenseRefineOptions o;
