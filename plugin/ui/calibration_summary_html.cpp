@@ -141,7 +141,7 @@ QString RefinementSummaryHtml(const refine::DenseRefineResult& r, bool current) 
   const Eigen::Vector3d& sw = r.rotation_std_deg_cam_xyz;
   const Eigen::Vector3d& sv = r.translation_std_m_cam_xyz;
   html += tr("<b>std</b> about / along the camera's x / y / z: %1 %2 %3 deg, %4 %5 %6 m "
-             "(sampling noise of the objective only)")
+             "(local noise + tied searches + the objective's flatness)")
               .arg(Num(sw.x(), 3), Num(sw.y(), 3), Num(sw.z(), 3), Num(sv.x(), 3), Num(sv.y(), 3),
                    Num(sv.z(), 3));
   if (!r.unconstrained.empty())
