@@ -150,16 +150,30 @@ void CalibrationSession::CheckScanUsable(const OrderedScan* scan, const QString&
 }
 
 void CalibrationSession::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
-                                 cv::Mat edge_cells) {
+                                 EdgeCellsSource edge_cells) {
   CheckScanUsable(scan.get(), name);
   scan_ = std::move(scan);
   scan_name_ = name;
   scan_fingerprint_ = ScanFingerprint(*scan_);
   pairs_->setScan(scan_);
-  edge_cells_ = edge_cells;
+  edge_cells_.release();
+  edge_cells_source_ = std::move(edge_cells);
   coloured_.reset();
   refinement_.reset();
   emit changed();
+}
+
+const cv::Mat& CalibrationSession::edgeCells() const {
+  if (edge_cells_source_ && scan_) {
+    EdgeCellsSource source = std::move(edge_cells_source_);
+    edge_cells_source_ = nullptr;
+    try {
+      edge_cells_ = source(*scan_);
+    } catch (const std::exception&) {
+      edge_cells_.release();  // no edges (e.g. out of memory): no overlay, no alignment figure
+    }
+  }
+  return edge_cells_;
 }
 
 void CalibrationSession::checkImageSize() {
@@ -671,12 +685,12 @@ void CalibrationSession::poseChanged() {
 
 void CalibrationSession::measureEdgeAlignment() {
   alignment_text_.clear();
-  if (!colouringProblem().isEmpty() || edge_cells_.empty()) return;
+  if (!colouringProblem().isEmpty() || edgeCells().empty()) return;
   try {
     if (image_edge_distance_.empty()) image_edge_distance_ = colour::ImageEdgeDistance(image_bgr_);
     const colour::ColourView view = colourView();
     const colour::EdgeAlignment a =
-        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edge_cells_,
+        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edgeCells(),
                                      image_edge_distance_, coloured_ ? &*coloured_ : nullptr, 0);
     if (a.edge_points == 0) {
       alignment_text_ = tr("no laser edge point is seen in the image: the pose is wrong");
