@@ -31,18 +31,6 @@ echo "[shots] simulating the sample scene"
 "$cli" simulate --out "$work/sim" --supersample 2 --dropout 0 --wrong-pairs 1 --quiet
 cc_gui_start "$work" "$plugin" 1600x1000 "$work/sim/scan.ptx"
 
-# Opens a file through the Qt file dialog raised by a shortcut: types the path, Enter.
-open_file() {
-  local win="$1" keys="$2" title="$3" path="$4" dlg
-  xdotool windowactivate --sync "$win"
-  xdotool key "$keys"
-  dlg="$(wait_window "$title")"
-  xdotool windowactivate --sync "$dlg"
-  xdotool type --delay 10 "$path"
-  xdotool key Return
-  sleep 1
-}
-
 main="$(wait_window "CloudCompare v")"
 xdotool windowmove "$main" 0 0
 xdotool windowsize "$main" 1600 1000

@@ -133,6 +133,7 @@ struct CalibrationSession::SceneState {
   std::shared_ptr<const OrderedScan> scan;
   QString scan_name, scan_fingerprint;
   cv::Mat edge_cells, image_edge_distance, image_bgr;
+  EdgeCellsSource edge_cells_source;  // makes edge_cells when first needed
   QString image_path;
   cv::Mat mask;
   QString mask_path;
@@ -211,16 +212,30 @@ void CalibrationSession::CheckScanUsable(const OrderedScan* scan, const QString&
 }
 
 void CalibrationSession::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
-                                 cv::Mat edge_cells) {
+                                 EdgeCellsSource edge_cells) {
   CheckScanUsable(scan.get(), name);
   scan_ = std::move(scan);
   scan_name_ = name;
   scan_fingerprint_ = ScanFingerprint(*scan_);
   pairs_->setScan(scan_);
-  edge_cells_ = edge_cells;
+  edge_cells_.release();
+  edge_cells_source_ = std::move(edge_cells);
   coloured_.reset();
   refinement_.reset();
   emit changed();
+}
+
+const cv::Mat& CalibrationSession::edgeCells() const {
+  if (edge_cells_source_ && scan_) {
+    EdgeCellsSource source = std::move(edge_cells_source_);
+    edge_cells_source_ = nullptr;
+    try {
+      edge_cells_ = source(*scan_);
+    } catch (const std::exception&) {
+      edge_cells_.release();  // no edges (e.g. out of memory): no overlay, no alignment figure
+    }
+  }
+  return edge_cells_;
 }
 
 void CalibrationSession::checkImageSize() {
@@ -419,10 +434,10 @@ int CalibrationSession::calibrationSceneId(int k) const {
 }
 
 void CalibrationSession::exchangeActive(SceneState& s, bool to_state) {
-  auto members =
-      std::tie(scan_, scan_name_, scan_fingerprint_, edge_cells_, image_edge_distance_, image_bgr_,
-               image_path_, mask_, mask_path_, valid_region_, valid_region_text_, autosave_path_);
-  auto fields = std::tie(s.scan, s.scan_name, s.scan_fingerprint, s.edge_cells,
+  auto members = std::tie(scan_, scan_name_, scan_fingerprint_, edge_cells_, edge_cells_source_,
+                          image_edge_distance_, image_bgr_, image_path_, mask_, mask_path_,
+                          valid_region_, valid_region_text_, autosave_path_);
+  auto fields = std::tie(s.scan, s.scan_name, s.scan_fingerprint, s.edge_cells, s.edge_cells_source,
                          s.image_edge_distance, s.image_bgr, s.image_path, s.mask, s.mask_path,
                          s.valid_region, s.valid_region_text, s.autosave_path);
   if (to_state)
@@ -460,7 +475,7 @@ void CalibrationSession::switchTo(int k) {
 }
 
 int CalibrationSession::addScene(std::shared_ptr<const OrderedScan> scan, const QString& name,
-                                 cv::Mat edge_cells) {
+                                 EdgeCellsSource edge_cells) {
   CheckScanUsable(scan.get(), name);
   const QString fingerprint = ScanFingerprint(*scan);
   stashActive();
@@ -475,7 +490,7 @@ int CalibrationSession::addScene(std::shared_ptr<const OrderedScan> scan, const 
   scene->scan = std::move(scan);
   scene->scan_name = name;
   scene->scan_fingerprint = fingerprint;
-  scene->edge_cells = edge_cells;
+  scene->edge_cells_source = std::move(edge_cells);
   scenes_.push_back(std::move(scene));
   restoreActive(sceneCount() - 1);
   emit report(tr("Scene %1: %2 added (open its image, then pick or load its pairs; Calibrate "
@@ -979,12 +994,12 @@ void CalibrationSession::poseChanged() {
 
 void CalibrationSession::measureEdgeAlignment() {
   alignment_text_.clear();
-  if (!colouringProblem().isEmpty() || edge_cells_.empty()) return;
+  if (!colouringProblem().isEmpty() || edgeCells().empty()) return;
   try {
     if (image_edge_distance_.empty()) image_edge_distance_ = colour::ImageEdgeDistance(image_bgr_);
     const colour::ColourView view = colourView();
     const colour::EdgeAlignment a =
-        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edge_cells_,
+        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edgeCells(),
                                      image_edge_distance_, coloured_ ? &*coloured_ : nullptr, 0);
     if (a.edge_points == 0) {
       alignment_text_ = tr("no laser edge point is seen in the image: the pose is wrong");

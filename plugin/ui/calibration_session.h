@@ -83,10 +83,13 @@ class CalibrationSession : public QObject {
   // ---- inputs ------------------------------------------------------------------------------
   /// Throws (naming `name`) when `scan` is null, has an empty grid or is inconsistent.
   static void CheckScanUsable(const OrderedScan* scan, const QString& name);
-  /// The scan the pairs' cells refer to; `edge_cells` are its colour::BaEdgeCells (for the
-  /// edge alignment; may be empty). Throws when the grid is empty or unusable.
+  /// Makes a scan's colour::BaEdgeCells (for the edge alignment and the overlay).
+  using EdgeCellsSource = std::function<cv::Mat(const OrderedScan&)>;
+  /// The scan the pairs' cells refer to; `edge_cells` makes its colour::BaEdgeCells when they
+  /// are first needed (a pose, camera and image are there: a 50 M-cell scan's take seconds);
+  /// none: no edges. Throws when the grid is empty or unusable.
   void setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
-               cv::Mat edge_cells = {});
+               EdgeCellsSource edge_cells = {});
   void loadCamera(const QString& path);
   /// The camera image (any format OpenCV reads, kept as BGR 8-bit); a new image reloads its
   /// pairs file (see Autosave above).
@@ -175,7 +178,7 @@ class CalibrationSession : public QObject {
   /// Adds `scan` as the next scene and makes it active (no image, no pairs yet); returns its
   /// index. Throws as setScan does, and for a scan that is already a scene (same fingerprint).
   int addScene(std::shared_ptr<const OrderedScan> scan, const QString& name,
-               cv::Mat edge_cells = {});
+               EdgeCellsSource edge_cells = {});
   /// Makes scene `k` active (throws for a bad index).
   void setActiveScene(int k);
   /// Removes scene `k` as one undo step (its pairs file stays on disk). Throws for the last
@@ -194,8 +197,9 @@ class CalibrationSession : public QObject {
   const CameraModel& camera() const { return camera_; }
   QString cameraPath() const { return camera_path_; }
   const cv::Mat& imageBgr() const { return image_bgr_; }
-  /// CV_8UC1 of the grid's size: the scan's BA edge cells (colour::BaEdgeCells), or empty.
-  const cv::Mat& edgeCells() const { return edge_cells_; }
+  /// CV_8UC1 of the grid's size: the scan's BA edge cells (colour::BaEdgeCells; made by the
+  /// setScan source on the first call), or empty.
+  const cv::Mat& edgeCells() const;
   QString imagePath() const { return image_path_; }
   const cv::Mat& mask() const { return mask_; }
   QString maskPath() const { return mask_path_; }
@@ -267,8 +271,9 @@ class CalibrationSession : public QObject {
   std::shared_ptr<const OrderedScan> scan_;
   QString scan_name_;
   QString scan_fingerprint_;
-  cv::Mat edge_cells_;           // colour::BaEdgeCells of the scan
-  cv::Mat image_edge_distance_;  // colour::ImageEdgeDistance of the image
+  mutable cv::Mat edge_cells_;                 // colour::BaEdgeCells of the scan, once made
+  mutable EdgeCellsSource edge_cells_source_;  // cleared once edge_cells_ is made
+  cv::Mat image_edge_distance_;                // colour::ImageEdgeDistance of the image
   CameraModel camera_;
   QString camera_path_;
   cv::Mat image_bgr_;

@@ -264,7 +264,10 @@ class CalibrationWindow : public QMainWindow {
   QTabWidget* scanTabs() const { return scan_tabs_; }
   /// Scan view `i`: 0..3 BA traces (ba_image.h order), 4 range, 5 intensity (its tab is
   /// hidden while the scan has no intensity).
-  ImageView* scanView(int i) const { return scan_views_.at(static_cast<std::size_t>(i)); }
+  /// Its picture is made when its tab is first shown (or by this call): a 50 M-cell scan's
+  /// pictures take about a second each, with progress from kPictureProgressCells cells on.
+  ImageView* scanView(int i) const;
+  static constexpr std::size_t kPictureProgressCells = std::size_t(1) << 22;
   static constexpr int kIntensityView = 5;
   /// Whether the scan views are drawn at true angular aspect / with angle ticks (View menu).
   void setTrueAspect(bool on);
@@ -325,15 +328,11 @@ class CalibrationWindow : public QMainWindow {
   void buildMenus();
   void buildStatusBar();
   void buildSceneBar();  // calibration_window_scenes.cpp
-  /// The pictures of one scan (BA traces, range, intensity, angles, edge cells).
-  struct ScanPictures {
-    std::array<cv::Mat, 4> ba;
-    cv::Mat range, intensity, edge_cells;
-    ScanAngles angles;
-  };
-  ScanPictures computeScanPictures(const OrderedScan& scan);
-  /// Shows `p` as the scan views (the active scene's scan).
-  void showScanPictures(const ScanPictures& p);
+  /// Makes the active scene's scan the one the scan views show (pictures made lazily per tab).
+  void showActiveScan();
+  /// How the session makes a scan's BA edge cells when first needed (under a progress dialog
+  /// for large grids).
+  CalibrationSession::EdgeCellsSource edgeCellsSource();
   /// After the session's scenesChanged: the active scene's pairs model, pictures, scene list.
   void onScenesChanged();
   void refreshSceneCombo();
@@ -351,7 +350,13 @@ class CalibrationWindow : public QMainWindow {
   void resolveSnap(bool snapped);
   /// Shows the outcome of a pick (scrolls to its pair, says what happened).
   void showPick(const CalibrationSession::Pick& pick);
+  /// Marks every scan picture out of date and makes the current tab's.
   void refreshScanPictures();
+  /// Makes scan picture i if it is out of date (progress for large grids).
+  void ensureScanPicture(int i);
+  QImage makeScanPicture(int i, const Progress& progress);
+  /// The scan's angles, computed when first needed (true aspect, ticks).
+  const ScanAngles& scanAngles();
   void refreshOverlay();
   void showResult();
   void setStatus(const QString& text, int level);
@@ -387,13 +392,11 @@ class CalibrationWindow : public QMainWindow {
   bool error_dialogs_ = true;
   CalibrationSession* session_ = nullptr;
   const unsigned char* shown_image_ = nullptr;  // the image data the camera view shows
-  std::array<cv::Mat, 4> ba_;
-  cv::Mat range_;
+  std::array<bool, 6> picture_stale_{};         // scan view i needs its picture (re)made
+  bool making_picture_ = false;
   ScanViewOrientation orientation_;
   bool pick3d_available_ = false;  // the host can pick in its 3D view
   bool remembering_ = false;
-  std::map<int, ScanPictures> pictures_;            // by scene id
-  std::optional<ScanPictures> new_scene_pictures_;  // addScene's, until the session adds it
   QComboBox* scene_combo_ = nullptr;
   QAction* act_add_scene_ = nullptr;
   QAction* act_remove_scene_ = nullptr;
@@ -405,9 +408,8 @@ class CalibrationWindow : public QMainWindow {
   ImageView* camera_view_ = nullptr;
   QTabWidget* scan_tabs_ = nullptr;
   std::array<ImageView*, 6> scan_views_{};
-  cv::Mat intensity_;                // IntensityImage of the scan (empty: none)
-  ScanAngles angles_;                // of the scan's grid
-  std::optional<AspectMap> aspect_;  // set while "True angular aspect" is on
+  std::optional<ScanAngles> angles_;  // of the scan's grid, once computed
+  std::optional<AspectMap> aspect_;   // set while "True angular aspect" is on
   QLabel* hover_label_ = nullptr;
   QAction* act_true_aspect_ = nullptr;
   QAction* act_ticks_ = nullptr;

@@ -48,16 +48,8 @@ void CalibrationWindow::buildSceneBar() {
 bool CalibrationWindow::addScene(std::shared_ptr<const OrderedScan> scan, const QString& name) {
   return guardedCall(tr("Add scene %1").arg(name), [&] {
     CalibrationSession::CheckScanUsable(scan.get(), name);
-    ScanPictures pictures = computeScanPictures(*scan);
-    // The session's scenesChanged (onScenesChanged) shows them as the new scene's.
-    new_scene_pictures_ = pictures;
-    try {
-      session_->addScene(scan, name, pictures.edge_cells);
-    } catch (...) {
-      new_scene_pictures_.reset();
-      throw;
-    }
-    new_scene_pictures_.reset();
+    // The session's scenesChanged (onScenesChanged) shows the new scene's scan.
+    session_->addScene(scan, name, edgeCellsSource());
   });
 }
 
@@ -79,18 +71,7 @@ void CalibrationWindow::onScenesChanged() {
     bindPairs();
     pending_snap_.reset();
   }
-  if (new_scene_pictures_ && !pictures_.count(activeSceneId()))
-    pictures_[activeSceneId()] = *new_scene_pictures_;
-  new_scene_pictures_.reset();
-  const auto it = pictures_.find(activeSceneId());
-  if (session_->scan()) {
-    if (it != pictures_.end()) {
-      showScanPictures(it->second);
-    } else {
-      pictures_[activeSceneId()] = computeScanPictures(*session_->scan());
-      showScanPictures(pictures_[activeSceneId()]);
-    }
-  }
+  showActiveScan();
   act_pick3d_->setEnabled(pick3d_available_ && !sceneClosed());
   if (sceneClosed()) act_pick3d_->setChecked(false);
   refreshSceneCombo();

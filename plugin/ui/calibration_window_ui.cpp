@@ -73,6 +73,10 @@ void CalibrationWindow::buildViews() {
             [this](double x, double y) { hoverScanPixel(x, y); });
   }
   scan_tabs_->setTabVisible(kIntensityView, false);  // until a scan with intensity
+  // A tab's picture is made when it is first shown (calibration_window.h scanView).
+  connect(scan_tabs_, &QTabWidget::currentChanged, this, [this](int i) {
+    if (i >= 0) ensureScanPicture(i);
+  });
   setCentralWidget(scan_tabs_);
 
   // Camera image dock.

@@ -375,8 +375,8 @@ void CheckRest(PtxParser& parser, int scan_index) {
   }
 }
 
-// The grid of a PTX scan of `columns` x `rows`, every cell invalid: rows = PTX columns, cols =
-// PTX rows, file order (CloudCompare's grid, see ptx.h).
+}  // namespace
+
 OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source) {
   OrderedScan scan = OrderedScan::Empty(columns, rows);
   scan.row_axis = "PTX column (vertical scan line, file order; CloudCompare grid row)";
@@ -385,15 +385,15 @@ OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source) {
   return scan;
 }
 
-// Makes a PTX grid whose point_m holds the file's points ("0 0 0" = no return; ranges and
-// beams still NaN) an ordered scan, in place: ranges, points and beams of the returns, beams
-// of the no-return cells (ptx.h), then the pose when `apply_pose`.
 void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool apply_pose) {
   const std::size_t n = scan.size();
   const int columns = scan.rows, rows = scan.cols;  // PTX's names
   // A cell whose file point is not "0 0 0" (then kept in point_m; "0 0 0" becomes NaN).
   std::vector<std::uint8_t> returned(n, 0);
-  for (std::size_t k = 0; k < n; ++k) {
+  // Cells are independent: in parallel.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(n); ++kk) {
+    const auto k = static_cast<std::size_t>(kk);
     const Eigen::Vector3f p = scan.point_m[k];
     if (p.squaredNorm() == 0.f) {  // "0 0 0": no return
       scan.point_m[k] = Eigen::Vector3f::Constant(OrderedScan::kNaN);
@@ -494,8 +494,6 @@ void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool app
     }
   }
 }
-
-}  // namespace
 
 int CountPtxScans(const std::string& path) {
   PtxParser parser(path);

@@ -76,6 +76,16 @@ PtxScan ReadPtxScan(const std::string& path, int scan_index = 0, const Progress&
 /// Converts a PTX scan to an OrderedScan with the grid convention above.
 OrderedScan PtxToOrderedScan(const PtxScan& scan, bool apply_pose, const std::string& source);
 
+/// The grid of a PTX scan of `columns` x `rows` (grid convention above: rows = C, cols = R),
+/// every cell invalid and without intensity, for a caller that fills point_m (and intensity)
+/// with the file's numbers in file order ("0 0 0" = no return, every cell written) and then
+/// calls FinishPtxGrid: the same scan as PtxToOrderedScan without a PtxScan copy (e.g. a
+/// gridded cloud already in memory, plugin/src/cloud_adapter.h).
+OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source);
+/// Makes such a grid an ordered scan in place: ranges and beams of the returns, beams of the
+/// no-return cells (see the top of this file), then the pose when `apply_pose`.
+void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool apply_pose);
+
 /// Builds a PTX scan from an ordered scan whose points are in its scanner frame (rows = PTX
 /// columns, cols = PTX rows, as above; invalid cells become "0 0 0"; intensity 0 when the scan
 /// has none). `transform` is written as the header pose (scanner position and axes from it).
