@@ -89,6 +89,7 @@ int RunRefine(const Args& args) {
   refine::DenseRefineOptions o;
   o.starts = args.get_int("--starts", o.starts);
   o.edge_weight = args.get_double("--edge-weight", o.edge_weight);
+  o.alignment.intensity_per_row = args.has("--intensity-per-ring");
   o.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   o.start_spread_deg = args.get_double("--spread-deg", o.start_spread_deg);
   o.start_spread_m = args.get_double("--spread-m", o.start_spread_m);
@@ -161,6 +162,19 @@ int RunRefine(const Args& args) {
   rj["translation_change_m_cam_xyz"] = Vec(r.translation_change_m_cam_xyz);
   rj["rotation_std_deg_cam_xyz"] = Vec(r.rotation_std_deg_cam_xyz);
   rj["translation_std_m_cam_xyz"] = Vec(r.translation_std_m_cam_xyz);
+  {  // the std's three parts (docs/refine.md, "The reported std")
+    auto stds = [](const Eigen::Matrix<double, 6, 6>& M) {
+      const Eigen::Matrix<double, 6, 1> d = M.diagonal().cwiseMax(0.0).cwiseSqrt();
+      return nlohmann::json{{"rotation_std_deg_cam_xyz", Vec(d.head<3>())},
+                            {"translation_std_m_cam_xyz", Vec(d.tail<3>())}};
+    };
+    rj["std_parts"] = {{"local", stds(r.sampling_covariance_cam)},
+                       {"spread", stds(r.spread_covariance_cam)},
+                       {"flatness", stds(r.flatness_covariance_cam)},
+                       {"tension", stds(r.tension_covariance_cam)},
+                       {"searches_tied", r.ends_tied},
+                       {"objective_resolution", r.objective_resolution}};
+  }
   rj["objective"] = {{"train_start", r.train_start},     {"train_best", r.train_best},
                      {"heldout_start", r.heldout_start}, {"heldout_best", r.heldout_best},
                      {"nid_start", r.nid_start},         {"nid_best", r.nid_best},
@@ -224,7 +238,8 @@ int RunRefine(const Args& args) {
               << Fixed(v.x(), 3) << " " << Fixed(v.y(), 3) << " " << Fixed(v.z(), 3) << " m\n";
     const Eigen::Vector3d& sw = r.rotation_std_deg_cam_xyz;
     const Eigen::Vector3d& sv = r.translation_std_m_cam_xyz;
-    std::cout << "std (camera axes x y z, sampling noise of the objective only): rotation "
+    std::cout << "std (camera axes x y z; local + tied searches + flatness + the terms' tension): "
+                 "rotation "
               << Fixed(sw.x(), 3) << " " << Fixed(sw.y(), 3) << " " << Fixed(sw.z(), 3)
               << " deg, translation " << Fixed(sv.x(), 3) << " " << Fixed(sv.y(), 3) << " "
               << Fixed(sv.z(), 3) << " m\n";
@@ -268,6 +283,9 @@ Command MakeRefineCommand() {
           {"--spread-deg", "DEG", "Random starts: rotation spread, degrees. Default 1."},
           {"--spread-m", "M", "Random starts: translation spread, metres. Default 0.1."},
           {"--edge-weight", "W", "Weight of the depth-edge term against NID. Default 0.1."},
+          {"--intensity-per-ring", "",
+           "NID: intensity quantiles per scan row (a spinning lidar's laser, each with its own "
+           "response) instead of the whole scan's."},
           {"--seed", "N", "Random seed (starts, held-out split). Default 1."},
           {"--pairs", "FILE",
            "Picked pairs of scene k (the k-th --pairs; one per scene or none): a prior in the "

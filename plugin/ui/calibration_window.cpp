@@ -103,10 +103,7 @@ CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
   buildUi();
   // Keys pressed in this window never reach the host's shortcuts (eventFilter).
   qApp->installEventFilter(this);
-  connect(pairs_, &PairsModel::pairsEdited, this, [this] {
-    refreshMarkers();
-    updateActions();
-  });
+  connect(session_, &CalibrationSession::scenesChanged, this, [this] { onScenesChanged(); });
   connect(session_, &CalibrationSession::changed, this, [this] { sync(); });
   connect(session_, &CalibrationSession::inputsChanged, this, &CalibrationWindow::inputsChanged);
   connect(session_, &CalibrationSession::report, this, [this](const QString& text, int level) {
@@ -140,6 +137,7 @@ void CalibrationWindow::sync() {
   refreshOverlay();
   updateActions();
   refreshActiveInputs();
+  refreshSceneCombo();  // names and pair counts
 }
 
 template <typename F>
@@ -155,6 +153,10 @@ bool CalibrationWindow::guarded(const QString& what, F&& f) {
     reportError(what + tr(": unknown error"));
   }
   return false;
+}
+
+bool CalibrationWindow::guardedCall(const QString& what, const std::function<void()>& f) {
+  return guarded(what, f);
 }
 
 void CalibrationWindow::setProgressRunner(ProgressRunner runner) { runner_ = std::move(runner); }
@@ -207,49 +209,57 @@ void CalibrationWindow::reportError(const QString& text) {
 bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name) {
   return guarded(tr("Scan %1").arg(name), [&] {
     CalibrationSession::CheckScanUsable(scan.get(), name);
-    std::array<cv::Mat, 4> ba;
-    cv::Mat range, intensity;
-    ScanAngles angles;
-    cv::Mat edge_cells;
-    runWithProgress(tr("Bearing-Angle images"), [&](const Progress& progress) {
-      ba = ComputeBearingAngleAll(*scan, Progress([&](double f, const std::string& s) {
-        progress(0.8 * f, s.empty() ? "BA images" : s);
-        return true;
-      }));
-      progress(0.8, "range image");
-      range = RangeImage(*scan);
-      intensity = IntensityImage(*scan);
-      angles = ComputeScanAngles(*scan);
-      progress(0.85, "edges");
-      colour::OverlayOptions edge_options;
-      edge_options.edge_percentile = kEdgePercentile;
-      edge_cells = colour::BaEdgeCells(*scan, edge_options);
-      progress(1.0, "done");
-    });
-    session_->setScan(scan, name, edge_cells);
-    ba_ = ba;
-    range_ = range;
-    intensity_ = intensity;
-    angles_ = std::move(angles);
-    rebuildAspect();
-    scan_tabs_->setTabVisible(kIntensityView, !intensity_.empty());
-    if (intensity_.empty() && scan_tabs_->currentIndex() == kIntensityView)
-      scan_tabs_->setCurrentIndex(0);
-    hover_label_->clear();
-    // Panoramas are wider than tall: a tall grid is most likely a transposed one (PTX).
-    if (scan->rows > scan->cols * 6 / 5 && !act_transpose_->isChecked()) {
-      act_transpose_->setChecked(true);  // refreshes the pictures
-    } else {
-      refreshScanPictures();
-    }
-    for (ImageView* v : scan_views_) v->fitImage();
-    sync();
+    ScanPictures pictures = computeScanPictures(*scan);
+    session_->setScan(scan, name, pictures.edge_cells);
+    pictures_[activeSceneId()] = pictures;
+    showScanPictures(pictures);
     reportInfo(tr("Scan %1: %2 x %3 cells, %4 % with a return")
                    .arg(name)
                    .arg(scan->rows)
                    .arg(scan->cols)
                    .arg(100.0 * scan->valid_fraction(), 0, 'f', 1));
   });
+}
+
+CalibrationWindow::ScanPictures CalibrationWindow::computeScanPictures(const OrderedScan& scan) {
+  ScanPictures p;
+  runWithProgress(tr("Bearing-Angle images"), [&](const Progress& progress) {
+    p.ba = ComputeBearingAngleAll(scan, Progress([&](double f, const std::string& s) {
+                                    progress(0.8 * f, s.empty() ? "BA images" : s);
+                                    return true;
+                                  }));
+    progress(0.8, "range image");
+    p.range = RangeImage(scan);
+    p.intensity = IntensityImage(scan);
+    p.angles = ComputeScanAngles(scan);
+    progress(0.85, "edges");
+    colour::OverlayOptions edge_options;
+    edge_options.edge_percentile = kEdgePercentile;
+    p.edge_cells = colour::BaEdgeCells(scan, edge_options);
+    progress(1.0, "done");
+  });
+  return p;
+}
+
+void CalibrationWindow::showScanPictures(const ScanPictures& p) {
+  ba_ = p.ba;
+  range_ = p.range;
+  intensity_ = p.intensity;
+  angles_ = p.angles;
+  rebuildAspect();
+  scan_tabs_->setTabVisible(kIntensityView, !intensity_.empty());
+  if (intensity_.empty() && scan_tabs_->currentIndex() == kIntensityView)
+    scan_tabs_->setCurrentIndex(0);
+  hover_label_->clear();
+  // Panoramas are wider than tall: a tall grid is most likely a transposed one (PTX).
+  const auto& scan = session_->scan();
+  if (scan && scan->rows > scan->cols * 6 / 5 && !act_transpose_->isChecked()) {
+    act_transpose_->setChecked(true);  // refreshes the pictures
+  } else {
+    refreshScanPictures();
+  }
+  for (ImageView* v : scan_views_) v->fitImage();
+  sync();
 }
 
 void CalibrationWindow::refreshScanPictures() {
@@ -557,6 +567,7 @@ void CalibrationWindow::refreshMarkers() {
   if (session_->calibration() && session_->calibrationSource().isEmpty()) {
     for (std::size_t k = 0; k < session_->calibration()->suggestions.size(); ++k) {
       const PickSuggestion& g = session_->calibration()->suggestions[k];
+      if (session_->calibrationSceneId(g.scene) != activeSceneId()) continue;  // another scene's
       Marker m;
       m.id = static_cast<int>(k) + 1;
       m.colour = QColor(255, 0, 255);
@@ -614,17 +625,20 @@ bool CalibrationWindow::calibrate() {
     const Calibration& c = *session_->calibration();
     // Show the first flagged pair: that is the one to look at.
     for (const PairResult& r : c.pairs) {
-      if (!r.inlier && r.index >= 0 && r.index < static_cast<int>(rows.size())) {
+      if (!r.inlier && r.index >= 0 && r.index < static_cast<int>(rows.size()) &&
+          rows[static_cast<std::size_t>(r.index)] >= 0) {
         table_->scrollTo(pairs_->index(rows[static_cast<std::size_t>(r.index)], 0));
         break;
       }
     }
-    QString msg = tr("Calibrated (%1): %2 of %3 pairs inliers, mean %4 px / %5 deg")
-                      .arg(QString::fromStdString(c.method))
-                      .arg(c.inlier_count)
-                      .arg(c.pair_count)
-                      .arg(c.mean_px, 0, 'f', 2)
-                      .arg(c.mean_deg, 0, 'f', 3);
+    QString msg =
+        tr("Calibrated (%1%2): %3 of %4 pairs inliers, mean %5 px / %6 deg")
+            .arg(QString::fromStdString(c.method))
+            .arg(c.scenes.empty() ? QString() : tr(", %1 scenes jointly").arg(c.scenes.size()))
+            .arg(c.inlier_count)
+            .arg(c.pair_count)
+            .arg(c.mean_px, 0, 'f', 2)
+            .arg(c.mean_deg, 0, 'f', 3);
     if (c.inlier_count < c.pair_count) msg += tr(" — outliers are marked red in the table");
     reportInfo(msg, c.warnings.empty() ? kInfo : kWarning);
     for (const std::string& w : c.warnings)

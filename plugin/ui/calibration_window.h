@@ -53,6 +53,16 @@
 // overlay with the start pose (orange) instead of the current one (green); "Refine options..."
 // edits the session's refine::DenseRefineOptions (refine_options_dialog.h).
 //
+// Scenes (Scenes menu and the scene bar; calibration_session.h, Scenes): "Add scene..." asks the
+// host for another cloud (addSceneRequested: the plugin takes the cloud selected in
+// CloudCompare's DB tree) and shows it as the next scene (addScene); the scene list switches the
+// active scene: the scan views, the camera image, the pair table and the markers are then that
+// scene's (each scene keeps its own image, mask, pairs and pairs file); "Remove scene" takes the
+// active one out (Ctrl+Z puts it back). Calibrate solves every scene with pairs jointly, and
+// the Calibration panel adds each scene alone against the joint result in sigma. A scene whose
+// cloud is closed (setSceneCloudClosed) stays, marked "cloud closed": Apply / Restore colours
+// and 3D picking are off while it is active.
+//
 // Messages: everything the user should read goes to the status line and to logMessage()
 // (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
 // message box. No slot lets an exception escape.
@@ -64,6 +74,7 @@
 #include <QString>
 #include <array>
 #include <functional>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -213,12 +224,29 @@ class CalibrationWindow : public QMainWindow {
   /// Reopens the camera file, image (with its pairs) and mask last used with this scan (same
   /// ScanFingerprint; QSettings group "qScanCam/scans/<fingerprint>"), says what it reopened,
   /// and from now on remembers them there whenever they change. Call after setScan. Returns
-  /// how many files it reopened.
-  int reopenRememberedInputs();
-  /// The host's cloud is gone: the window says so (title, status, that line) and stops asking
-  /// the host to act (apply / restore colours, 3D picking are disabled for good).
+  /// how many files it reopened. `with_camera` false: the image and mask only (an added scene:
+  /// the camera is the rig's).
+  int reopenRememberedInputs(bool with_camera = true);
+  /// The host's cloud of the active scene is gone: the window says so (title, status, that
+  /// line) and stops asking the host to act on that scene (apply / restore colours, 3D picking
+  /// are disabled for it for good).
   void setSceneClosed(const QString& message);
-  bool sceneClosed() const { return scene_closed_; }
+  /// The same for the scene with id `scene_id` (CalibrationSession::sceneId).
+  void setSceneCloudClosed(int scene_id, const QString& message);
+  /// Whether the active scene's cloud was closed.
+  bool sceneClosed() const;
+
+  // ---- scenes (see the file comment) ---------------------------------------------------------
+  /// Adds `scan` as the next scene (computes its pictures, with progress) and makes it active
+  /// (the host then calls reopenRememberedInputs(false)). False after reporting a problem.
+  bool addScene(std::shared_ptr<const OrderedScan> scan, const QString& name);
+  bool setActiveScene(int k);
+  /// Removes scene k (one undo step).
+  bool removeScene(int k);
+  int activeSceneId() const { return session_->sceneId(session_->activeScene()); }
+  QComboBox* sceneCombo() const { return scene_combo_; }
+  QAction* addSceneAction() const { return act_add_scene_; }
+  QAction* removeSceneAction() const { return act_remove_scene_; }
   /// The last solve (or loaded calibration).
   const std::optional<Calibration>& calibration() const { return session_->calibration(); }
   std::optional<Eigen::Isometry3d> pose() const { return session_->pose(); }
@@ -276,6 +304,10 @@ class CalibrationWindow : public QMainWindow {
   void pick3dToggled(bool on);
   /// The camera file, image or mask changed (the host may remember them).
   void inputsChanged();
+  /// "Add scene..." was chosen: the host calls addScene with the cloud the user selected.
+  void addSceneRequested();
+  /// Another scene is active (or scenes were added / removed): `scene_id` is the active one's.
+  void activeSceneChanged(int scene_id);
 
  protected:
   void closeEvent(QCloseEvent* event) override;
@@ -292,6 +324,21 @@ class CalibrationWindow : public QMainWindow {
   void buildToolBars();
   void buildMenus();
   void buildStatusBar();
+  void buildSceneBar();  // calibration_window_scenes.cpp
+  /// The pictures of one scan (BA traces, range, intensity, angles, edge cells).
+  struct ScanPictures {
+    std::array<cv::Mat, 4> ba;
+    cv::Mat range, intensity, edge_cells;
+    ScanAngles angles;
+  };
+  ScanPictures computeScanPictures(const OrderedScan& scan);
+  /// Shows `p` as the scan views (the active scene's scan).
+  void showScanPictures(const ScanPictures& p);
+  /// After the session's scenesChanged: the active scene's pairs model, pictures, scene list.
+  void onScenesChanged();
+  void refreshSceneCombo();
+  /// Shows pairs_ in the table and follows its edits.
+  void bindPairs();
   QAction* makeAction(const QString& text, const QString& tip, const std::function<void()>& slot);
   /// After any change of the session: the image, markers, result, overlay, actions, inputs line.
   void sync();
@@ -320,6 +367,8 @@ class CalibrationWindow : public QMainWindow {
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   template <typename F>
   bool guarded(const QString& what, F&& f);
+  /// guarded() for the other source files of this class.
+  bool guardedCall(const QString& what, const std::function<void()>& f);
 
   void onCameraClicked(double u, double v);
   void onScanClicked(double x, double y);
@@ -341,8 +390,13 @@ class CalibrationWindow : public QMainWindow {
   std::array<cv::Mat, 4> ba_;
   cv::Mat range_;
   ScanViewOrientation orientation_;
-  bool scene_closed_ = false;
+  bool pick3d_available_ = false;  // the host can pick in its 3D view
   bool remembering_ = false;
+  std::map<int, ScanPictures> pictures_;            // by scene id
+  std::optional<ScanPictures> new_scene_pictures_;  // addScene's, until the session adds it
+  QComboBox* scene_combo_ = nullptr;
+  QAction* act_add_scene_ = nullptr;
+  QAction* act_remove_scene_ = nullptr;
   QString title_base_;          // inputs are saved per scan (reopenRememberedInputs)
   QUndoStack* undo_ = nullptr;  // the session's
 
