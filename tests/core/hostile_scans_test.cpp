@@ -244,6 +244,21 @@ TEST(HostileRawlog, HugeDeclaredSizeIsAFileError) {
   ExpectError([&] { LoadScan(dir + "/huge.rawlog"); }, {dir + "/huge.rawlog:object 0"});
 }
 
+// The fuzzer's rawlogs that made MRPT ask for 2.7 and 3.9 GB (fuzz/FINDINGS.md #10, #11): the
+// decoder's memory budget ends MRPT, and the caller gets the budget's message naming the
+// object. In the release build the budget is an address-space limit on the decoder process; in
+// sanitizer builds (build-asan, the fuzzers) the allocator's malloc hook enforces it (the
+// address space cannot be limited there), with the same message.
+TEST(HostileRawlog, FuzzReproducersEndInTheMemoryBudgetsMessage) {
+  const std::string f = std::string(SCANCAM_SOURCE_DIR) + "/fuzz/findings/fuzz_rawlog/";
+  ExpectError([&] { LoadScan(f + "rotating-scan-string-size-2.7GB.rawlog"); },
+              {"rotating-scan-string-size-2.7GB.rawlog:object 0 (byte 0",
+               "MRPT asked for more memory than this rawlog can hold (over 512 MiB", "damaged"});
+  ExpectError([&] { ListRawlogScans(f + "2d-range-scan-size.rawlog"); },
+              {"2d-range-scan-size.rawlog:object 3 (byte 966",
+               "MRPT asked for more memory than this rawlog can hold"});
+}
+
 // ------------------------------------------------------------------------------------ PTX
 
 std::string SmallPtx(const std::string& dir) {

@@ -333,6 +333,41 @@ TEST(Regrid, AStepFarTooFineForTheCloudIsRefused) {
   EXPECT_GT(s.valid_count(), 100u);
 }
 
+// The largest grid a cloud may get follows its number of points (100 cells per point, at least
+// 4096 cells): a 150-point ring at 0 deg elevation gets 360 / step cells in one row. Before,
+// any grid up to 256 Ki cells was allowed, and mutated 150-point clouds took ~0.5 s each in
+// the fuzzer.
+TEST(Regrid, TheLargestGridFollowsTheNumberOfPoints) {
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 150; ++i) {
+    const double az = 6.283185307179586 * i / 150.0;
+    pts.emplace_back(10 * std::cos(az), 10 * std::sin(az), 0.f);
+  }
+  RegridOptions o;
+  o.source = "ring150.pcd";
+  o.step_deg = 0.01;  // 36,000 cells: more than 100 per point
+  try {
+    RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+    FAIL() << "a grid of 36,000 cells was built for 150 points";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("ring150.pcd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nearly empty"), std::string::npos) << e.what();
+  }
+  o.step_deg = 0.03;  // 12,000 cells: under 100 per point
+  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  EXPECT_EQ(s.rows, 1);
+  EXPECT_EQ(s.cols, 12000);
+  EXPECT_EQ(s.valid_count(), 150u);
+  // 3000 points may have 300,000 cells (more than the 256 Ki that were always allowed).
+  std::vector<Eigen::Vector3f> more;
+  for (int i = 0; i < 3000; ++i) {
+    const double az = 6.283185307179586 * i / 3000.0;
+    more.emplace_back(10 * std::cos(az), 10 * std::sin(az), 0.f);
+  }
+  o.step_deg = 0.0012;  // 300,000 cells
+  EXPECT_EQ(RegridSpherical(more, nullptr, Eigen::Vector3d::Zero(), o).size(), 300000u);
+}
+
 // Fuzzing found a 301-point PCD with a ring field whose rings (135 values) and two nearly equal
 // azimuths asked for a 135 x 22743 ring grid: 3 M cells for 301 points (0.01 % filled), seconds
 // per file. A ring grid that would be under 1 % filled is refused like a spherical one.
@@ -357,9 +392,12 @@ TEST(Regrid, ARingGridFarTooFineForTheCloudIsRefused) {
     EXPECT_NE(std::string(e.what()).find("sparse_rings.pcd"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("nearly empty"), std::string::npos) << e.what();
   }
-  o.step_deg = 1.2;  // a step the cloud fills
+  // A step the cloud fills better: 135 x 150 cells, 68 per point (1.2 deg, 135 x 300 cells, is
+  // refused since the largest grid follows the number of points: more than 100 per point).
+  o.step_deg = 2.4;
   const OrderedScan s = RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
   EXPECT_EQ(s.rows, 135);
+  EXPECT_EQ(s.cols, 150);
   EXPECT_GT(s.valid_count(), 250u);
 }
 

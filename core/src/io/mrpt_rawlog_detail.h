@@ -65,6 +65,9 @@ struct DecodeWhere {
   int stage = 0;  // 0 reading objects, 1 converting
   int object_index = 0;
   std::uint64_t offset = 0;
+  // Set by the child just before it leaves in sanitizer builds (mrpt_rawlog.cpp): 1 when MRPT
+  // went over the memory budget, 2 when the sanitizer reported an error in MRPT's code.
+  int ended_by = 0;
 };
 extern DecodeWhere* g_where;  // set only in the child (mrpt_rawlog.cpp)
 

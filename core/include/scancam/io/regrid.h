@@ -57,7 +57,7 @@ struct RegridOptions {
 /// Spherical re-gridding of an unordered cloud, layout above. `intensity` may be null, else
 /// it has one value per point. Rows = elevation bins, cols = azimuth bins. Throws
 /// scancam::Error (naming options.source) when there is no usable point or the grid would
-/// exceed max_cells, or would be nearly empty (over 256 Ki cells and more than 100 cells per
+/// exceed max_cells, or would be nearly empty (over 4096 cells and more than 100 cells per
 /// point: a step far too fine for the cloud, e.g. estimated from a few odd points).
 OrderedScan RegridSpherical(const std::vector<Eigen::Vector3f>& points,
                             const std::vector<float>* intensity, const Eigen::Vector3d& origin,
