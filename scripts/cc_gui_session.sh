@@ -3,7 +3,8 @@
 #
 #   cc_gui_start WORK PLUGIN_SO SCREEN FILE...
 #       throw-away HOME, XDG_DATA_HOME (the plugin installed there) and XDG_RUNTIME_DIR under
-#       WORK; Xvfb on a free display of size SCREEN (e.g. 1600x1000) with openbox; then
+#       WORK; Xvfb on a free display (the first from $CC_GUI_FIRST_DISPLAY, default 91) of size
+#       SCREEN (e.g. 1600x1000) with openbox; then
 #       CloudCompare opening the FILEs (its output in WORK/cc.log). Exports DISPLAY, HOME, XDG_*.
 #   cc_gui_stop          kills what cc_gui_start started (call it from the caller's EXIT trap)
 #   wait_window REGEX    prints the id of a visible window whose title matches (waits <= 2 min)
@@ -23,7 +24,7 @@ cc_gui_start() {
   mkdir -p "$work/home" "$work/xdg/CCCorp/CloudCompare/plugins" "$work/run"
   chmod 700 "$work/run"
   cp "$plugin" "$work/xdg/CCCorp/CloudCompare/plugins/"
-  disp=91
+  disp="${CC_GUI_FIRST_DISPLAY:-91}"  # the first display number tried
   while [ -e "/tmp/.X${disp}-lock" ] || [ -e "/tmp/.X11-unix/X${disp}" ]; do
     disp=$((disp + 1))
   done
