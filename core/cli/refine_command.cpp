@@ -16,6 +16,7 @@
 #include "scancam/output_file.h"
 #include "scancam/refine/dense_refine.h"
 #include "scancam/refine/pair_prior.h"
+#include "scancam/refine/refine_options_io.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/calibrate_options_io.h"
@@ -76,6 +77,7 @@ int RunRefine(const Args& args) {
   }
   for (const auto& p : pairs_paths) ins.push_back({"--pairs", p});
   ins.push_back({"--init", args.get("--init")});
+  ins.push_back({"--params", args.get("--params")});
   CheckOutputs({{"--out", out_path}}, ins);
 
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
@@ -86,19 +88,23 @@ int RunRefine(const Args& args) {
     start.translation() = args.get_vector3("--init-t-m");
   }
 
+  // The options: a parameter file (--params, refine/refine_options_io.h; the plugin's Refine
+  // options dialog saves one), then the flags given here; the core checks the result.
   refine::DenseRefineOptions o;
+  if (args.has("--params")) o = refine::ReadDenseRefineOptions(args.get("--params"));
   o.starts = args.get_int("--starts", o.starts);
   o.edge_weight = args.get_double("--edge-weight", o.edge_weight);
-  o.alignment.intensity_per_row = args.has("--intensity-per-ring");
-  o.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
+  if (args.has("--intensity-per-ring")) o.alignment.intensity_per_row = true;
+  if (args.has("--seed")) o.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   o.start_spread_deg = args.get_double("--spread-deg", o.start_spread_deg);
   o.start_spread_m = args.get_double("--spread-m", o.start_spread_m);
-  if (o.starts < 1 || o.starts > 100) throw Error("option --starts: must be 1..100");
-  if (!(o.edge_weight >= 0.0)) throw Error("option --edge-weight: must be >= 0");
-  if (!(o.start_spread_deg >= 0.0 && o.start_spread_deg <= 30.0))
-    throw Error("option --spread-deg: must be in [0, 30]");
-  if (!(o.start_spread_m >= 0.0 && o.start_spread_m <= 10.0))
-    throw Error("option --spread-m: must be in [0, 10]");
+  // A value from the file was checked when it was read: a problem here is a flag's.
+  ThrowFirstOptionProblem(refine::ValidateDenseRefineOptions(o),
+                          {{"starts", "--starts"},
+                           {"edge_weight", "--edge-weight"},
+                           {"start_spread_deg", "--spread-deg"},
+                           {"start_spread_m", "--spread-m"},
+                           {"seed", "--seed"}});
   refine::PairPriorOptions po;
   po.weight = args.get_double("--pairs-weight", po.weight);
   if (!(po.weight >= 0.0 && po.weight <= 1e6)) throw Error("option --pairs-weight: must be >= 0");
@@ -298,6 +304,8 @@ Command MakeRefineCommand() {
            "Picking noise in the image, px per axis (as calibrate). Default 1."},
           {"--sigma-cells", "CELLS", "Picking noise on the scan grid, cells. Default 0.5."},
           {"--sigma-point-m", "M", "Noise of a pair given as x,y,z, metres. Default 0."},
+          ParamsOptionSpec("scancam/refine/refine_options_io.h",
+                           "the one the plugin's Refine options dialog saves"),
           {"--quiet", "", "Print nothing but errors."},
       },
       Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));

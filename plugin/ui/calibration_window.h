@@ -50,8 +50,12 @@
 // Refine (Calibration panel button, Calibration menu, Ctrl+R): the session's dense refinement of
 // the current pose (calibration_session.h), with progress and Cancel; its verdict, figures
 // before and after and std head the Calibration panel; "Before Refine" (Ctrl+B) draws the
-// overlay with the start pose (orange) instead of the current one (green); "Refine options..."
-// edits the session's refine::DenseRefineOptions (refine_options_dialog.h).
+// overlay with the start pose (orange) instead of the current one (green); the "Photo - Scan"
+// slider beside it blends the camera image and the laser-edge overlay (ImageView::setBlend:
+// photo only at the left end, edges only at the right, both at full strength in the middle;
+// view state, no undo step); "Refine options..." edits the session's
+// refine::DenseRefineOptions (refine_options_dialog.h; Save... / Load... as the JSON file
+// `scancam refine --params` reads).
 //
 // Scenes (Scenes menu and the scene bar; calibration_session.h, Scenes): "Add scene..." asks the
 // host for another cloud (addSceneRequested: the plugin takes the cloud selected in
@@ -93,6 +97,7 @@ class QComboBox;
 class QKeyEvent;
 class QUndoStack;
 class QLabel;
+class QSlider;
 class QTabWidget;
 class QTableView;
 class QTextEdit;
@@ -170,6 +175,8 @@ class CalibrationWindow : public QMainWindow {
   /// current one.
   QAction* showStartAction() const { return act_show_start_; }
   QAction* refineAction() const { return act_refine_; }
+  /// The blend slider (0..100 = ImageView::setBlend 0..1 of the camera view).
+  QSlider* blendSlider() const { return blend_slider_; }
   /// Writes the colour options this window colours with (the defaults) as the JSON parameter
   /// file that `-SCANCAM_COLORIZE -PARAMS` and `scancam colorize --params` read
   /// (colour/colour_options_io.h).
@@ -431,6 +438,7 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_refine_ = nullptr;
   QAction* act_refine_options_ = nullptr;
   QAction* act_show_start_ = nullptr;
+  QSlider* blend_slider_ = nullptr;
   QAction* act_apply_ = nullptr;
   QAction* act_restore_ = nullptr;
   QAction* act_export_ = nullptr;

@@ -17,6 +17,7 @@
 #include <QPlainTextEdit>
 #include <QPushButton>
 #include <QSettings>
+#include <QSlider>
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QTableView>
@@ -344,6 +345,25 @@ void CalibrationWindow::buildToolBars() {
     refine_bar->addAction(act_refine_);
     refine_bar->addAction(act_refine_options_);
     refine_bar->addAction(act_show_start_);
+    // Blend of the photo and the laser edges (view state only: no undo step, no data change).
+    refine_bar->addSeparator();
+    auto* photo_label = new QLabel(tr("Photo"), refine_bar);
+    photo_label->setContentsMargins(6, 0, 4, 0);
+    refine_bar->addWidget(photo_label);
+    blend_slider_ = new QSlider(Qt::Horizontal, refine_bar);
+    blend_slider_->setObjectName("blendSlider");
+    blend_slider_->setRange(0, 100);
+    blend_slider_->setValue(50);
+    blend_slider_->setMaximumWidth(140);
+    blend_slider_->setToolTip(
+        tr("Blend the camera image and the laser edges: left, the photo alone; right, the edges "
+           "alone (on black); middle, both (with Before Refine: compare before and after)"));
+    connect(blend_slider_, &QSlider::valueChanged, this,
+            [this](int v) { camera_view_->setBlend(v / 100.0); });
+    refine_bar->addWidget(blend_slider_);
+    auto* scan_label = new QLabel(tr("Edges"), refine_bar);
+    scan_label->setContentsMargins(4, 0, 6, 0);
+    refine_bar->addWidget(scan_label);
   }
   auto* tb = addToolBar(tr("ScanCam"));
   tb->setObjectName("scancamToolbar");

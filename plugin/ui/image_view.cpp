@@ -131,6 +131,8 @@ ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
   setRenderHint(QPainter::SmoothPixmapTransform, false);  // see the real pixels when zoomed
   setBackgroundBrush(QColor(40, 40, 40));
   setMouseTracking(true);
+  backdrop_item_ = scene()->addRect(QRectF(), Qt::NoPen, Qt::black);
+  backdrop_item_->setZValue(-1);
   pixmap_item_ = new PyramidItem(this);
   scene()->addItem(pixmap_item_);
   shade_item_ = scene()->addPixmap(QPixmap());
@@ -155,6 +157,7 @@ void ImageView::setImage(const QImage& image) {
   }
   pixmap_item_->update();
   scene()->setSceneRect(QRectF(0, 0, image.width(), image.height()));
+  backdrop_item_->setRect(QRectF(0, 0, image.width(), image.height()));
   if (auto_fit_ && !image.isNull()) fitInView(pixmap_item_, Qt::KeepAspectRatio);
   rebuildMarkers();
 }
@@ -216,6 +219,27 @@ void ImageView::setMarkers(const QVector<Marker>& markers) {
 void ImageView::setShade(const QImage& shade) {
   shade_ = shade;
   shade_item_->setPixmap(shade.isNull() ? QPixmap() : QPixmap::fromImage(shade));
+}
+
+void ImageView::setBlend(double b) {
+  blend_ = std::clamp(b, 0.0, 1.0);
+  const double photo = std::min(1.0, 2.0 * (1.0 - blend_));
+  pixmap_item_->setOpacity(photo);
+  shade_item_->setOpacity(photo);
+  overlay_group_->setOpacity(std::min(1.0, 2.0 * blend_));
+}
+
+QImage ImageView::composedImage() const {
+  if (image_.isNull()) return QImage();
+  QImage out(image_.size(), QImage::Format_RGB32);
+  out.fill(backgroundBrush().color());
+  QPainter painter(&out);
+  const bool markers = marker_group_->isVisible();
+  marker_group_->setVisible(false);
+  const QRectF r(0, 0, image_.width(), image_.height());
+  scene()->render(&painter, r, r);
+  marker_group_->setVisible(markers);
+  return out;
 }
 
 void ImageView::setOverlayPoints(const QVector<QPointF>& px, const QColor& colour) {

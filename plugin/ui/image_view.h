@@ -24,6 +24,7 @@
 #include <vector>
 
 class QGraphicsPixmapItem;
+class QGraphicsRectItem;
 class QGraphicsItemGroup;
 
 namespace scancam::plugin::ui {
@@ -74,6 +75,15 @@ class ImageView : public QGraphicsView {
   /// the camera's valid region tinted); a null image removes it.
   void setShade(const QImage& shade);
   bool hasShade() const { return !shade_.isNull(); }
+  /// Blend of the photo and the overlay points, clamped to [0, 1]: 0 = the photo alone, 1 = the
+  /// overlay alone (over black), 0.5 (the default) = both at full strength; in between the
+  /// photo (and the shade) are drawn with opacity min(1, 2 (1 - b)), the overlay with
+  /// min(1, 2 b). View state only: the image, points and markers are unchanged.
+  void setBlend(double b);
+  double blend() const { return blend_; }
+  /// The image, shade and overlay as this view draws them (blend included, markers not), at
+  /// the image's resolution (one pixel per image pixel); null without an image.
+  QImage composedImage() const;
   const QVector<Marker>& markers() const { return markers_; }
   /// Zoom so the whole image is visible, and keep it so on resizes (until the user zooms).
   void fitImage();
@@ -112,6 +122,8 @@ class ImageView : public QGraphicsView {
   QGraphicsItemGroup* marker_group_ = nullptr;
   QGraphicsItemGroup* overlay_group_ = nullptr;
   QGraphicsPixmapItem* shade_item_ = nullptr;
+  QGraphicsRectItem* backdrop_item_ = nullptr;  ///< black under the photo (blend > 0.5)
+  double blend_ = 0.5;
   QImage shade_;
   QVector<Marker> markers_;
   int overlay_count_ = 0;
