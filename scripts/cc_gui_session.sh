@@ -5,10 +5,16 @@
 #       throw-away HOME, XDG_DATA_HOME (the plugin installed there) and XDG_RUNTIME_DIR under
 #       WORK; Xvfb on a free display of size SCREEN (e.g. 1600x1000) with openbox; then
 #       CloudCompare opening the FILEs (its output in WORK/cc.log). Exports DISPLAY, HOME, XDG_*.
+#       The display is the first free one from $CC_GUI_FIRST_DISPLAY (default 91) on.
 #   cc_gui_stop          kills what cc_gui_start started (call it from the caller's EXIT trap)
 #   wait_window REGEX    prints the id of a visible window whose title matches (waits <= 2 min)
 #   shot_root ARGS...    the whole screen through convert (ARGS: options, then the output file)
 #   shot_window ID ARGS  one window (popups and Qt windows come out black in root captures)
+#   open_scancam_window  selects the cloud (second row of the DB tree) and presses the plugin's
+#                        toolbar button until the calibration window opens; sets `win` (its
+#                        id) and `cc_click_time` (date +%s.%N of the click that opened it)
+#   open_file WIN KEYS TITLE PATH  a file through the Qt dialog the shortcut KEYS raises
+# (positions: a fresh CloudCompare profile, main window at 0,0 sized 1600x1000).
 # Needs: Xvfb, openbox, xdotool, xwd, ImageMagick's convert, CloudCompare.
 cc_gui_pids=()
 cc_gui_convert=/usr/bin/convert
@@ -23,7 +29,7 @@ cc_gui_start() {
   mkdir -p "$work/home" "$work/xdg/CCCorp/CloudCompare/plugins" "$work/run"
   chmod 700 "$work/run"
   cp "$plugin" "$work/xdg/CCCorp/CloudCompare/plugins/"
-  disp=91
+  disp="${CC_GUI_FIRST_DISPLAY:-91}"
   while [ -e "/tmp/.X${disp}-lock" ] || [ -e "/tmp/.X11-unix/X${disp}" ]; do
     disp=$((disp + 1))
   done
@@ -59,3 +65,32 @@ wait_window() {
 
 shot_root() { xwd -root -silent | "$cc_gui_convert" xwd:- "$@"; }
 shot_window() { local id="$1"; shift; xwd -id "$id" -silent | "$cc_gui_convert" xwd:- "$@"; }
+
+open_scancam_window() {
+  win=""
+  for _ in $(seq 120); do
+    xdotool mousemove 175 138 click 1
+    sleep 0.3
+    cc_click_time="$(date +%s.%N)"
+    xdotool mousemove 1219 61 click 1
+    # Wait for the window before clicking again: openbox may place it under that spot, and a
+    # second click there would press its "Camera file..." button (a modal dialog then blocks).
+    for _ in $(seq 15); do
+      win="$(xdotool search --onlyvisible --name "ScanCam calibration" 2>/dev/null | tail -1)" || true
+      [ -z "$win" ] || return 0
+      sleep 0.2
+    done
+  done
+  return 1
+}
+
+open_file() {
+  local win="$1" keys="$2" title="$3" path="$4" dlg
+  xdotool windowactivate --sync "$win"
+  xdotool key "$keys"
+  dlg="$(wait_window "$title")"
+  xdotool windowactivate --sync "$dlg"
+  xdotool type --delay 5 "$path"
+  xdotool key Return
+  sleep 1
+}

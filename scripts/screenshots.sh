@@ -22,6 +22,9 @@ source "$root/scripts/cc_gui_session.sh"
 [ -f "$plugin" ] || { echo "screenshots: $plugin not built"; exit 1; }
 [ -x "$cli" ] || { echo "screenshots: $cli not built"; exit 1; }
 mkdir -p "$out"
+# Where the blend slider's handle is at its start (value 50), window coordinates.
+blend_slider_x=1100
+blend_slider_y=583
 
 work="$(mktemp -d /tmp/scancam-shots.XXXXXX)"
 trap 'cc_gui_stop; rm -rf "$work"' EXIT
@@ -30,18 +33,6 @@ echo "[shots] simulating the sample scene"
 # One planted wrong pair: the calibration flags it (red row).
 "$cli" simulate --out "$work/sim" --supersample 2 --dropout 0 --wrong-pairs 1 --quiet
 cc_gui_start "$work" "$plugin" 1600x1000 "$work/sim/scan.ptx"
-
-# Opens a file through the Qt file dialog raised by a shortcut: types the path, Enter.
-open_file() {
-  local win="$1" keys="$2" title="$3" path="$4" dlg
-  xdotool windowactivate --sync "$win"
-  xdotool key "$keys"
-  dlg="$(wait_window "$title")"
-  xdotool windowactivate --sync "$dlg"
-  xdotool type --delay 10 "$path"
-  xdotool key Return
-  sleep 1
-}
 
 main="$(wait_window "CloudCompare v")"
 xdotool windowmove "$main" 0 0
@@ -124,7 +115,7 @@ shot_window "$win" "$out/scancam_pick3d.png"
 
 echo "[shots] restoring the original colours"
 sleep 1
-xdotool mousemove --window "$win" 1170 38
+xdotool mousemove --window "$win" 1290 38
 sleep 0.5
 xdotool click 1  # "Restore colours"
 sleep 2
@@ -138,5 +129,21 @@ wait_window "^Refine$" >/dev/null
 while xdotool search --onlyvisible --name "^Refine$" >/dev/null 2>&1; do sleep 0.5; done
 sleep 3
 shot_window "$win" "$out/scancam_refined.png"
+
+echo "[shots] blend slider and Before Refine on the zoomed camera image"
+# The Photo - Edges slider in the Calibration panel's bar (after Before Refine): a click on its
+# handle gives it the focus; Home then 8 x Page Up set it to 80 (photo dimmed, edges at full).
+xdotool windowactivate --sync "$win"
+xdotool mousemove --window "$win" "$blend_slider_x" "$blend_slider_y" click 1
+sleep 0.5
+xdotool key Home
+for _ in 1 2 3 4 5 6 7 8; do xdotool key Page_Up; sleep 0.1; done
+xdotool mousemove --window "$win" 700 845
+sleep 1
+shot_window "$win" -crop 694x510+706+85 "$out/scancam_refine_after.png"
+xdotool key ctrl+b  # Before Refine: the start pose's edges (orange)
+sleep 1
+shot_window "$win" -crop 694x510+706+85 "$out/scancam_refine_before.png"
+xdotool key ctrl+b
 grep -F "[ScanCam]" "$work/cc.log" | tail -n 20 || true
 echo "[shots] wrote: $(cd "$out" && ls *.png | tr '\n' ' ')"

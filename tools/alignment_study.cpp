@@ -4,7 +4,9 @@
 //
 //   alignment_study SCAN CAMERA IMAGE CALIB [ANGLE_DEG=0.5] [OFFSET_M=0.05] [N=12] [SEED=1]
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -40,6 +42,7 @@ refine::AlignmentOptions OptionsFromEnv() {
   a.nid_gradient_floor = Env("NID_GW", a.nid_gradient_floor);
   a.no_return_is_edge = std::getenv("NO_RETURN_EDGE") != nullptr;
   a.edge_at_boundary = Env("EDGE_MID", a.edge_at_boundary) != 0.0;
+  a.intensity_per_row = Env("ROW_NORM", a.intensity_per_row) != 0.0;
   return a;
 }
 }  // namespace
@@ -55,7 +58,19 @@ int main(int argc, char** argv) {
   const int n = argc > 7 ? std::stoi(argv[7]) : 12;
   const int seed = argc > 8 ? std::stoi(argv[8]) : 1;
   try {
-    const OrderedScan scan = LoadScan(argv[1]);
+    OrderedScan scan = LoadScan(argv[1]);
+    if (std::getenv("MOTION_V")) {  // a spinning lidar's sweep moved: v m/s along x, 0.1 s
+      const double v = std::atof(std::getenv("MOTION_V"));  // per turn, clockwise, az 0 at t 0
+      for (std::size_t i = 0; i < scan.size(); ++i) {
+        if (!scan.valid(i)) continue;
+        Eigen::Vector3f p = scan.point_m[i];
+        const double az = std::atan2(double(p.y()), double(p.x()));
+        const double t = -az / (2 * M_PI) * 0.1;
+        p.x() += static_cast<float>(v * t);
+        scan.point_m[i] = p;
+        scan.range_m[i] = (p - scan.origin_m.cast<float>()).norm();
+      }
+    }
     ColourView view;
     view.camera = LoadCameraForImage(argv[2], argv[3]);
     view.image = ReadViewImage(argv[3]);  // the view rule (colour/view_io.h), size see below
@@ -146,6 +161,8 @@ int main(int argc, char** argv) {
             p = q + 1;
           }
         }
+        ro.uncertainty_blocks_u = static_cast<int>(Env("UBLK", ro.uncertainty_blocks_u));
+        ro.uncertainty_blocks_v = static_cast<int>(Env("VBLK", ro.uncertainty_blocks_v));
         if (std::getenv("STARTS")) ro.starts = std::atoi(std::getenv("STARTS"));
         if (std::getenv("SPREAD")) {
           ro.start_spread_deg = std::atof(std::getenv("SPREAD"));
@@ -162,10 +179,11 @@ int main(int argc, char** argv) {
             k, Eigen::AngleAxisd(d.linear()).angle() * 180 / M_PI, d.translation().norm(),
             Eigen::AngleAxisd(e.linear()).angle() * 180 / M_PI, e.translation().norm(),
             Eigen::AngleAxisd(eb.linear()).angle() * 180 / M_PI, eb.translation().norm(),
-            r.verdict.c_str(), r.accepted, r.evaluations, sec, r.rotation_std_deg_cam_xyz[0],
-            r.rotation_std_deg_cam_xyz[1], r.rotation_std_deg_cam_xyz[2],
-            r.translation_std_m_cam_xyz[0], r.translation_std_m_cam_xyz[1],
-            r.translation_std_m_cam_xyz[2], r.reason.c_str());
+            r.verdict.c_str(), r.accepted, r.evaluations, sec,
+            r.sampling_rotation_std_deg_cam_xyz[0], r.sampling_rotation_std_deg_cam_xyz[1],
+            r.sampling_rotation_std_deg_cam_xyz[2], r.sampling_translation_std_m_cam_xyz[0],
+            r.sampling_translation_std_m_cam_xyz[1], r.sampling_translation_std_m_cam_xyz[2],
+            r.reason.c_str());
         const Eigen::Vector3d ea = Eigen::AngleAxisd(e.linear()).axis() *
                                    Eigen::AngleAxisd(e.linear()).angle() * 180 / M_PI;
         const Eigen::Vector3d eba = Eigen::AngleAxisd(eb.linear()).axis() *
@@ -178,6 +196,22 @@ int main(int argc, char** argv) {
             "heldout %.6f -> %.6f nid %.5f -> %.5f edge %.4f -> %.4f\n",
             ea.x(), ea.y(), ea.z(), e.translation().x(), e.translation().y(), e.translation().z(),
             r.heldout_start, r.heldout_best, r.nid_start, r.nid_best, r.edge_start, r.edge_best);
+        {  // does the reported std cover the best's true error (every axis within 3 std)?
+          const Eigen::Vector3d& sr = r.rotation_std_deg_cam_xyz;
+          const Eigen::Vector3d& st = r.translation_std_m_cam_xyz;
+          double worst = 0.0, worst_s = 0.0;
+          for (int i = 0; i < 3; ++i) {
+            worst =
+                std::max({worst, std::abs(eba[i]) / sr[i], std::abs(eb.translation()[i]) / st[i]});
+            worst_s =
+                std::max({worst_s, std::abs(eba[i]) / r.sampling_rotation_std_deg_cam_xyz[i],
+                          std::abs(eb.translation()[i]) / r.sampling_translation_std_m_cam_xyz[i]});
+          }
+          std::printf(
+              "   std total %.3f %.3f %.3f deg %.4f %.4f %.4f m (tied ends %d); "
+              "max |err|/std %.2f (sampling only %.2f) cover3 %d\n",
+              sr[0], sr[1], sr[2], st[0], st[1], st[2], r.ends_tied, worst, worst_s, worst <= 3.0);
+        }
         {
           const refine::AlignmentScore at_ref = refine::ScoreAlignment(data, ref);
           std::printf("   at the reference: nid %.5f edge %.4f\n", at_ref.nid, at_ref.edge);

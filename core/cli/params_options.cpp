@@ -4,10 +4,10 @@
 
 namespace scancam::cli {
 
-OptionSpec ParamsOptionSpec(const std::string& keys) {
+OptionSpec ParamsOptionSpec(const std::string& keys, const std::string& writer) {
   return {"--params", "FILE.json",
-          "Options from a JSON parameter file (the one CloudCompare's -PARAMS reads; keys in " +
-              keys + "). Flags given here override it."};
+          "Options from a JSON parameter file (" + writer + "; keys in " + keys +
+              "). Flags given here override it."};
 }
 
 void ThrowFirstOptionProblem(const std::vector<OptionProblem>& problems,

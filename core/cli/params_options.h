@@ -12,8 +12,10 @@
 
 namespace scancam::cli {
 
-/// The --params option; `keys` names the header listing the file's keys.
-OptionSpec ParamsOptionSpec(const std::string& keys);
+/// The --params option; `keys` names the header listing the file's keys, `writer` who else
+/// reads or writes that file.
+OptionSpec ParamsOptionSpec(const std::string& keys,
+                            const std::string& writer = "the one CloudCompare's -PARAMS reads");
 
 /// After the flags were applied to the options read from --params: throws scancam::Error
 /// "option FLAG: what" for the first problem of the core's Validate function, FLAG the flag

@@ -16,6 +16,7 @@
 #include "scancam/output_file.h"
 #include "scancam/refine/dense_refine.h"
 #include "scancam/refine/pair_prior.h"
+#include "scancam/refine/refine_options_io.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/calibrate_options_io.h"
@@ -76,6 +77,7 @@ int RunRefine(const Args& args) {
   }
   for (const auto& p : pairs_paths) ins.push_back({"--pairs", p});
   ins.push_back({"--init", args.get("--init")});
+  ins.push_back({"--params", args.get("--params")});
   CheckOutputs({{"--out", out_path}}, ins);
 
   Eigen::Isometry3d start = Eigen::Isometry3d::Identity();
@@ -86,18 +88,23 @@ int RunRefine(const Args& args) {
     start.translation() = args.get_vector3("--init-t-m");
   }
 
+  // The options: a parameter file (--params, refine/refine_options_io.h; the plugin's Refine
+  // options dialog saves one), then the flags given here; the core checks the result.
   refine::DenseRefineOptions o;
+  if (args.has("--params")) o = refine::ReadDenseRefineOptions(args.get("--params"));
   o.starts = args.get_int("--starts", o.starts);
   o.edge_weight = args.get_double("--edge-weight", o.edge_weight);
-  o.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
+  if (args.has("--intensity-per-ring")) o.alignment.intensity_per_row = true;
+  if (args.has("--seed")) o.seed = static_cast<std::uint64_t>(args.get_int("--seed", 1));
   o.start_spread_deg = args.get_double("--spread-deg", o.start_spread_deg);
   o.start_spread_m = args.get_double("--spread-m", o.start_spread_m);
-  if (o.starts < 1 || o.starts > 100) throw Error("option --starts: must be 1..100");
-  if (!(o.edge_weight >= 0.0)) throw Error("option --edge-weight: must be >= 0");
-  if (!(o.start_spread_deg >= 0.0 && o.start_spread_deg <= 30.0))
-    throw Error("option --spread-deg: must be in [0, 30]");
-  if (!(o.start_spread_m >= 0.0 && o.start_spread_m <= 10.0))
-    throw Error("option --spread-m: must be in [0, 10]");
+  // A value from the file was checked when it was read: a problem here is a flag's.
+  ThrowFirstOptionProblem(refine::ValidateDenseRefineOptions(o),
+                          {{"starts", "--starts"},
+                           {"edge_weight", "--edge-weight"},
+                           {"start_spread_deg", "--spread-deg"},
+                           {"start_spread_m", "--spread-m"},
+                           {"seed", "--seed"}});
   refine::PairPriorOptions po;
   po.weight = args.get_double("--pairs-weight", po.weight);
   if (!(po.weight >= 0.0 && po.weight <= 1e6)) throw Error("option --pairs-weight: must be >= 0");
@@ -161,6 +168,19 @@ int RunRefine(const Args& args) {
   rj["translation_change_m_cam_xyz"] = Vec(r.translation_change_m_cam_xyz);
   rj["rotation_std_deg_cam_xyz"] = Vec(r.rotation_std_deg_cam_xyz);
   rj["translation_std_m_cam_xyz"] = Vec(r.translation_std_m_cam_xyz);
+  {  // the std's three parts (docs/refine.md, "The reported std")
+    auto stds = [](const Eigen::Matrix<double, 6, 6>& M) {
+      const Eigen::Matrix<double, 6, 1> d = M.diagonal().cwiseMax(0.0).cwiseSqrt();
+      return nlohmann::json{{"rotation_std_deg_cam_xyz", Vec(d.head<3>())},
+                            {"translation_std_m_cam_xyz", Vec(d.tail<3>())}};
+    };
+    rj["std_parts"] = {{"local", stds(r.sampling_covariance_cam)},
+                       {"spread", stds(r.spread_covariance_cam)},
+                       {"flatness", stds(r.flatness_covariance_cam)},
+                       {"tension", stds(r.tension_covariance_cam)},
+                       {"searches_tied", r.ends_tied},
+                       {"objective_resolution", r.objective_resolution}};
+  }
   rj["objective"] = {{"train_start", r.train_start},     {"train_best", r.train_best},
                      {"heldout_start", r.heldout_start}, {"heldout_best", r.heldout_best},
                      {"nid_start", r.nid_start},         {"nid_best", r.nid_best},
@@ -224,7 +244,8 @@ int RunRefine(const Args& args) {
               << Fixed(v.x(), 3) << " " << Fixed(v.y(), 3) << " " << Fixed(v.z(), 3) << " m\n";
     const Eigen::Vector3d& sw = r.rotation_std_deg_cam_xyz;
     const Eigen::Vector3d& sv = r.translation_std_m_cam_xyz;
-    std::cout << "std (camera axes x y z, sampling noise of the objective only): rotation "
+    std::cout << "std (camera axes x y z; local + tied searches + flatness + the terms' tension): "
+                 "rotation "
               << Fixed(sw.x(), 3) << " " << Fixed(sw.y(), 3) << " " << Fixed(sw.z(), 3)
               << " deg, translation " << Fixed(sv.x(), 3) << " " << Fixed(sv.y(), 3) << " "
               << Fixed(sv.z(), 3) << " m\n";
@@ -268,6 +289,9 @@ Command MakeRefineCommand() {
           {"--spread-deg", "DEG", "Random starts: rotation spread, degrees. Default 1."},
           {"--spread-m", "M", "Random starts: translation spread, metres. Default 0.1."},
           {"--edge-weight", "W", "Weight of the depth-edge term against NID. Default 0.1."},
+          {"--intensity-per-ring", "",
+           "NID: intensity quantiles per scan row (a spinning lidar's laser, each with its own "
+           "response) instead of the whole scan's."},
           {"--seed", "N", "Random seed (starts, held-out split). Default 1."},
           {"--pairs", "FILE",
            "Picked pairs of scene k (the k-th --pairs; one per scene or none): a prior in the "
@@ -280,6 +304,8 @@ Command MakeRefineCommand() {
            "Picking noise in the image, px per axis (as calibrate). Default 1."},
           {"--sigma-cells", "CELLS", "Picking noise on the scan grid, cells. Default 0.5."},
           {"--sigma-point-m", "M", "Noise of a pair given as x,y,z, metres. Default 0."},
+          ParamsOptionSpec("scancam/refine/refine_options_io.h",
+                           "the one the plugin's Refine options dialog saves"),
           {"--quiet", "", "Print nothing but errors."},
       },
       Concat(ValidRegionOptionSpecs(), ScanLoadOptionSpecs()));

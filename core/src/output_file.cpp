@@ -274,6 +274,31 @@ void AtomicFile::Commit() {
   }
 }
 
+StreamedFile::StreamedFile(const std::string& path) : path_(path), file_(path) {
+  f_ = std::fopen(file_.tmp().c_str(), "wb");
+  if (!f_) throw FileError(path, "", "cannot open the file for writing");
+}
+
+StreamedFile::~StreamedFile() {
+  if (f_) std::fclose(f_);
+}
+
+void StreamedFile::Flush(bool force) {
+  if (buffer_.size() <= (1u << 20) && !(force && !buffer_.empty())) return;
+  if (std::fwrite(buffer_.data(), 1, buffer_.size(), f_) != buffer_.size()) {
+    throw FileError(path_, "", "write error (disk full?)");
+  }
+  buffer_.clear();
+}
+
+void StreamedFile::Commit() {
+  Flush(true);
+  const bool ok = std::fclose(f_) == 0;
+  f_ = nullptr;
+  if (!ok) throw FileError(path_, "", "write error (disk full?)");
+  file_.Commit();
+}
+
 void WriteFileAtomically(const std::string& path,
                          const std::function<void(const std::string& tmp)>& write) {
   AtomicFile file(path);

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <string>
+
+#include "scancam/error.h"
 
 namespace scancam {
 
@@ -27,9 +30,25 @@ bool AcrossDiscontinuity(const OrderedScan& scan, std::size_t a, std::size_t b,
 
 std::optional<Eigen::Vector3d> InterpolatePoint(const OrderedScan& scan, double row, double col,
                                                 const InterpolationOptions& options) {
+  return InterpolatePoint(ScanWindow{&scan, 0, 0, scan.rows, scan.cols}, row, col, options);
+}
+
+std::optional<Eigen::Vector3d> InterpolatePoint(const ScanWindow& w, double row, double col,
+                                                const InterpolationOptions& options) {
+  const OrderedScan& scan = *w.scan;
   if (!std::isfinite(row) || !std::isfinite(col)) return std::nullopt;
   // Far outside the grid: nothing within half a cell (also keeps floor() in int range).
-  if (row < -1.0 || col < -1.0 || row > scan.rows || col > scan.cols) return std::nullopt;
+  if (row < -1.0 || col < -1.0 || row > w.full_rows || col > w.full_cols) return std::nullopt;
+  // Cell (r, c) of the full grid: valid, and its index in the window.
+  auto valid = [&](int r, int c) {
+    if (r < 0 || r >= w.full_rows || c < 0 || c >= w.full_cols) return false;
+    if (!scan.inside(r - w.row0, c - w.col0)) {
+      throw Error("InterpolatePoint: cell (" + std::to_string(r) + ", " + std::to_string(c) +
+                  ") is outside the window held");
+    }
+    return scan.valid(r - w.row0, c - w.col0);
+  };
+  auto index = [&](int r, int c) { return scan.index(r - w.row0, c - w.col0); };
   const int r0 = static_cast<int>(std::floor(row));
   const int c0 = static_cast<int>(std::floor(col));
   const double fr = row - r0, fc = col - c0;
@@ -47,11 +66,11 @@ std::optional<Eigen::Vector3d> InterpolatePoint(const OrderedScan& scan, double 
   int n = 0;
   for (const Cell& cell : cells) {
     if (cell.w <= 0.0) continue;
-    if (!scan.valid(cell.r, cell.c)) {
+    if (!valid(cell.r, cell.c)) {
       ok = false;
       break;
     }
-    used[n] = scan.index(cell.r, cell.c);
+    used[n] = index(cell.r, cell.c);
     weight[n] = cell.w;
     ++n;
   }
@@ -69,8 +88,8 @@ std::optional<Eigen::Vector3d> InterpolatePoint(const OrderedScan& scan, double 
   }
   const int rn = static_cast<int>(std::lround(row));
   const int cn = static_cast<int>(std::lround(col));
-  if (!scan.valid(rn, cn)) return std::nullopt;
-  return scan.point_m[scan.index(rn, cn)].cast<double>();
+  if (!valid(rn, cn)) return std::nullopt;
+  return scan.point_m[index(rn, cn)].cast<double>();
 }
 
 std::optional<Eigen::Vector3d> PairLaserPoint(const PointPair& pair, const OrderedScan* scan,

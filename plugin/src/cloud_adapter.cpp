@@ -6,6 +6,8 @@
 
 #include <QByteArray>
 #include <QVariantMap>
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <unordered_map>
@@ -101,40 +103,63 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
   const ScalarField* intensity = IntensityField(cloud);
 
   // Same layout as a PTX file (io/ptx.h): first header number = grid h (OrderedScan rows).
-  scancam::PtxScan ptx;
-  ptx.columns = static_cast<int>(g.h);
-  ptx.rows = static_cast<int>(g.w);
-  ptx.xyz.assign(n, Eigen::Vector3f::Zero());
-  ptx.intensity.assign(n, 0.f);
+  // The points go straight into the grid (no PtxScan copy), then become ranges and beams in
+  // place exactly as a PTX file's do (EmptyPtxGrid / FinishPtxGrid).
+  auto scan = std::make_shared<scancam::OrderedScan>(
+      scancam::EmptyPtxGrid(static_cast<int>(g.h), static_cast<int>(g.w), CloudName(cloud)));
+  scan->intensity.assign(n, 0.f);
   CloudScan cs;
   cs.cell_to_point.assign(n, -1);
   cs.point_to_cell.assign(size, -1);
   cs.point_count = size;
-  for (std::size_t k = 0; k < n; ++k) {
-    if ((k & 0xFFFF) == 0) progress(0.8 * double(k) / double(n), "reading the scan grid");
-    const int idx = g.indexes[k];
-    if (idx < 0) continue;
-    if (static_cast<unsigned>(idx) >= size)
-      throw scancam::Error(CloudName(cloud) + ": scan grid cell " + std::to_string(k) +
-                           " refers to point " + std::to_string(idx) + " but the cloud has " +
-                           std::to_string(size) + " points");
-    const CCVector3* P = cloud.getPoint(static_cast<unsigned>(idx));
-    const Eigen::Vector3f p = (T_scan_cloud * Eigen::Vector3d(P->x, P->y, P->z)).cast<float>();
-    // (0, 0, 0) means "no return" in a PTX grid: a point exactly at the scanner cannot be
-    // measured anyway.
-    if (p.isZero(0.f)) continue;
-    ptx.xyz[k] = p;
-    if (intensity) {
-      const float v = intensity->getValue(static_cast<unsigned>(idx));
-      ptx.intensity[k] = std::isfinite(v) ? v : 0.f;
+  const bool same_frame = T_scan_cloud.matrix() == Eigen::Matrix4d::Identity();
+  std::atomic<std::ptrdiff_t> bad_cell{-1};
+  const auto total = static_cast<std::ptrdiff_t>(n);
+  const std::ptrdiff_t chunk = std::ptrdiff_t(1) << 20;
+  for (std::ptrdiff_t k0 = 0; k0 < total; k0 += chunk) {
+    progress(0.5 * double(k0) / double(total), "reading the scan grid");
+    const std::ptrdiff_t k1 = std::min(total, k0 + chunk);
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t kk = k0; kk < k1; ++kk) {
+      const auto k = static_cast<std::size_t>(kk);
+      const int idx = g.indexes[k];
+      scan->point_m[k] = Eigen::Vector3f::Zero();  // "0 0 0": no return
+      if (idx < 0) continue;
+      if (static_cast<unsigned>(idx) >= size) {
+        std::ptrdiff_t none = -1;
+        bad_cell.compare_exchange_strong(none, kk);
+        continue;
+      }
+      const CCVector3* P = cloud.getPoint(static_cast<unsigned>(idx));
+      // In double as before (the same floats as a PTX file of these points would give).
+      const Eigen::Vector3f p =
+          same_frame ? Eigen::Vector3f(P->x, P->y, P->z)
+                     : (T_scan_cloud * Eigen::Vector3d(P->x, P->y, P->z)).cast<float>();
+      // (0, 0, 0) means "no return" in a PTX grid: a point exactly at the scanner cannot be
+      // measured anyway.
+      if (p.isZero(0.f)) continue;
+      scan->point_m[k] = p;
+      if (intensity) {
+        const float v = (*intensity)[static_cast<unsigned>(idx)];
+        scan->intensity[k] = std::isfinite(v) ? v : 0.f;
+      }
+      cs.cell_to_point[k] = idx;
+      cs.point_to_cell[static_cast<std::size_t>(idx)] = static_cast<int>(k);
     }
-    cs.cell_to_point[k] = idx;
-    cs.point_to_cell[static_cast<std::size_t>(idx)] = static_cast<int>(k);
+    if (bad_cell.load() >= 0) break;
   }
-  progress(0.8, "beam directions");
-  cs.scan = std::make_shared<scancam::OrderedScan>(
-      scancam::PtxToOrderedScan(ptx, /*apply_pose=*/false, CloudName(cloud)));
-  for (unsigned i = 0; i < size; ++i) cs.points_not_in_grid += cs.point_to_cell[i] < 0 ? 1 : 0;
+  if (const std::ptrdiff_t k = bad_cell.load(); k >= 0)
+    throw scancam::Error(CloudName(cloud) + ": scan grid cell " + std::to_string(k) +
+                         " refers to point " + std::to_string(g.indexes[std::size_t(k)]) +
+                         " but the cloud has " + std::to_string(size) + " points");
+  progress(0.5, "beam directions");
+  scancam::FinishPtxGrid(*scan, Eigen::Matrix4d::Identity(), /*apply_pose=*/false);
+  cs.scan = std::move(scan);
+  std::size_t not_in_grid = 0;
+#pragma omp parallel for reduction(+ : not_in_grid)
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(size); ++i)
+    not_in_grid += cs.point_to_cell[static_cast<std::size_t>(i)] < 0 ? 1 : 0;
+  cs.points_not_in_grid = not_in_grid;
   cs.description = QString("scan grid %1 x %2").arg(g.h).arg(g.w);
   progress(1.0, "done");
   return cs;
@@ -271,8 +296,10 @@ CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d&
 bool HasOriginalColours(const ccPointCloud& cloud) { return cloud.hasMetaData(kOriginalStateKey); }
 
 ApplyStats ApplyColours(ccPointCloud& cloud, const CloudScan& cs,
-                        const scancam::colour::ColouredScan& coloured) {
+                        const scancam::colour::ColouredScan& coloured,
+                        const scancam::Progress& progress) {
   using scancam::colour::PointState;
+  static_assert(sizeof(ccColor::Rgba) == 4, "ccColor::Rgba must be 4 packed bytes (r, g, b, a)");
   const unsigned size = cloud.size();
   if (size != cs.point_count || cs.point_to_cell.size() != size)
     throw scancam::Error(CloudName(cloud) + ": the cloud has " + std::to_string(size) +
@@ -282,6 +309,15 @@ ApplyStats ApplyColours(ccPointCloud& cloud, const CloudScan& cs,
   if (coloured.size() != cs.cell_to_point.size())
     throw scancam::Error("colouring result does not match the scan grid");
   ApplyStats stats;
+  progress(0.0, "keeping the original colours");  // the last point where Cancel is heard
+  // From here on the cloud changes: a cancel request is not acted on (a half-written cloud
+  // would mix two colourings).
+  const auto report = [&progress](double f, const char* stage) {
+    try {
+      progress(f, stage);
+    } catch (const scancam::Cancelled&) {
+    }
+  };
 
   // Keep what the cloud had, once (a second Apply must not store our own colours).
   if (!HasOriginalColours(cloud)) {
@@ -292,14 +328,9 @@ ApplyStats ApplyColours(ccPointCloud& cloud, const CloudScan& cs,
     state["sf_shown"] = cloud.sfShown();
     state["displayed_sf"] = cloud.getCurrentDisplayedScalarFieldIndex();
     if (cloud.hasColors()) {
+      // The colour table is one array of r, g, b, a bytes: copied whole.
       QByteArray rgba(static_cast<int>(size) * 4, Qt::Uninitialized);
-      for (unsigned i = 0; i < size; ++i) {
-        const ccColor::Rgba& c = cloud.getPointColor(i);
-        rgba[4 * i] = static_cast<char>(c.r);
-        rgba[4 * i + 1] = static_cast<char>(c.g);
-        rgba[4 * i + 2] = static_cast<char>(c.b);
-        rgba[4 * i + 3] = static_cast<char>(c.a);
-      }
+      std::memcpy(rgba.data(), cloud.rgbaColors()->data(), std::size_t(size) * 4);
       cloud.setMetaData(kOriginalRgbaKey, rgba);
     }
     cloud.setMetaData(kOriginalStateKey, state);
@@ -312,39 +343,59 @@ ApplyStats ApplyColours(ccPointCloud& cloud, const CloudScan& cs,
     throw scancam::Error(CloudName(cloud) + ": not enough memory for the colours");
   ScalarField* vis = cloud.getScalarField(SfIndex(cloud, kVisibilitySfName));
   ScalarField* quality = cloud.getScalarField(SfIndex(cloud, kQualitySfName));
-  for (unsigned i = 0; i < size; ++i) {
-    const int cell = cs.point_to_cell[i];
-    ccColor::Rgba colour(128, 128, 128, ccColor::MAX);
-    if (had_colours)
-      colour = ccColor::Rgba(static_cast<ColorCompType>(original[4 * i]),
-                             static_cast<ColorCompType>(original[4 * i + 1]),
-                             static_cast<ColorCompType>(original[4 * i + 2]),
-                             static_cast<ColorCompType>(original[4 * i + 3]));
-    if (cell < 0) {
-      ++stats.points_without_cell;
-      vis->setValue(i, ScalarField::NaN());
-      quality->setValue(i, ScalarField::NaN());
-    } else {
-      const auto c = static_cast<std::size_t>(cell);
-      const PointState st = coloured.state[c];
-      vis->setValue(i, static_cast<ScalarType>(st));
-      quality->setValue(i, static_cast<ScalarType>(coloured.quality[c]));
-      if (st == PointState::kColoured) {
-        const scancam::colour::Rgb8& rgb = coloured.rgb[c];
-        colour = ccColor::Rgba(rgb.r, rgb.g, rgb.b, ccColor::MAX);
-        ++stats.coloured_points;
-      } else if (st == PointState::kOccluded) {
-        ++stats.occluded_points;
+  // Straight into the arrays (no per-point calls), points in parallel: every point writes
+  // only its own entries.
+  ccColor::Rgba* colours = cloud.rgbaColors()->data();
+  const auto* original_rgba = reinterpret_cast<const ccColor::Rgba*>(original.constData());
+  ScalarType* vis_values = vis->data();
+  ScalarType* quality_values = quality->data();
+  const int* point_to_cell = cs.point_to_cell.data();
+  std::size_t coloured_points = 0, occluded = 0, out_of_view = 0, without_cell = 0;
+  const auto total = static_cast<std::ptrdiff_t>(size);
+  const std::ptrdiff_t chunk = std::ptrdiff_t(1) << 22;
+  for (std::ptrdiff_t i0 = 0; i0 < total; i0 += chunk) {
+    report(0.1 + 0.85 * double(i0) / double(total), "writing colours");
+    const std::ptrdiff_t i1 = std::min(total, i0 + chunk);
+#pragma omp parallel for schedule(static) \
+    reduction(+ : coloured_points, occluded, out_of_view, without_cell)
+    for (std::ptrdiff_t ii = i0; ii < i1; ++ii) {
+      const auto i = static_cast<std::size_t>(ii);
+      const int cell = point_to_cell[i];
+      ccColor::Rgba colour =
+          had_colours ? original_rgba[i] : ccColor::Rgba(128, 128, 128, ccColor::MAX);
+      if (cell < 0) {
+        ++without_cell;
+        vis_values[i] = ScalarField::NaN();
+        quality_values[i] = ScalarField::NaN();
       } else {
-        ++stats.out_of_view_points;
+        const auto c = static_cast<std::size_t>(cell);
+        const PointState st = coloured.state[c];
+        vis_values[i] = static_cast<ScalarType>(st);
+        quality_values[i] = static_cast<ScalarType>(coloured.quality[c]);
+        if (st == PointState::kColoured) {
+          const scancam::colour::Rgb8& rgb = coloured.rgb[c];
+          colour = ccColor::Rgba(rgb.r, rgb.g, rgb.b, ccColor::MAX);
+          ++coloured_points;
+        } else if (st == PointState::kOccluded) {
+          ++occluded;
+        } else {
+          ++out_of_view;
+        }
       }
+      colours[i] = colour;
     }
-    cloud.setPointColor(i, colour);
   }
+  stats.coloured_points = coloured_points;
+  stats.occluded_points = occluded;
+  stats.out_of_view_points = out_of_view;
+  stats.points_without_cell = without_cell;
+  cloud.colorsHaveChanged();
+  report(0.95, "scalar field ranges");
   vis->computeMinAndMax();
   quality->computeMinAndMax();
   cloud.showColors(true);
   cloud.showSF(false);
+  report(1.0, "done");
   return stats;
 }
 
@@ -366,11 +417,8 @@ void RestoreColours(ccPointCloud& cloud) {
       throw scancam::Error(CloudName(cloud) + ": the stored original colours are damaged");
     if (!cloud.hasColors() && !cloud.resizeTheRGBTable(false))
       throw scancam::Error(CloudName(cloud) + ": not enough memory for the colours");
-    for (unsigned i = 0; i < size; ++i)
-      cloud.setPointColor(i, ccColor::Rgba(static_cast<ColorCompType>(rgba[4 * i]),
-                                           static_cast<ColorCompType>(rgba[4 * i + 1]),
-                                           static_cast<ColorCompType>(rgba[4 * i + 2]),
-                                           static_cast<ColorCompType>(rgba[4 * i + 3])));
+    std::memcpy(cloud.rgbaColors()->data(), rgba.constData(), std::size_t(size) * 4);
+    cloud.colorsHaveChanged();
   } else {
     cloud.unallocateColors();
   }

@@ -106,10 +106,13 @@ struct ApplyStats {
   bool stored_original = false;  ///< this call saved the original colours
 };
 
-/// Writes colours and scalar fields (see the file comment). Throws scancam::Error when the
-/// cloud changed size since `cs` was built, or when memory runs out.
+/// Writes colours and scalar fields (see the file comment), points in parallel, reporting to
+/// `progress`. Throws scancam::Error when the cloud changed size since `cs` was built, or when
+/// memory runs out; scancam::Cancelled only before anything is written (a cancel asked while
+/// the colours are written is not acted on).
 ApplyStats ApplyColours(ccPointCloud& cloud, const CloudScan& cs,
-                        const scancam::colour::ColouredScan& coloured);
+                        const scancam::colour::ColouredScan& coloured,
+                        const scancam::Progress& progress = {});
 
 /// True when ApplyColours stored original colours that RestoreColours can put back.
 bool HasOriginalColours(const ccPointCloud& cloud);

@@ -3,8 +3,10 @@
 #include <ccGBLSensor.h>
 #include <ccPickingHub.h>
 #include <ccPointCloud.h>
+#include <sys/resource.h>
 
 #include <QAction>
+#include <QElapsedTimer>
 #include <QFileInfo>
 #include <QIcon>
 #include <QMainWindow>
@@ -32,11 +34,30 @@ ccMainAppInterface::ConsoleMessageLevel ToCcLevel(int level) {
   }
 }
 
+double Seconds(const QElapsedTimer& t) { return double(t.nsecsElapsed()) * 1e-9; }
+
+// CPU time of the whole process so far (every thread), seconds: beside the wall times on a
+// loaded machine.
+double CpuSeconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 ccPointCloud* SingleSelectedCloud(const ccHObject::Container& selected) {
   if (selected.size() != 1 || !selected.front() || !selected.front()->isA(CC_TYPES::POINT_CLOUD))
     return nullptr;
   return static_cast<ccPointCloud*>(selected.front());
 }
+
+// Sets `flag` while alive: progress dialogs run the event loop, and a second click meanwhile
+// must not start the same work again.
+struct BusyFlag {
+  explicit BusyFlag(bool& f) : flag(f) { flag = true; }
+  ~BusyFlag() { flag = false; }
+  bool& flag;
+};
 
 }  // namespace
 
@@ -67,21 +88,52 @@ qScanCam::~qScanCam() {
   if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
 }
 
-void qScanCam::cloudClosed(const QString& name) {
-  cloud_id_ = 0;
-  watcher_.reset();
-  if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
-  picking_ = false;
-  if (window_)
-    window_->setSceneClosed(
+void qScanCam::cloudClosed(int scene_id, const QString& name) {
+  const auto it = scene_clouds_.find(scene_id);
+  if (it == scene_clouds_.end()) return;
+  it->second.cloud_id = 0;
+  it->second.watcher.reset();
+  const bool active = window_ && window_->activeSceneId() == scene_id;
+  if (active && picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
+  if (active) picking_ = false;
+  if (window_) {
+    const scancam::plugin::ui::CalibrationSession* s = window_->session();
+    const QString file = s->sceneAutosavePath(s->sceneIndex(scene_id));
+    window_->setSceneCloudClosed(
+        scene_id,
         tr("The cloud %1 was closed or deleted in CloudCompare: this window no longer acts on it "
-           "(Apply / Restore colours and picking in the 3D view are off; the pairs stay saved in "
-           "%2). Open the window again on a loaded cloud to go on.")
-            .arg(name,
-                 window_->autosavePath().isEmpty() ? tr("no file yet") : window_->autosavePath()));
-  else if (m_app)
+           "(Apply / Restore colours and picking in the 3D view are off for its scene; the pairs "
+           "stay saved in %2).%3")
+            .arg(name, file.isEmpty() ? tr("no file yet") : file,
+                 s->sceneCount() > 1
+                     ? tr(" Its pairs stay in the joint solve; the other scenes go on.")
+                     : tr(" Open the window again on a loaded cloud to go on.")));
+  } else if (m_app) {
     m_app->dispToConsole(tr("[ScanCam] the cloud %1 was closed").arg(name),
                          ccMainAppInterface::STD_CONSOLE_MESSAGE);
+  }
+}
+
+qScanCam::SceneCloud* qScanCam::activeSceneCloud() {
+  if (!window_) return nullptr;
+  const auto it = scene_clouds_.find(window_->activeSceneId());
+  return it == scene_clouds_.end() ? nullptr : &it->second;
+}
+
+const qScanCam::SceneCloud* qScanCam::activeSceneCloud() const {
+  return const_cast<qScanCam*>(this)->activeSceneCloud();
+}
+
+void qScanCam::watchScene(int scene_id, ccPointCloud* cloud, scancam::plugin::CloudScan cs) {
+  SceneCloud& sc = scene_clouds_[scene_id];
+  sc.cloud_id = cloud->getUniqueID();
+  sc.scan = std::move(cs);
+  const QString name = cloud->getName();
+  sc.watcher = std::make_unique<CloudWatcher>(cloud, [this, scene_id, name] {
+    // Inside the cloud's destructor: act once CloudCompare is done deleting.
+    QMetaObject::invokeMethod(
+        this, [this, scene_id, name] { cloudClosed(scene_id, name); }, Qt::QueuedConnection);
+  });
 }
 
 template <typename F>
@@ -146,8 +198,9 @@ void qScanCam::registerCommands(ccCommandLineInterface* cmd) {
 }
 
 ccPointCloud* qScanCam::windowCloud() const {
-  if (!m_app || cloud_id_ == 0 || !m_app->dbRootObject()) return nullptr;
-  ccHObject* obj = m_app->dbRootObject()->find(cloud_id_);
+  const SceneCloud* sc = activeSceneCloud();
+  if (!m_app || !sc || sc->cloud_id == 0 || !m_app->dbRootObject()) return nullptr;
+  ccHObject* obj = m_app->dbRootObject()->find(sc->cloud_id);
   return obj && obj->isA(CC_TYPES::POINT_CLOUD) ? static_cast<ccPointCloud*>(obj) : nullptr;
 }
 
@@ -213,49 +266,38 @@ void qScanCam::openCalibration() {
   // Progress dialogs run the event loop: a second click on the action meanwhile must not open
   // a second window (or replace the first one half-built).
   if (!m_app || opening_) return;
-  opening_ = true;
-  struct Done {
-    bool& flag;
-    ~Done() { flag = false; }
-  } done{opening_};
+  const BusyFlag busy(opening_);
   ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
   if (!cloud) {
     log("select one point cloud first", scancam::plugin::ui::CalibrationWindow::kError);
     return;
   }
-  if (window_ && cloud->getUniqueID() == cloud_id_ && windowCloud() == cloud) {
-    window_->show();
-    window_->raise();
-    window_->activateWindow();
-    return;
-  }
   if (window_) {
+    // A cloud that is one of the window's scenes: the window comes up on that scene.
+    for (const auto& [id, sc] : scene_clouds_) {
+      const int k = window_->session()->sceneIndex(id);
+      if (sc.cloud_id == cloud->getUniqueID() && k >= 0) {
+        window_->setActiveScene(k);
+        window_->show();
+        window_->raise();
+        window_->activateWindow();
+        return;
+      }
+    }
     window_->close();  // its pairs are already saved; deleted later (WA_DeleteOnClose)
     window_.clear();
   }
 
+  QElapsedTimer timer;
+  timer.start();
+  const double cpu0 = CpuSeconds();
   scancam::plugin::CloudScan cs;
   if (!buildScan(cloud, &cs)) return;
-  cloud_scan_ = std::move(cs);
-  cloud_id_ = cloud->getUniqueID();
-  {
-    const QString name = cloud->getName();
-    watcher_ = std::make_unique<CloudWatcher>(cloud, [this, name] {
-      // Inside the cloud's destructor: act once CloudCompare is done deleting.
-      QMetaObject::invokeMethod(
-          this, [this, name] { cloudClosed(name); }, Qt::QueuedConnection);
-    });
-  }
-  log(QString("%1: %2, %3 points%4")
-          .arg(cloud->getName(), cloud_scan_.description)
-          .arg(cloud->size())
-          .arg(cloud_scan_.points_not_in_grid > 0
-                   ? QString(" (%1 share a cell with a nearer point and will not be coloured; "
-                             "a smaller angular step avoids that)")
-                         .arg(cloud_scan_.points_not_in_grid)
-                   : QString()),
-      cloud_scan_.points_not_in_grid > 0 ? scancam::plugin::ui::CalibrationWindow::kWarning
-                                         : scancam::plugin::ui::CalibrationWindow::kInfo);
+  const double scan_s = Seconds(timer);
+  logCloudScan(cloud, cs);
+  scene_clouds_.clear();
+  const std::shared_ptr<const scancam::OrderedScan> scan = cs.scan;
+  watchScene(0, cloud, std::move(cs));  // scene 1's id is 0
 
   auto* w = new scancam::plugin::ui::CalibrationWindow(m_app->getMainWindow());
   w->setWindowFlag(Qt::Window, true);
@@ -278,22 +320,80 @@ void qScanCam::openCalibration() {
           [this] { guarded("Restore colours", [this] { restoreColours(); }); });
   connect(w, &scancam::plugin::ui::CalibrationWindow::pick3dToggled, this,
           [this](bool on) { guarded("Picking in the 3D view", [this, on] { setPicking(on); }); });
+  connect(w, &scancam::plugin::ui::CalibrationWindow::addSceneRequested, this,
+          [this] { guarded("Add scene", [this] { addScene(); }); });
+  connect(w, &scancam::plugin::ui::CalibrationWindow::activeSceneChanged, this, [this] {
+    // 3D picks (onItemPicked) and Restore follow the active scene's cloud.
+    if (!window_) return;
+    ccPointCloud* cloud = windowCloud();
+    window_->setRestoreAvailable(cloud && scancam::plugin::HasOriginalColours(*cloud));
+  });
   connect(w, &QObject::destroyed, this, [this] {
     // A window replaced by one on another cloud is destroyed later: then window_ is already
-    // the new one, whose picking and watcher stay.
+    // the new one, whose picking and watchers stay.
     if (window_) return;
     if (picking_ && m_app && m_app->pickingHub()) m_app->pickingHub()->removeListener(this);
     picking_ = false;
-    watcher_.reset();
+    scene_clouds_.clear();
   });
   window_ = w;
   w->setPick3dAvailable(m_app->pickingHub() != nullptr);
   w->setRestoreAvailable(scancam::plugin::HasOriginalColours(*cloud));
   w->show();
-  if (!w->setScan(cloud_scan_.scan, cloud->getName())) return;
+  const double window_s = Seconds(timer);
+  if (!w->setScan(scan, cloud->getName())) return;
+  // Timings for users too (README, Full size: the plugin on a 50 M-point cloud).
+  log(QString("Window opened in %1 s, CPU %5 s (scan grid %2 s, window %3 s, first scan view "
+              "%4 s)")
+          .arg(Seconds(timer), 0, 'f', 2)
+          .arg(scan_s, 0, 'f', 2)
+          .arg(window_s - scan_s, 0, 'f', 2)
+          .arg(Seconds(timer) - window_s, 0, 'f', 2)
+          .arg(CpuSeconds() - cpu0, 0, 'f', 2),
+      scancam::plugin::ui::CalibrationWindow::kInfo);
 
   // The files last used with THIS scan (never another scan's) come back, with a message.
   w->reopenRememberedInputs();
+}
+
+void qScanCam::logCloudScan(ccPointCloud* cloud, const scancam::plugin::CloudScan& cs) {
+  log(QString("%1: %2, %3 points%4")
+          .arg(cloud->getName(), cs.description)
+          .arg(cloud->size())
+          .arg(cs.points_not_in_grid > 0
+                   ? QString(" (%1 share a cell with a nearer point and will not be coloured; "
+                             "a smaller angular step avoids that)")
+                         .arg(cs.points_not_in_grid)
+                   : QString()),
+      cs.points_not_in_grid > 0 ? scancam::plugin::ui::CalibrationWindow::kWarning
+                                : scancam::plugin::ui::CalibrationWindow::kInfo);
+}
+
+void qScanCam::addScene() {
+  if (!m_app || !window_ || opening_) return;
+  const BusyFlag busy(opening_);
+  ccPointCloud* cloud = SingleSelectedCloud(m_app->getSelectedEntities());
+  if (!cloud)
+    throw scancam::Error(
+        "select the point cloud of the next scene in CloudCompare's DB tree first (one cloud)");
+  for (const auto& [id, sc] : scene_clouds_) {
+    const int k = window_->session()->sceneIndex(id);
+    if (sc.cloud_id == cloud->getUniqueID() && k >= 0)
+      throw scancam::Error(cloud->getName().toStdString() + " is already scene " +
+                           std::to_string(k + 1) + ": select another cloud");
+  }
+  scancam::plugin::CloudScan cs;
+  if (!buildScan(cloud, &cs)) return;
+  if (!window_) return;  // closed while the grid was built
+  logCloudScan(cloud, cs);
+  const std::shared_ptr<const scancam::OrderedScan> scan = cs.scan;
+  const int before = window_->session()->sceneCount();
+  if (!window_->addScene(scan, cloud->getName())) return;
+  if (window_->session()->sceneCount() == before) return;
+  watchScene(window_->activeSceneId(), cloud, std::move(cs));
+  window_->setRestoreAvailable(scancam::plugin::HasOriginalColours(*cloud));
+  // The photo (and mask) last used with THIS scan come back; the camera is the rig's.
+  window_->reopenRememberedInputs(false);
 }
 
 void qScanCam::applyColours() {
@@ -304,15 +404,41 @@ void qScanCam::applyColours() {
   if (!problem.isEmpty()) throw scancam::Error(problem.toStdString());
   const scancam::colour::ColourView view = window_->colourView();
   scancam::colour::ColouredScan coloured;
+  scancam::plugin::ApplyStats st;
+  QElapsedTimer timer;
+  timer.start();
+  const double cpu0 = CpuSeconds();
+  double colouring_s = 0.0;
+  // One progress dialog for both steps: the colouring (cancellable) and the writing into the
+  // cloud (cloud_adapter.h ApplyColours).
   scancam::plugin::RunWithCcProgress(
       m_app->getMainWindow(), tr("ScanCam: colouring"), [&](const scancam::Progress& p) {
-        coloured = scancam::colour::Colourise(*cloud_scan_.scan, {view}, {}, p);
+        coloured =
+            scancam::colour::Colourise(*activeSceneCloud()->scan.scan, {view}, {},
+                                       scancam::Progress([&p](double f, const std::string& s) {
+                                         p(0.8 * f, s);
+                                         return true;
+                                       }));
+        colouring_s = Seconds(timer);
+        st = scancam::plugin::ApplyColours(*cloud, activeSceneCloud()->scan, coloured,
+                                           scancam::Progress([&p](double f, const std::string& s) {
+                                             p(0.8 + 0.2 * f, s);
+                                             return true;
+                                           }));
       });
-  const scancam::plugin::ApplyStats st =
-      scancam::plugin::ApplyColours(*cloud, cloud_scan_, coloured);
+  const double written_s = Seconds(timer);
   cloud->prepareDisplayForRefresh_recursive();
   m_app->refreshAll();
   m_app->updateUI();
+  log(QString("Apply colours: %1 s, CPU %6 s, for %2 points (colouring %3 s, writing into the "
+              "cloud %4 s, display refresh %5 s)")
+          .arg(Seconds(timer), 0, 'f', 2)
+          .arg(cloud->size())
+          .arg(colouring_s, 0, 'f', 2)
+          .arg(written_s - colouring_s, 0, 'f', 2)
+          .arg(Seconds(timer) - written_s, 0, 'f', 2)
+          .arg(CpuSeconds() - cpu0, 0, 'f', 2),
+      scancam::plugin::ui::CalibrationWindow::kInfo);
   window_->setRestoreAvailable(true);
   if (restore_action_) restore_action_->setEnabled(true);
   // The ground first: the window's status line keeps the last message, which should be the
@@ -320,7 +446,7 @@ void qScanCam::applyColours() {
   if (coloured.ground)
     window_->reportInfo(QString("Ground (joins far rings for the occlusion test): %1")
                             .arg(QString::fromStdString(scancam::colour::DescribeGround(
-                                *coloured.ground, cloud_scan_.scan->origin_m))));
+                                *coloured.ground, activeSceneCloud()->scan.scan->origin_m))));
   const QString msg =
       QString("Coloured %1: %2 points from the image, %3 occluded, %4 out of view%5")
           .arg(cloud->getName())
@@ -361,7 +487,7 @@ void qScanCam::restoreSelected() {
   m_app->refreshAll();
   m_app->updateUI();
   if (restore_action_) restore_action_->setEnabled(false);
-  if (window_ && cloud->getUniqueID() == cloud_id_) window_->setRestoreAvailable(false);
+  if (window_ && windowCloud() == cloud) window_->setRestoreAvailable(false);
   log(QString("Restored the original colours of %1").arg(cloud->getName()),
       scancam::plugin::ui::CalibrationWindow::kInfo);
 }
@@ -389,18 +515,19 @@ void qScanCam::onItemPicked(const PickedItem& pi) {
     if (!window_) return;
     ccPointCloud* cloud = windowCloud();
     if (!cloud || pi.entity != cloud) {
-      window_->reportInfo("the picked point is not on the cloud of the calibration window",
+      window_->reportInfo("the picked point is not on the cloud of the active scene",
                           scancam::plugin::ui::CalibrationWindow::kWarning);
       return;
     }
-    if (pi.itemIndex >= cloud_scan_.point_to_cell.size()) return;
-    const int cell = cloud_scan_.point_to_cell[pi.itemIndex];
+    const scancam::plugin::CloudScan& cs = activeSceneCloud()->scan;
+    if (pi.itemIndex >= cs.point_to_cell.size()) return;
+    const int cell = cs.point_to_cell[pi.itemIndex];
     if (cell < 0) {
       window_->reportInfo("the picked point has no cell in the scan grid: pick a neighbour",
                           scancam::plugin::ui::CalibrationWindow::kWarning);
       return;
     }
-    const int cols = cloud_scan_.scan->cols;
+    const int cols = cs.scan->cols;
     window_->addScanPick(cell / cols, cell % cols);
   });
 }

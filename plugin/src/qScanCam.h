@@ -15,10 +15,14 @@
 // ccHObject dependency, notified from the cloud's destructor) and stops acting on it. Inputs
 // (camera file, image, mask) are remembered per scan (CalibrationWindow::ScanFingerprint) and
 // reopened, with a message, only for that same scan.
+// Scenes: "Add scene..." in the window adds the cloud selected in the DB tree as another scene
+// (its own grid, watcher and colours); Apply / Restore colours and 3D picks act on the active
+// scene's cloud; a closed cloud closes only its scene (CalibrationWindow::setSceneCloudClosed).
 #pragma once
 
 #include <QObject>
 #include <QPointer>
+#include <map>
 #include <memory>
 
 #include "ccPickingListener.h"
@@ -56,10 +60,16 @@ class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingLi
   void restoreSelected();
   void setPicking(bool on);
   void log(const QString& text, int level);
-  /// The window's cloud was deleted (called from the event loop after the deletion).
-  void cloudClosed(const QString& name);
-  /// The cloud the window works on, looked up by its unique ID (null when it was deleted).
+  /// The cloud of scene `scene_id` was deleted (called from the event loop after the deletion).
+  void cloudClosed(int scene_id, const QString& name);
+  /// The cloud of the window's active scene, looked up by its unique ID (null when it was
+  /// deleted or there is no window).
   ccPointCloud* windowCloud() const;
+  void logCloudScan(ccPointCloud* cloud, const scancam::plugin::CloudScan& cs);
+  /// "Add scene...": the selected cloud becomes the window's next scene.
+  void addScene();
+  /// Remembers `cloud` (with its scan `cs`) as the window's scene `scene_id` and watches it.
+  void watchScene(int scene_id, ccPointCloud* cloud, scancam::plugin::CloudScan cs);
   /// Builds the scan of `cloud` (its grid, its sensor's re-gridding, or asks the user).
   /// Returns false when the user cancels.
   bool buildScan(ccPointCloud* cloud, scancam::plugin::CloudScan* out);
@@ -69,9 +79,16 @@ class qScanCam : public QObject, public ccStdPluginInterface, public ccPickingLi
   QAction* calibrate_action_ = nullptr;
   QAction* restore_action_ = nullptr;
   QPointer<scancam::plugin::ui::CalibrationWindow> window_;
-  unsigned cloud_id_ = 0;
-  std::unique_ptr<CloudWatcher> watcher_;
-  scancam::plugin::CloudScan cloud_scan_;
+  /// The window's scenes' clouds, by scene id (CalibrationSession::sceneId).
+  struct SceneCloud {
+    unsigned cloud_id = 0;  ///< 0 once the cloud was closed
+    std::unique_ptr<CloudWatcher> watcher;
+    scancam::plugin::CloudScan scan;
+  };
+  std::map<int, SceneCloud> scene_clouds_;
+  /// The active scene's entry (null without a window or for an unknown scene).
+  SceneCloud* activeSceneCloud();
+  const SceneCloud* activeSceneCloud() const;
   bool picking_ = false;
   bool opening_ = false;  // openCalibration is running
 };

@@ -15,6 +15,7 @@
 #include <future>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
+#include <tuple>
 
 #include "scancam/camera/camera_io.h"
 #include "scancam/camera/valid_region.h"
@@ -121,16 +122,77 @@ class CalibrationSession::PoseCommand : public QUndoCommand {
   std::string pairs_csv_;
 };
 
+// One scene's own state (calibration_session.h, Scenes). While the scene is active its
+// fields live in the session's members (stashActive / restoreActive); id, pairs and
+// cloud_closed always live here.
+struct CalibrationSession::SceneState {
+  int id = 0;
+  std::unique_ptr<PairsModel> pairs;
+  bool cloud_closed = false;
+  int valid_region_camera = -1;  // camera_generation_ the valid region was found with
+  std::shared_ptr<const OrderedScan> scan;
+  QString scan_name, scan_fingerprint;
+  cv::Mat edge_cells, image_edge_distance, image_bgr;
+  EdgeCellsSource edge_cells_source;  // makes edge_cells when first needed
+  QString image_path;
+  cv::Mat mask;
+  QString mask_path;
+  cv::Mat valid_region;
+  QString valid_region_text;
+  QString autosave_path;
+};
+
+// Removing a scene: redo takes it out of the list (and holds it), undo puts it back at its
+// place and makes it active.
+class CalibrationSession::RemoveSceneCommand : public QUndoCommand {
+ public:
+  RemoveSceneCommand(CalibrationSession* session, int index, const QString& text)
+      : QUndoCommand(text), session_(session), index_(index) {}
+  void redo() override {
+    CalibrationSession& s = *session_;
+    s.stashActive();
+    const int active = s.active_;
+    held_ = std::move(s.scenes_[static_cast<std::size_t>(index_)]);
+    s.scenes_.erase(s.scenes_.begin() + index_);
+    const int last = static_cast<int>(s.scenes_.size()) - 1;
+    s.restoreActive(active > index_ ? active - 1 : std::min(active, last));
+  }
+  void undo() override {
+    CalibrationSession& s = *session_;
+    s.stashActive();
+    s.scenes_.insert(s.scenes_.begin() + index_, std::move(held_));
+    s.restoreActive(index_);
+  }
+
+ private:
+  CalibrationSession* session_;
+  int index_;
+  std::unique_ptr<SceneState> held_;  // while removed
+};
+
 CalibrationSession::CalibrationSession(QObject* parent) : QObject(parent) {
-  pairs_ = new PairsModel(this);
   undo_ = new QUndoStack(this);
-  pairs_->setUndoStack(undo_);
-  connect(pairs_, &PairsModel::pairsEdited, this, [this] { autosave(); });
+  scenes_.push_back(std::make_unique<SceneState>());
+  scenes_[0]->id = 0;
+  scenes_[0]->pairs.reset(newPairsModel());
+  pairs_ = scenes_[0]->pairs.get();
 }
 
 CalibrationSession::~CalibrationSession() {
-  pairs_->setUndoStack(nullptr);
-  pairs_->disconnect(this);
+  // The undo stack may hold removed scenes (and their pairs): gone first, then the scenes'
+  // pairs stop talking to this session.
+  undo_->clear();
+  for (const auto& scene : scenes_) {
+    scene->pairs->setUndoStack(nullptr);
+    scene->pairs->disconnect(this);
+  }
+}
+
+PairsModel* CalibrationSession::newPairsModel() {
+  auto* m = new PairsModel();
+  m->setUndoStack(undo_);
+  connect(m, &PairsModel::pairsEdited, this, [this, m] { autosaveModel(m); });
+  return m;
 }
 
 void CalibrationSession::runWithProgress(const QString& title,
@@ -150,16 +212,30 @@ void CalibrationSession::CheckScanUsable(const OrderedScan* scan, const QString&
 }
 
 void CalibrationSession::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
-                                 cv::Mat edge_cells) {
+                                 EdgeCellsSource edge_cells) {
   CheckScanUsable(scan.get(), name);
   scan_ = std::move(scan);
   scan_name_ = name;
   scan_fingerprint_ = ScanFingerprint(*scan_);
   pairs_->setScan(scan_);
-  edge_cells_ = edge_cells;
+  edge_cells_.release();
+  edge_cells_source_ = std::move(edge_cells);
   coloured_.reset();
   refinement_.reset();
   emit changed();
+}
+
+const cv::Mat& CalibrationSession::edgeCells() const {
+  if (edge_cells_source_ && scan_) {
+    EdgeCellsSource source = std::move(edge_cells_source_);
+    edge_cells_source_ = nullptr;
+    try {
+      edge_cells_ = source(*scan_);
+    } catch (const std::exception&) {
+      edge_cells_.release();  // no edges (e.g. out of memory): no overlay, no alignment figure
+    }
+  }
+  return edge_cells_;
 }
 
 void CalibrationSession::checkImageSize() {
@@ -174,11 +250,12 @@ void CalibrationSession::checkImageSize() {
 void CalibrationSession::loadCamera(const QString& path) {
   CameraModel cam = LoadCamera(path.toStdString());
   camera_ = std::move(cam);
+  ++camera_generation_;
   camera_path_ = path;
   calibration_.reset();
   coloured_.reset();
   refinement_.reset();
-  pairs_->clearResults();
+  clearResults();
   refreshValidRegion();
   emit changed();
   emit inputsChanged();
@@ -299,6 +376,7 @@ void CalibrationSession::setAutoValidRegion(bool on) {
 void CalibrationSession::refreshValidRegion() {
   valid_region_.release();
   valid_region_text_.clear();
+  scenes_[static_cast<std::size_t>(active_)]->valid_region_camera = camera_generation_;
   if (!auto_valid_region_ || !camera_.valid() || image_bgr_.empty() ||
       image_bgr_.cols != camera_.width() || image_bgr_.rows != camera_.height())
     return;
@@ -312,6 +390,148 @@ void CalibrationSession::refreshValidRegion() {
   } catch (const std::exception& e) {
     emit report(tr("Valid image region not found: %1").arg(e.what()), kWarning);
   }
+}
+
+// ---- scenes -------------------------------------------------------------------------------
+
+int CalibrationSession::sceneId(int k) const {
+  return k >= 0 && k < sceneCount() ? scenes_[static_cast<std::size_t>(k)]->id : -1;
+}
+
+int CalibrationSession::sceneIndex(int id) const {
+  for (int k = 0; k < sceneCount(); ++k)
+    if (scenes_[static_cast<std::size_t>(k)]->id == id) return k;
+  return -1;
+}
+
+QString CalibrationSession::sceneName(int k) const {
+  if (k == active_) return scan_name_;
+  return k >= 0 && k < sceneCount() ? scenes_[static_cast<std::size_t>(k)]->scan_name : QString();
+}
+
+QString CalibrationSession::sceneImagePath(int k) const {
+  if (k == active_) return image_path_;
+  return k >= 0 && k < sceneCount() ? scenes_[static_cast<std::size_t>(k)]->image_path : QString();
+}
+
+QString CalibrationSession::sceneAutosavePath(int k) const {
+  if (k == active_) return autosave_path_;
+  return k >= 0 && k < sceneCount() ? scenes_[static_cast<std::size_t>(k)]->autosave_path
+                                    : QString();
+}
+
+PairsModel* CalibrationSession::scenePairs(int k) const {
+  return k >= 0 && k < sceneCount() ? scenes_[static_cast<std::size_t>(k)]->pairs.get() : nullptr;
+}
+
+bool CalibrationSession::sceneCloudClosed(int k) const {
+  return k >= 0 && k < sceneCount() && scenes_[static_cast<std::size_t>(k)]->cloud_closed;
+}
+
+int CalibrationSession::calibrationSceneId(int k) const {
+  if (!calibration_ || k < 0 || k >= static_cast<int>(calibration_scene_ids_.size())) return -1;
+  return calibration_scene_ids_[static_cast<std::size_t>(k)];
+}
+
+void CalibrationSession::exchangeActive(SceneState& s, bool to_state) {
+  auto members = std::tie(scan_, scan_name_, scan_fingerprint_, edge_cells_, edge_cells_source_,
+                          image_edge_distance_, image_bgr_, image_path_, mask_, mask_path_,
+                          valid_region_, valid_region_text_, autosave_path_);
+  auto fields = std::tie(s.scan, s.scan_name, s.scan_fingerprint, s.edge_cells, s.edge_cells_source,
+                         s.image_edge_distance, s.image_bgr, s.image_path, s.mask, s.mask_path,
+                         s.valid_region, s.valid_region_text, s.autosave_path);
+  if (to_state)
+    fields = members;
+  else
+    members = fields;
+}
+
+void CalibrationSession::stashActive() {
+  exchangeActive(*scenes_[static_cast<std::size_t>(active_)], true);
+}
+
+void CalibrationSession::restoreActive(int k) {
+  active_ = k;
+  SceneState& s = *scenes_[static_cast<std::size_t>(k)];
+  pairs_ = s.pairs.get();
+  exchangeActive(s, false);
+  // The pose stays (one rig); what depends on the scan and image is this scene's.
+  solve_rows_.clear();
+  coloured_.reset();
+  refinement_.reset();
+  if (s.valid_region_camera != camera_generation_) refreshValidRegion();
+  poseChanged();
+  emit scenesChanged();
+  emit changed();
+}
+
+void CalibrationSession::clearResults() {
+  for (const auto& scene : scenes_) scene->pairs->clearResults();
+}
+
+void CalibrationSession::switchTo(int k) {
+  stashActive();
+  restoreActive(k);
+}
+
+int CalibrationSession::addScene(std::shared_ptr<const OrderedScan> scan, const QString& name,
+                                 EdgeCellsSource edge_cells) {
+  CheckScanUsable(scan.get(), name);
+  const QString fingerprint = ScanFingerprint(*scan);
+  stashActive();
+  for (int k = 0; k < sceneCount(); ++k)
+    if (scenes_[static_cast<std::size_t>(k)]->scan_fingerprint == fingerprint)
+      throw Error(name.toStdString() + ": this scan is already scene " + std::to_string(k + 1) +
+                  " (" + scenes_[static_cast<std::size_t>(k)]->scan_name.toStdString() + ")");
+  auto scene = std::make_unique<SceneState>();
+  scene->id = next_scene_id_++;
+  scene->pairs.reset(newPairsModel());
+  scene->pairs->setScan(scan);
+  scene->scan = std::move(scan);
+  scene->scan_name = name;
+  scene->scan_fingerprint = fingerprint;
+  scene->edge_cells_source = std::move(edge_cells);
+  scenes_.push_back(std::move(scene));
+  restoreActive(sceneCount() - 1);
+  emit report(tr("Scene %1: %2 added (open its image, then pick or load its pairs; Calibrate "
+                 "solves all %3 scenes together)")
+                  .arg(sceneCount())
+                  .arg(name)
+                  .arg(sceneCount()),
+              kInfo);
+  return sceneCount() - 1;
+}
+
+void CalibrationSession::setActiveScene(int k) {
+  if (k < 0 || k >= sceneCount())
+    throw Error("there is no scene " + std::to_string(k + 1) + " (" + std::to_string(sceneCount()) +
+                " scenes)");
+  if (k != active_) switchTo(k);
+}
+
+void CalibrationSession::removeScene(int k) {
+  if (k < 0 || k >= sceneCount())
+    throw Error("there is no scene " + std::to_string(k + 1) + " (" + std::to_string(sceneCount()) +
+                " scenes)");
+  if (sceneCount() == 1) throw Error("the only scene cannot be removed");
+  const QString name = sceneName(k);
+  const QString file = sceneAutosavePath(k);
+  undo_->push(new RemoveSceneCommand(this, k, tr("Remove scene %1 (%2)").arg(k + 1).arg(name)));
+  emit report(
+      tr("Removed scene %1 (%2)%3; Ctrl+Z brings it back")
+          .arg(k + 1)
+          .arg(name)
+          .arg(file.isEmpty() ? QString()
+                              : tr("; its pairs stay in %1").arg(QFileInfo(file).fileName())),
+      kInfo);
+}
+
+void CalibrationSession::setSceneCloudClosed(int id) {
+  const int k = sceneIndex(id);
+  if (k < 0) return;
+  scenes_[static_cast<std::size_t>(k)]->cloud_closed = true;
+  emit scenesChanged();
+  emit changed();
 }
 
 // ---- pairs files --------------------------------------------------------------------------
@@ -428,12 +648,17 @@ void CalibrationSession::restoreIncompletePair(const QString& path) {
 }
 
 void CalibrationSession::writePairsFile(const QString& path) const {
+  WritePairsFile(path, scan_fingerprint_, scan_name_, *pairs_);
+}
+
+void CalibrationSession::WritePairsFile(const QString& path, const QString& fingerprint,
+                                        const QString& name, const PairsModel& pairs) {
   // The half-picked pair too, as a comment line (pairs_model.h).
   std::string text;
-  if (!scan_fingerprint_.isEmpty())
-    text += std::string(kScanTag) + " " + scan_fingerprint_.toStdString() + " " +
-            scan_name_.simplified().toStdString() + "\n";
-  text += FormatPairsCsv(pairs_->completePointPairs()) + pairs_->incompletePairComment();
+  if (!fingerprint.isEmpty())
+    text += std::string(kScanTag) + " " + fingerprint.toStdString() + " " +
+            name.simplified().toStdString() + "\n";
+  text += FormatPairsCsv(pairs.completePointPairs()) + pairs.incompletePairComment();
   QSaveFile file(path);  // writes a temporary file and renames it over `path` on commit
   if (!file.open(QIODevice::WriteOnly) ||
       file.write(text.data(), static_cast<qint64>(text.size())) !=
@@ -461,6 +686,33 @@ void CalibrationSession::autosave() {
   } catch (const std::exception& e) {
     emit report(tr("Autosave failed: %1").arg(e.what()), kWarning);
   }
+}
+
+void CalibrationSession::autosaveModel(PairsModel* m) {
+  if (m == pairs_) {
+    autosave();
+    return;
+  }
+  // An undo / redo of an edit made while another scene was active.
+  for (std::size_t k = 0; k < scenes_.size(); ++k) {
+    const SceneState& sc = *scenes_[k];
+    if (sc.pairs.get() != m) continue;
+    QString where = tr("not saved: the scene has no pairs file yet");
+    if (!sc.autosave_path.isEmpty()) {
+      try {
+        WritePairsFile(sc.autosave_path, sc.scan_fingerprint, sc.scan_name, *m);
+        where = tr("saved to %1").arg(QFileInfo(sc.autosave_path).fileName());
+      } catch (const std::exception& e) {
+        where = tr("autosave failed: %1").arg(e.what());
+      }
+    }
+    emit report(tr("Changed the pairs of scene %1 (%2), which is not the active scene; %3")
+                    .arg(k + 1)
+                    .arg(sc.scan_name, where),
+                kInfo);
+    return;
+  }
+  // A removed scene's pairs (held by the undo stack): its file is left as it was.
 }
 
 // ---- picking ------------------------------------------------------------------------------
@@ -505,6 +757,7 @@ CalibrationSession::Pick CalibrationSession::pickScan(double row, double col, in
 // ---- calibration --------------------------------------------------------------------------
 
 std::vector<int> CalibrationSession::solve(const std::string& method) {
+  if (sceneCount() > 1) return solveScenes(method);
   if (!camera_.valid()) throw Error("choose the camera file first");
   if (!image_bgr_.empty())
     CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
@@ -519,13 +772,82 @@ std::vector<int> CalibrationSession::solve(const std::string& method) {
     opt.image_mask = mask;
   Calibration cal = Calibrate(pairs, scan_.get(), camera_, opt);
   pairs_->setResults(cal, rows);
+  takeSolve(std::move(cal), rows, {sceneId(active_)});
+  return rows;
+}
+
+void CalibrationSession::takeSolve(Calibration cal, const std::vector<int>& rows,
+                                   const std::vector<int>& scene_ids) {
   solve_rows_ = rows;
+  calibration_scene_ids_ = scene_ids;
   calibration_ = std::move(cal);
   calibration_source_.clear();
   refinement_.reset();
   poseChanged();
   emit changed();
-  return rows;
+}
+
+std::vector<int> CalibrationSession::solveScenes(const std::string& method) {
+  if (!camera_.valid()) throw Error("choose the camera file first");
+  stashActive();
+  const std::size_t n = scenes_.size();
+  // Every scene with complete pairs, in scene order (the CLI's --scan/--pairs order).
+  std::vector<std::vector<PointPair>> pairs(n);
+  std::vector<std::vector<int>> rows(n);
+  std::vector<std::string> sources(n);
+  std::vector<CalibrationScene> list;
+  std::vector<std::size_t> offset(n, 0);
+  std::size_t total = 0;
+  QStringList skipped;
+  std::vector<int> ids;
+  for (std::size_t k = 0; k < n; ++k) {
+    const SceneState& sc = *scenes_[k];
+    if (!sc.image_bgr.empty())
+      CheckImageSize(camera_, sc.image_bgr.cols, sc.image_bgr.rows, sc.image_path.toStdString());
+    pairs[k] = sc.pairs->completePointPairs(&rows[k]);
+    if (pairs[k].empty()) {
+      skipped << QString::number(k + 1);
+      continue;
+    }
+    sources[k] = sc.autosave_path.isEmpty()
+                     ? "scene " + std::to_string(k + 1) + " (" + sc.scan_name.toStdString() + ")"
+                     : sc.autosave_path.toStdString();
+    offset[k] = total;
+    total += pairs[k].size();
+    list.push_back({pairs[k], sc.scan.get(), sources[k]});
+    ids.push_back(sc.id);
+  }
+  if (list.empty()) throw Error("no scene has complete pairs yet");
+  CalibrateOptions opt;
+  opt.method = method;
+  opt.pairs_source = list.front().pairs_source;
+  // The suggestions stay off scene 1's mask (the CLI takes the first image's).
+  const SceneState& first = *scenes_[0];
+  cv::Mat mask = first.mask;
+  if (mask.empty() && auto_valid_region_ && !first.image_bgr.empty() &&
+      first.image_bgr.cols == camera_.width() && first.image_bgr.rows == camera_.height()) {
+    mask = first.valid_region_camera == camera_generation_
+               ? first.valid_region
+               : FindValidRegion(camera_, first.image_bgr).mask;
+  }
+  if (!mask.empty() && mask.cols == camera_.width() && mask.rows == camera_.height())
+    opt.image_mask = mask;
+  Calibration cal = CalibrateScenes(list, camera_, opt);
+  // Each scene's pairs get their residuals: the calibration numbers pairs over all scenes.
+  std::vector<int> active_rows;
+  for (std::size_t k = 0; k < n; ++k) {
+    std::vector<int> global(total, -1);
+    if (!pairs[k].empty())
+      for (std::size_t i = 0; i < rows[k].size(); ++i) global[offset[k] + i] = rows[k][i];
+    scenes_[k]->pairs->setResults(cal, global);
+    if (static_cast<int>(k) == active_) active_rows = global;
+  }
+  takeSolve(std::move(cal), active_rows, ids);
+  if (!skipped.isEmpty())
+    emit report(
+        tr("Scene(s) %1 have no complete pairs yet: solved without them").arg(skipped.join(", ")),
+        kWarning);
+  return active_rows;
 }
 
 void CalibrationSession::loadCalibration(const QString& path) {
@@ -534,10 +856,11 @@ void CalibrationSession::loadCalibration(const QString& path) {
   c.rotation_rpy_deg = RotationToRpyDeg(c.T_cam_scan.linear());
   c.method = "loaded";
   calibration_ = c;
+  calibration_scene_ids_.clear();
   calibration_source_ = path;
   solve_rows_.clear();
   refinement_.reset();
-  pairs_->clearResults();
+  clearResults();
   poseChanged();
   emit changed();
   emit report(tr("Using T_cam_scan from %1").arg(path), kInfo);
@@ -561,7 +884,7 @@ void CalibrationSession::setCalibration(const std::optional<Calibration>& c, con
   if (c && !rows.empty())
     pairs_->setResults(*c, rows);
   else
-    pairs_->clearResults();  // residuals of another pose
+    clearResults();  // residuals of another pose
   poseChanged();
   emit changed();
 }
@@ -671,12 +994,12 @@ void CalibrationSession::poseChanged() {
 
 void CalibrationSession::measureEdgeAlignment() {
   alignment_text_.clear();
-  if (!colouringProblem().isEmpty() || edge_cells_.empty()) return;
+  if (!colouringProblem().isEmpty() || edgeCells().empty()) return;
   try {
     if (image_edge_distance_.empty()) image_edge_distance_ = colour::ImageEdgeDistance(image_bgr_);
     const colour::ColourView view = colourView();
     const colour::EdgeAlignment a =
-        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edge_cells_,
+        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edgeCells(),
                                      image_edge_distance_, coloured_ ? &*coloured_ : nullptr, 0);
     if (a.edge_points == 0) {
       alignment_text_ = tr("no laser edge point is seen in the image: the pose is wrong");

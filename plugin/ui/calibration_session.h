@@ -23,6 +23,21 @@
 // refinement (start pose and result) is kept for the result panel and the before/after
 // overlay until the image, scan or camera changes.
 //
+// Scenes (several scans of one rig in one solve, solve/calibrate.h CalibrateScenes): a scene
+// is a scan (one cloud) with its own image, mask, pairs (its own PairsModel) and pairs file;
+// the camera, the calibration and the undo stack belong to the rig and are shared. One scene is
+// active at a time: everything above (scan(), imagePath(), pairs(), picking, loading pairs,
+// the visibility, Refine, export) is about the active scene. addScene adds a scan as the next
+// scene and makes it active; setActiveScene switches (the calibration is kept: one pose for
+// all); removeScene takes one out as ONE undo step (undo puts it back where it was, with its
+// pairs). solve() with two or more scenes solves them jointly (CalibrateScenes, what `scancam
+// calibrate --scan S1 --pairs P1 --scan S2 --pairs P2` runs; the mask for the suggestions is
+// scene 1's, as the CLI takes the first image's) and each scene's pairs get their residuals;
+// the calibration's `scenes` then hold each scene alone against the joint result, in sigma.
+// Undoing a pair edit of a scene that is not active changes that scene's pairs (and its pairs
+// file), and says so. A scene whose cloud was closed (setSceneCloudClosed) keeps its scan copy
+// and pairs (picking and the solve go on); the host no longer acts on its cloud.
+//
 // Errors: operations throw scancam::Error (or Cancelled) with a message in plain words and leave
 // the state as it was; what the user should read besides is sent with report() (kError for
 // problems found after the operation succeeded, e.g. an image of another size than the camera
@@ -68,10 +83,13 @@ class CalibrationSession : public QObject {
   // ---- inputs ------------------------------------------------------------------------------
   /// Throws (naming `name`) when `scan` is null, has an empty grid or is inconsistent.
   static void CheckScanUsable(const OrderedScan* scan, const QString& name);
-  /// The scan the pairs' cells refer to; `edge_cells` are its colour::BaEdgeCells (for the
-  /// edge alignment; may be empty). Throws when the grid is empty or unusable.
+  /// Makes a scan's colour::BaEdgeCells (for the edge alignment and the overlay).
+  using EdgeCellsSource = std::function<cv::Mat(const OrderedScan&)>;
+  /// The scan the pairs' cells refer to; `edge_cells` makes its colour::BaEdgeCells when they
+  /// are first needed (a pose, camera and image are there: a 50 M-cell scan's take seconds);
+  /// none: no edges. Throws when the grid is empty or unusable.
   void setScan(std::shared_ptr<const OrderedScan> scan, const QString& name,
-               cv::Mat edge_cells = {});
+               EdgeCellsSource edge_cells = {});
   void loadCamera(const QString& path);
   /// The camera image (any format OpenCV reads, kept as BGR 8-bit); a new image reloads its
   /// pairs file (see Autosave above).
@@ -142,6 +160,36 @@ class CalibrationSession : public QObject {
   /// The last refinement (empty before any, and after a new image, scan or camera).
   const std::optional<Refinement>& lastRefinement() const { return refinement_; }
 
+  // ---- scenes ------------------------------------------------------------------------------
+  int sceneCount() const { return static_cast<int>(scenes_.size()); }
+  /// 0-based index of the active scene.
+  int activeScene() const { return active_; }
+  /// A number that names scene `k` for as long as the session lives (the host's key for its
+  /// cloud); -1 for a bad index. Scene 1 is 0.
+  int sceneId(int k) const;
+  /// The index of the scene with id `id`, or -1 (also for a removed scene).
+  int sceneIndex(int id) const;
+  QString sceneName(int k) const;
+  QString sceneImagePath(int k) const;
+  QString sceneAutosavePath(int k) const;
+  /// The pairs of scene k (the active scene's are pairs()).
+  PairsModel* scenePairs(int k) const;
+  bool sceneCloudClosed(int k) const;
+  /// Adds `scan` as the next scene and makes it active (no image, no pairs yet); returns its
+  /// index. Throws as setScan does, and for a scan that is already a scene (same fingerprint).
+  int addScene(std::shared_ptr<const OrderedScan> scan, const QString& name,
+               EdgeCellsSource edge_cells = {});
+  /// Makes scene `k` active (throws for a bad index).
+  void setActiveScene(int k);
+  /// Removes scene `k` as one undo step (its pairs file stays on disk). Throws for the last
+  /// scene and a bad index.
+  void removeScene(int k);
+  /// The id of the scene whose pairs are the calibration's k-th scene (PairResult::scene,
+  /// PickSuggestion::scene, Calibration::scenes), or -1 (a loaded calibration, a bad k).
+  int calibrationSceneId(int k) const;
+  /// The cloud of the scene with id `id` was closed in the host (sceneCloudClosed says so).
+  void setSceneCloudClosed(int id);
+
   // ---- state -------------------------------------------------------------------------------
   std::shared_ptr<const OrderedScan> scan() const { return scan_; }
   QString scanName() const { return scan_name_; }
@@ -149,8 +197,9 @@ class CalibrationSession : public QObject {
   const CameraModel& camera() const { return camera_; }
   QString cameraPath() const { return camera_path_; }
   const cv::Mat& imageBgr() const { return image_bgr_; }
-  /// CV_8UC1 of the grid's size: the scan's BA edge cells (colour::BaEdgeCells), or empty.
-  const cv::Mat& edgeCells() const { return edge_cells_; }
+  /// CV_8UC1 of the grid's size: the scan's BA edge cells (colour::BaEdgeCells; made by the
+  /// setScan source on the first call), or empty.
+  const cv::Mat& edgeCells() const;
   QString imagePath() const { return image_path_; }
   const cv::Mat& mask() const { return mask_; }
   QString maskPath() const { return mask_path_; }
@@ -172,12 +221,33 @@ class CalibrationSession : public QObject {
  signals:
   void report(const QString& text, int level);
   void changed();
+  /// The active scene changed (pairs() is another model now), or scenes were added / removed.
+  void scenesChanged();
   /// The camera file, image or mask changed (the host may remember them).
   void inputsChanged();
 
  private:
+  struct SceneState;
+  class RemoveSceneCommand;
   void autosave();
+  /// Autosave of the pairs model `m` (of the active scene or another one).
+  void autosaveModel(PairsModel* m);
   void writePairsFile(const QString& path) const;
+  static void WritePairsFile(const QString& path, const QString& fingerprint, const QString& name,
+                             const PairsModel& pairs);
+  PairsModel* newPairsModel();
+  /// The active scene's members <-> its SceneState: to_state copies the members into `s`,
+  /// else `s` into the members.
+  void exchangeActive(SceneState& s, bool to_state);
+  void stashActive();
+  void restoreActive(int k);
+  void switchTo(int k);
+  /// Clears the residuals of every scene's pairs (they belonged to another pose).
+  void clearResults();
+  std::vector<int> solveScenes(const std::string& method);
+  /// A solve's result becomes the calibration (`rows`: the active scene's pairs' table rows in
+  /// solve order; `scene_ids`: calibrationSceneId).
+  void takeSolve(Calibration cal, const std::vector<int>& rows, const std::vector<int>& scene_ids);
   void restoreIncompletePair(const QString& path);
   QString reloadSidecarPairs();
   void reportPairProblems(const QString& source);
@@ -201,8 +271,9 @@ class CalibrationSession : public QObject {
   std::shared_ptr<const OrderedScan> scan_;
   QString scan_name_;
   QString scan_fingerprint_;
-  cv::Mat edge_cells_;           // colour::BaEdgeCells of the scan
-  cv::Mat image_edge_distance_;  // colour::ImageEdgeDistance of the image
+  mutable cv::Mat edge_cells_;                 // colour::BaEdgeCells of the scan, once made
+  mutable EdgeCellsSource edge_cells_source_;  // cleared once edge_cells_ is made
+  cv::Mat image_edge_distance_;                // colour::ImageEdgeDistance of the image
   CameraModel camera_;
   QString camera_path_;
   cv::Mat image_bgr_;
@@ -220,6 +291,13 @@ class CalibrationSession : public QObject {
   QString alignment_text_;
   refine::DenseRefineOptions refine_options_;
   std::optional<Refinement> refinement_;
+  // Scenes: scenes_[active_] is stale while active (the members above are the truth).
+  std::vector<std::unique_ptr<SceneState>> scenes_;
+  int active_ = 0;
+  int next_scene_id_ = 1;
+  int camera_generation_ = 0;
+  std::vector<int> calibration_scene_ids_;  // calibrationSceneId  // loadCamera count: a scene's
+                                            // valid region is of one camera
 };
 
 }  // namespace scancam::plugin::ui

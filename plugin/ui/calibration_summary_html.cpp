@@ -1,6 +1,7 @@
 #include "ui/calibration_summary_html.h"
 
 #include <QCoreApplication>
+#include <QFileInfo>
 #include <QStringList>
 
 namespace scancam::plugin::ui {
@@ -47,6 +48,37 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
   if (s.stds)
     html += tr(" &nbsp;(std %1 %2 %3)")
                 .arg(Num(s.stds->t_m.x(), 4), Num(s.stds->t_m.y(), 4), Num(s.stds->t_m.z(), 4));
+  if (solved && !s.scenes.empty()) {
+    // Each scene alone against the joint result (solve/calibrate.h SceneResult), as
+    // `scancam calibrate` prints it: with the noise model right each sigma is ~N(0, 1).
+    html += tr("<br><b>Each scene alone vs the joint result</b> (difference / its std):");
+    for (std::size_t k = 0; k < s.scenes.size(); ++k) {
+      const SceneResult& r = s.scenes[k];
+      html += tr("<br>&nbsp; scene %1 (%2, %3 pairs): ")
+                  .arg(QString::number(k + 1),
+                       // the pairs file's name (the whole path is in the JSON and the tooltip
+                       // of the line under the toolbar)
+                       QFileInfo(QString::fromStdString(r.source)).fileName().toHtmlEscaped(),
+                       QString::number(r.pair_count));
+      if (!r.solved) {
+        html += tr("not solvable alone: %1").arg(Escaped(r.error));
+        continue;
+      }
+      const bool off = r.rotation_diff_sigma.cwiseAbs().maxCoeff() > 3.0 ||
+                       r.translation_diff_sigma.cwiseAbs().maxCoeff() > 3.0;
+      html += tr("%1rotation about camera x / y / z %2 %3 %4 deg (%5 %6 %7 sigma), translation "
+                 "%8 %9 %10 m (%11 %12 %13 sigma); Mahalanobis %14 (6 dof, 95 %: 3.55)%15")
+                  .arg(off ? QString("<span style='color:#c00000'>") : QString())
+                  .arg(Num(r.rotation_diff_cam_deg.x(), 3), Num(r.rotation_diff_cam_deg.y(), 3),
+                       Num(r.rotation_diff_cam_deg.z(), 3), Num(r.rotation_diff_sigma.x(), 1),
+                       Num(r.rotation_diff_sigma.y(), 1), Num(r.rotation_diff_sigma.z(), 1))
+                  .arg(Num(r.translation_diff_m.x(), 3), Num(r.translation_diff_m.y(), 3),
+                       Num(r.translation_diff_m.z(), 3), Num(r.translation_diff_sigma.x(), 1),
+                       Num(r.translation_diff_sigma.y(), 1), Num(r.translation_diff_sigma.z(), 1))
+                  .arg(Num(r.mahalanobis, 2))
+                  .arg(off ? QString("</span>") : QString());
+    }
+  }
   if (solved) {
     const CalibrationSummary::Residuals& e = s.residuals;
     html += tr("<br><b>Reprojection error</b> (inliers): mean %1 px, std %2, max %3 px; "
@@ -109,7 +141,7 @@ QString RefinementSummaryHtml(const refine::DenseRefineResult& r, bool current) 
   const Eigen::Vector3d& sw = r.rotation_std_deg_cam_xyz;
   const Eigen::Vector3d& sv = r.translation_std_m_cam_xyz;
   html += tr("<b>std</b> about / along the camera's x / y / z: %1 %2 %3 deg, %4 %5 %6 m "
-             "(sampling noise of the objective only)")
+             "(local noise + tied searches + the objective's flatness)")
               .arg(Num(sw.x(), 3), Num(sw.y(), 3), Num(sw.z(), 3), Num(sv.x(), 3), Num(sv.y(), 3),
                    Num(sv.z(), 3));
   if (!r.unconstrained.empty())

@@ -5,6 +5,7 @@
 #include <QCloseEvent>
 #include <QComboBox>
 #include <QDir>
+#include <QElapsedTimer>
 #include <QFileInfo>
 #include <QLabel>
 #include <QMessageBox>
@@ -59,14 +60,19 @@ QPointF ViewPixelToCell(const QPointF& px, int rows, int cols, const ScanViewOri
 
 namespace {
 
-QImage BgrToQImage(const cv::Mat& bgr) {
-  cv::Mat rgb;
-  if (bgr.channels() == 1)
-    cv::cvtColor(bgr, rgb, cv::COLOR_GRAY2RGB);
-  else
-    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-  QImage img(rgb.data, rgb.cols, rgb.rows, static_cast<int>(rgb.step), QImage::Format_RGB888);
-  return img.copy();  // owns its pixels
+// An 8-bit BGR (or grey) picture as an RGB32 QImage, the format ImageView draws (one
+// conversion, no intermediate copies: a 50 M-cell picture is 200 MB).
+QImage BgrToRgb32(const cv::Mat& bgr) {
+  QImage img(bgr.cols, bgr.rows, QImage::Format_RGB32);
+  if (img.isNull())
+    throw Error("not enough memory for a picture of " + std::to_string(bgr.cols) + " x " +
+                std::to_string(bgr.rows));
+  // RGB32 is 0xffRRGGBB per pixel: B, G, R, 255 in memory on little-endian machines.
+  static_assert(Q_BYTE_ORDER == Q_LITTLE_ENDIAN, "RGB32 written as BGRA bytes");
+  cv::Mat bgra(bgr.rows, bgr.cols, CV_8UC4, img.bits(),
+               static_cast<std::size_t>(img.bytesPerLine()));
+  cv::cvtColor(bgr, bgra, bgr.channels() == 1 ? cv::COLOR_GRAY2BGRA : cv::COLOR_BGR2BGRA);
+  return img;
 }
 
 cv::Mat OrientView(const cv::Mat& view, const ScanViewOrientation& o) {
@@ -103,10 +109,7 @@ CalibrationWindow::CalibrationWindow(QWidget* parent) : QMainWindow(parent) {
   buildUi();
   // Keys pressed in this window never reach the host's shortcuts (eventFilter).
   qApp->installEventFilter(this);
-  connect(pairs_, &PairsModel::pairsEdited, this, [this] {
-    refreshMarkers();
-    updateActions();
-  });
+  connect(session_, &CalibrationSession::scenesChanged, this, [this] { onScenesChanged(); });
   connect(session_, &CalibrationSession::changed, this, [this] { sync(); });
   connect(session_, &CalibrationSession::inputsChanged, this, &CalibrationWindow::inputsChanged);
   connect(session_, &CalibrationSession::report, this, [this](const QString& text, int level) {
@@ -132,7 +135,7 @@ void CalibrationWindow::sync() {
   const cv::Mat& image = session_->imageBgr();
   if (image.data != shown_image_) {
     shown_image_ = image.data;
-    camera_view_->setImage(image.empty() ? QImage() : BgrToQImage(image));
+    camera_view_->setImage(image.empty() ? QImage() : BgrToRgb32(image));
     camera_view_->fitImage();
   }
   refreshMarkers();
@@ -140,6 +143,7 @@ void CalibrationWindow::sync() {
   refreshOverlay();
   updateActions();
   refreshActiveInputs();
+  refreshSceneCombo();  // names and pair counts
 }
 
 template <typename F>
@@ -155,6 +159,10 @@ bool CalibrationWindow::guarded(const QString& what, F&& f) {
     reportError(what + tr(": unknown error"));
   }
   return false;
+}
+
+bool CalibrationWindow::guardedCall(const QString& what, const std::function<void()>& f) {
+  return guarded(what, f);
 }
 
 void CalibrationWindow::setProgressRunner(ProgressRunner runner) { runner_ = std::move(runner); }
@@ -207,43 +215,10 @@ void CalibrationWindow::reportError(const QString& text) {
 bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name) {
   return guarded(tr("Scan %1").arg(name), [&] {
     CalibrationSession::CheckScanUsable(scan.get(), name);
-    std::array<cv::Mat, 4> ba;
-    cv::Mat range, intensity;
-    ScanAngles angles;
-    cv::Mat edge_cells;
-    runWithProgress(tr("Bearing-Angle images"), [&](const Progress& progress) {
-      ba = ComputeBearingAngleAll(*scan, Progress([&](double f, const std::string& s) {
-        progress(0.8 * f, s.empty() ? "BA images" : s);
-        return true;
-      }));
-      progress(0.8, "range image");
-      range = RangeImage(*scan);
-      intensity = IntensityImage(*scan);
-      angles = ComputeScanAngles(*scan);
-      progress(0.85, "edges");
-      colour::OverlayOptions edge_options;
-      edge_options.edge_percentile = kEdgePercentile;
-      edge_cells = colour::BaEdgeCells(*scan, edge_options);
-      progress(1.0, "done");
-    });
-    session_->setScan(scan, name, edge_cells);
-    ba_ = ba;
-    range_ = range;
-    intensity_ = intensity;
-    angles_ = std::move(angles);
-    rebuildAspect();
-    scan_tabs_->setTabVisible(kIntensityView, !intensity_.empty());
-    if (intensity_.empty() && scan_tabs_->currentIndex() == kIntensityView)
-      scan_tabs_->setCurrentIndex(0);
-    hover_label_->clear();
-    // Panoramas are wider than tall: a tall grid is most likely a transposed one (PTX).
-    if (scan->rows > scan->cols * 6 / 5 && !act_transpose_->isChecked()) {
-      act_transpose_->setChecked(true);  // refreshes the pictures
-    } else {
-      refreshScanPictures();
-    }
-    for (ImageView* v : scan_views_) v->fitImage();
-    sync();
+    // Only what the window shows at once is made here: the edges (overlay, alignment), the
+    // angles (true aspect, ticks) and the pictures of the other tabs when first needed.
+    session_->setScan(scan, name, edgeCellsSource());
+    showActiveScan();
     reportInfo(tr("Scan %1: %2 x %3 cells, %4 % with a return")
                    .arg(name)
                    .arg(scan->rows)
@@ -252,33 +227,138 @@ bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const Q
   });
 }
 
+CalibrationSession::EdgeCellsSource CalibrationWindow::edgeCellsSource() {
+  return [this](const OrderedScan& s) {
+    colour::OverlayOptions edge_options;
+    edge_options.edge_percentile = kEdgePercentile;
+    cv::Mat edges;
+    const auto make = [&](const Progress& progress) {
+      progress(0.0, "BA edges");
+      edges = colour::BaEdgeCells(s, edge_options);
+      progress(1.0, "done");
+    };
+    if (s.size() >= kPictureProgressCells)
+      runWithProgress(tr("Laser edges"), make);
+    else
+      make(Progress());
+    return edges;
+  };
+}
+
+void CalibrationWindow::showActiveScan() {
+  const auto& scan = session_->scan();
+  if (!scan) return;
+  angles_.reset();
+  rebuildAspect();
+  scan_tabs_->setTabVisible(kIntensityView, scan->has_intensity());
+  if (!scan->has_intensity() && scan_tabs_->currentIndex() == kIntensityView)
+    scan_tabs_->setCurrentIndex(0);
+  hover_label_->clear();
+  // Panoramas are wider than tall: a tall grid is most likely a transposed one (PTX).
+  if (scan->rows > scan->cols * 6 / 5 && !act_transpose_->isChecked()) {
+    act_transpose_->setChecked(true);  // refreshes the pictures
+  } else {
+    refreshScanPictures();
+  }
+  for (ImageView* v : scan_views_) v->fitImage();
+  sync();
+}
+
+const ScanAngles& CalibrationWindow::scanAngles() {
+  if (!angles_) angles_ = ComputeScanAngles(*session_->scan());
+  return *angles_;
+}
+
+ImageView* CalibrationWindow::scanView(int i) const {
+  // The picture is made when first asked for (tests, the host) as when its tab is shown.
+  const_cast<CalibrationWindow*>(this)->ensureScanPicture(i);
+  return scan_views_.at(static_cast<std::size_t>(i));
+}
+
 void CalibrationWindow::refreshScanPictures() {
+  picture_stale_.fill(true);
+  const int current = std::max(0, scan_tabs_->currentIndex());
+  // Out-of-date pictures of hidden tabs are dropped (their memory too: 270 MB each at 50 M
+  // cells with the pyramid); the shown one is replaced below.
+  for (int i = 0; i < 6; ++i)
+    if (i != current) scan_views_[static_cast<std::size_t>(i)]->setImage(QImage());
   if (!session_->scan()) return;
-  try {
-    ScanView drawn = ScanView::Whole(*session_->scan());
+  ensureScanPicture(current);
+}
+
+QImage CalibrationWindow::makeScanPicture(int i, const Progress& progress) {
+  const OrderedScan& scan = *session_->scan();
+  cv::Mat values;
+  ViewOptions opt;
+  if (i < 4) {
+    values = ComputeBearingAngle(scan, kAllBaTraces[static_cast<std::size_t>(i)],
+                                 Progress([&](double f, const std::string&) {
+                                   progress(0.6 * f, "BA image");
+                                   return true;
+                                 }));
+  } else if (i == 4) {
+    opt.colormap = Colormap::kJet;
+    values = RangeImage(scan);
+  } else {
+    values = IntensityImage(scan);
+    opt = IntensityViewOptions();
+  }
+  if (values.empty()) return QImage();
+  progress(0.6, "picture");
+  cv::Mat view = MakeView(values, opt);
+  values.release();
+  if (aspect_) view = aspect_->Resample(view);
+  if (act_ticks_->isChecked()) {
+    ScanView drawn = ScanView::Whole(scan);
     drawn.aspect = aspect_;
-    for (int i = 0; i < 6; ++i) {
-      ViewOptions opt;
-      cv::Mat view;
-      if (i < 4) {
-        view = MakeView(ba_[static_cast<std::size_t>(i)], opt);
-      } else if (i == 4) {
-        opt.colormap = Colormap::kJet;
-        view = MakeView(range_, opt);
-      } else if (!intensity_.empty()) {
-        view = MakeView(intensity_, IntensityViewOptions());
-      } else {
-        scan_views_[static_cast<std::size_t>(i)]->setImage(QImage());
-        continue;
-      }
-      if (aspect_) view = aspect_->Resample(view);
-      if (act_ticks_->isChecked()) DrawAngleTicks(view, angles_, drawn);
-      scan_views_[static_cast<std::size_t>(i)]->setImage(
-          BgrToQImage(OrientView(view, orientation_)));
-    }
+    DrawAngleTicks(view, scanAngles(), drawn);
+  }
+  view = OrientView(view, orientation_);
+  progress(0.9, "picture");
+  return BgrToRgb32(view);
+}
+
+void CalibrationWindow::ensureScanPicture(int i) {
+  const auto k = static_cast<std::size_t>(i);
+  if (k >= picture_stale_.size() || !picture_stale_[k] || making_picture_) return;
+  ImageView* v = scan_views_[k];
+  if (!session_->scan() || (i == kIntensityView && !session_->scan()->has_intensity())) {
+    picture_stale_[k] = false;
+    v->setImage(QImage());
+    return;
+  }
+  making_picture_ = true;  // the progress dialog runs the event loop: no second one meanwhile
+  try {
+    QImage picture;
+    const auto make = [&](const Progress& progress) { picture = makeScanPicture(i, progress); };
+    // Large grids show progress and say how long it took (README, Full size: the plugin on a
+    // 50 M-point cloud).
+    const bool large = session_->scan()->size() >= kPictureProgressCells;
+    QElapsedTimer timer;
+    timer.start();
+    if (large)
+      runWithProgress(tr("Scan view: %1").arg(scan_tabs_->tabText(i)), make);
+    else
+      make(Progress());
+    picture_stale_[k] = false;
+    v->setImage(picture);
+    if (large)
+      reportInfo(tr("Scan view %1 drawn in %2 s (%3 x %4 px, %5 display levels)")
+                     .arg(scan_tabs_->tabText(i))
+                     .arg(double(timer.nsecsElapsed()) * 1e-9, 0, 'f', 2)
+                     .arg(picture.width())
+                     .arg(picture.height())
+                     .arg(v->levelCount()));
+  } catch (const Cancelled&) {
+    v->setImage(QImage());  // never an out-of-date picture (its pixels would name other cells)
+    setStatus(tr("Scan view %1: cancelled (made again when its tab is opened)")
+                  .arg(scan_tabs_->tabText(i)),
+              kWarning);
   } catch (const std::exception& e) {
+    v->setImage(QImage());
     reportError(tr("Scan views: %1").arg(e.what()));
   }
+  making_picture_ = false;
 }
 
 void CalibrationWindow::setTrueAspect(bool on) {
@@ -296,7 +376,7 @@ void CalibrationWindow::rebuildAspect() {
   aspect_.reset();
   if (!act_true_aspect_->isChecked() || !session_->scan()) return;
   try {
-    aspect_ = AspectMap::TrueAspect(angles_,
+    aspect_ = AspectMap::TrueAspect(scanAngles(),
                                     cv::Rect(0, 0, session_->scan()->cols, session_->scan()->rows));
   } catch (const std::exception& e) {
     // E.g. a huge grid: the views stay one pixel per cell; the scan itself is fine.
@@ -557,6 +637,7 @@ void CalibrationWindow::refreshMarkers() {
   if (session_->calibration() && session_->calibrationSource().isEmpty()) {
     for (std::size_t k = 0; k < session_->calibration()->suggestions.size(); ++k) {
       const PickSuggestion& g = session_->calibration()->suggestions[k];
+      if (session_->calibrationSceneId(g.scene) != activeSceneId()) continue;  // another scene's
       Marker m;
       m.id = static_cast<int>(k) + 1;
       m.colour = QColor(255, 0, 255);
@@ -614,17 +695,20 @@ bool CalibrationWindow::calibrate() {
     const Calibration& c = *session_->calibration();
     // Show the first flagged pair: that is the one to look at.
     for (const PairResult& r : c.pairs) {
-      if (!r.inlier && r.index >= 0 && r.index < static_cast<int>(rows.size())) {
+      if (!r.inlier && r.index >= 0 && r.index < static_cast<int>(rows.size()) &&
+          rows[static_cast<std::size_t>(r.index)] >= 0) {
         table_->scrollTo(pairs_->index(rows[static_cast<std::size_t>(r.index)], 0));
         break;
       }
     }
-    QString msg = tr("Calibrated (%1): %2 of %3 pairs inliers, mean %4 px / %5 deg")
-                      .arg(QString::fromStdString(c.method))
-                      .arg(c.inlier_count)
-                      .arg(c.pair_count)
-                      .arg(c.mean_px, 0, 'f', 2)
-                      .arg(c.mean_deg, 0, 'f', 3);
+    QString msg =
+        tr("Calibrated (%1%2): %3 of %4 pairs inliers, mean %5 px / %6 deg")
+            .arg(QString::fromStdString(c.method))
+            .arg(c.scenes.empty() ? QString() : tr(", %1 scenes jointly").arg(c.scenes.size()))
+            .arg(c.inlier_count)
+            .arg(c.pair_count)
+            .arg(c.mean_px, 0, 'f', 2)
+            .arg(c.mean_deg, 0, 'f', 3);
     if (c.inlier_count < c.pair_count) msg += tr(" — outliers are marked red in the table");
     reportInfo(msg, c.warnings.empty() ? kInfo : kWarning);
     for (const std::string& w : c.warnings)
@@ -688,7 +772,7 @@ void CalibrationWindow::refreshOverlay() {
   // Before/after Refine: the start pose's edges (orange; occlusion not tested for it).
   const bool show_start = act_show_start_->isChecked() && session_->lastRefinement();
   if (act_overlay_->isChecked() && session_->calibration() && session_->camera().valid() &&
-      session_->scan() && !session_->edgeCells().empty() && !session_->imageBgr().empty()) {
+      session_->scan() && !session_->imageBgr().empty() && !session_->edgeCells().empty()) {
     // The BA edge points the camera sees (colour/overlay.h ProjectSeen: in the mask; with a
     // visibility result, not occluded), at most kMaxEdgePoints of them.
     const auto& visibility = session_->visibility();

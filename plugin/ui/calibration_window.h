@@ -50,8 +50,22 @@
 // Refine (Calibration panel button, Calibration menu, Ctrl+R): the session's dense refinement of
 // the current pose (calibration_session.h), with progress and Cancel; its verdict, figures
 // before and after and std head the Calibration panel; "Before Refine" (Ctrl+B) draws the
-// overlay with the start pose (orange) instead of the current one (green); "Refine options..."
-// edits the session's refine::DenseRefineOptions (refine_options_dialog.h).
+// overlay with the start pose (orange) instead of the current one (green); the "Photo - Scan"
+// slider beside it blends the camera image and the laser-edge overlay (ImageView::setBlend:
+// photo only at the left end, edges only at the right, both at full strength in the middle;
+// view state, no undo step); "Refine options..." edits the session's
+// refine::DenseRefineOptions (refine_options_dialog.h; Save... / Load... as the JSON file
+// `scancam refine --params` reads).
+//
+// Scenes (Scenes menu and the scene bar; calibration_session.h, Scenes): "Add scene..." asks the
+// host for another cloud (addSceneRequested: the plugin takes the cloud selected in
+// CloudCompare's DB tree) and shows it as the next scene (addScene); the scene list switches the
+// active scene: the scan views, the camera image, the pair table and the markers are then that
+// scene's (each scene keeps its own image, mask, pairs and pairs file); "Remove scene" takes the
+// active one out (Ctrl+Z puts it back). Calibrate solves every scene with pairs jointly, and
+// the Calibration panel adds each scene alone against the joint result in sigma. A scene whose
+// cloud is closed (setSceneCloudClosed) stays, marked "cloud closed": Apply / Restore colours
+// and 3D picking are off while it is active.
 //
 // Messages: everything the user should read goes to the status line and to logMessage()
 // (the plugin forwards it to CloudCompare's console); errors also open a (non-blocking)
@@ -64,6 +78,7 @@
 #include <QString>
 #include <array>
 #include <functional>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -82,6 +97,7 @@ class QComboBox;
 class QKeyEvent;
 class QUndoStack;
 class QLabel;
+class QSlider;
 class QTabWidget;
 class QTableView;
 class QTextEdit;
@@ -159,6 +175,8 @@ class CalibrationWindow : public QMainWindow {
   /// current one.
   QAction* showStartAction() const { return act_show_start_; }
   QAction* refineAction() const { return act_refine_; }
+  /// The blend slider (0..100 = ImageView::setBlend 0..1 of the camera view).
+  QSlider* blendSlider() const { return blend_slider_; }
   /// Writes the colour options this window colours with (the defaults) as the JSON parameter
   /// file that `-SCANCAM_COLORIZE -PARAMS` and `scancam colorize --params` read
   /// (colour/colour_options_io.h).
@@ -213,12 +231,29 @@ class CalibrationWindow : public QMainWindow {
   /// Reopens the camera file, image (with its pairs) and mask last used with this scan (same
   /// ScanFingerprint; QSettings group "qScanCam/scans/<fingerprint>"), says what it reopened,
   /// and from now on remembers them there whenever they change. Call after setScan. Returns
-  /// how many files it reopened.
-  int reopenRememberedInputs();
-  /// The host's cloud is gone: the window says so (title, status, that line) and stops asking
-  /// the host to act (apply / restore colours, 3D picking are disabled for good).
+  /// how many files it reopened. `with_camera` false: the image and mask only (an added scene:
+  /// the camera is the rig's).
+  int reopenRememberedInputs(bool with_camera = true);
+  /// The host's cloud of the active scene is gone: the window says so (title, status, that
+  /// line) and stops asking the host to act on that scene (apply / restore colours, 3D picking
+  /// are disabled for it for good).
   void setSceneClosed(const QString& message);
-  bool sceneClosed() const { return scene_closed_; }
+  /// The same for the scene with id `scene_id` (CalibrationSession::sceneId).
+  void setSceneCloudClosed(int scene_id, const QString& message);
+  /// Whether the active scene's cloud was closed.
+  bool sceneClosed() const;
+
+  // ---- scenes (see the file comment) ---------------------------------------------------------
+  /// Adds `scan` as the next scene (computes its pictures, with progress) and makes it active
+  /// (the host then calls reopenRememberedInputs(false)). False after reporting a problem.
+  bool addScene(std::shared_ptr<const OrderedScan> scan, const QString& name);
+  bool setActiveScene(int k);
+  /// Removes scene k (one undo step).
+  bool removeScene(int k);
+  int activeSceneId() const { return session_->sceneId(session_->activeScene()); }
+  QComboBox* sceneCombo() const { return scene_combo_; }
+  QAction* addSceneAction() const { return act_add_scene_; }
+  QAction* removeSceneAction() const { return act_remove_scene_; }
   /// The last solve (or loaded calibration).
   const std::optional<Calibration>& calibration() const { return session_->calibration(); }
   std::optional<Eigen::Isometry3d> pose() const { return session_->pose(); }
@@ -236,7 +271,10 @@ class CalibrationWindow : public QMainWindow {
   QTabWidget* scanTabs() const { return scan_tabs_; }
   /// Scan view `i`: 0..3 BA traces (ba_image.h order), 4 range, 5 intensity (its tab is
   /// hidden while the scan has no intensity).
-  ImageView* scanView(int i) const { return scan_views_.at(static_cast<std::size_t>(i)); }
+  /// Its picture is made when its tab is first shown (or by this call): a 50 M-cell scan's
+  /// pictures take about a second each, with progress from kPictureProgressCells cells on.
+  ImageView* scanView(int i) const;
+  static constexpr std::size_t kPictureProgressCells = std::size_t(1) << 22;
   static constexpr int kIntensityView = 5;
   /// Whether the scan views are drawn at true angular aspect / with angle ticks (View menu).
   void setTrueAspect(bool on);
@@ -276,6 +314,10 @@ class CalibrationWindow : public QMainWindow {
   void pick3dToggled(bool on);
   /// The camera file, image or mask changed (the host may remember them).
   void inputsChanged();
+  /// "Add scene..." was chosen: the host calls addScene with the cloud the user selected.
+  void addSceneRequested();
+  /// Another scene is active (or scenes were added / removed): `scene_id` is the active one's.
+  void activeSceneChanged(int scene_id);
 
  protected:
   void closeEvent(QCloseEvent* event) override;
@@ -292,6 +334,17 @@ class CalibrationWindow : public QMainWindow {
   void buildToolBars();
   void buildMenus();
   void buildStatusBar();
+  void buildSceneBar();  // calibration_window_scenes.cpp
+  /// Makes the active scene's scan the one the scan views show (pictures made lazily per tab).
+  void showActiveScan();
+  /// How the session makes a scan's BA edge cells when first needed (under a progress dialog
+  /// for large grids).
+  CalibrationSession::EdgeCellsSource edgeCellsSource();
+  /// After the session's scenesChanged: the active scene's pairs model, pictures, scene list.
+  void onScenesChanged();
+  void refreshSceneCombo();
+  /// Shows pairs_ in the table and follows its edits.
+  void bindPairs();
   QAction* makeAction(const QString& text, const QString& tip, const std::function<void()>& slot);
   /// After any change of the session: the image, markers, result, overlay, actions, inputs line.
   void sync();
@@ -304,7 +357,13 @@ class CalibrationWindow : public QMainWindow {
   void resolveSnap(bool snapped);
   /// Shows the outcome of a pick (scrolls to its pair, says what happened).
   void showPick(const CalibrationSession::Pick& pick);
+  /// Marks every scan picture out of date and makes the current tab's.
   void refreshScanPictures();
+  /// Makes scan picture i if it is out of date (progress for large grids).
+  void ensureScanPicture(int i);
+  QImage makeScanPicture(int i, const Progress& progress);
+  /// The scan's angles, computed when first needed (true aspect, ticks).
+  const ScanAngles& scanAngles();
   void refreshOverlay();
   void showResult();
   void setStatus(const QString& text, int level);
@@ -320,6 +379,8 @@ class CalibrationWindow : public QMainWindow {
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   template <typename F>
   bool guarded(const QString& what, F&& f);
+  /// guarded() for the other source files of this class.
+  bool guardedCall(const QString& what, const std::function<void()>& f);
 
   void onCameraClicked(double u, double v);
   void onScanClicked(double x, double y);
@@ -338,11 +399,14 @@ class CalibrationWindow : public QMainWindow {
   bool error_dialogs_ = true;
   CalibrationSession* session_ = nullptr;
   const unsigned char* shown_image_ = nullptr;  // the image data the camera view shows
-  std::array<cv::Mat, 4> ba_;
-  cv::Mat range_;
+  std::array<bool, 6> picture_stale_{};         // scan view i needs its picture (re)made
+  bool making_picture_ = false;
   ScanViewOrientation orientation_;
-  bool scene_closed_ = false;
+  bool pick3d_available_ = false;  // the host can pick in its 3D view
   bool remembering_ = false;
+  QComboBox* scene_combo_ = nullptr;
+  QAction* act_add_scene_ = nullptr;
+  QAction* act_remove_scene_ = nullptr;
   QString title_base_;          // inputs are saved per scan (reopenRememberedInputs)
   QUndoStack* undo_ = nullptr;  // the session's
 
@@ -351,9 +415,8 @@ class CalibrationWindow : public QMainWindow {
   ImageView* camera_view_ = nullptr;
   QTabWidget* scan_tabs_ = nullptr;
   std::array<ImageView*, 6> scan_views_{};
-  cv::Mat intensity_;                // IntensityImage of the scan (empty: none)
-  ScanAngles angles_;                // of the scan's grid
-  std::optional<AspectMap> aspect_;  // set while "True angular aspect" is on
+  std::optional<ScanAngles> angles_;  // of the scan's grid, once computed
+  std::optional<AspectMap> aspect_;   // set while "True angular aspect" is on
   QLabel* hover_label_ = nullptr;
   QAction* act_true_aspect_ = nullptr;
   QAction* act_ticks_ = nullptr;
@@ -375,6 +438,7 @@ class CalibrationWindow : public QMainWindow {
   QAction* act_refine_ = nullptr;
   QAction* act_refine_options_ = nullptr;
   QAction* act_show_start_ = nullptr;
+  QSlider* blend_slider_ = nullptr;
   QAction* act_apply_ = nullptr;
   QAction* act_restore_ = nullptr;
   QAction* act_export_ = nullptr;

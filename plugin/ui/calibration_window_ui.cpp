@@ -17,6 +17,7 @@
 #include <QPlainTextEdit>
 #include <QPushButton>
 #include <QSettings>
+#include <QSlider>
 #include <QStatusBar>
 #include <QTabWidget>
 #include <QTableView>
@@ -46,6 +47,7 @@ void CalibrationWindow::buildUi() {
   buildToggleActions();
   buildToolBars();
   buildMenus();
+  buildSceneBar();
   buildStatusBar();
 }
 
@@ -72,6 +74,10 @@ void CalibrationWindow::buildViews() {
             [this](double x, double y) { hoverScanPixel(x, y); });
   }
   scan_tabs_->setTabVisible(kIntensityView, false);  // until a scan with intensity
+  // A tab's picture is made when it is first shown (calibration_window.h scanView).
+  connect(scan_tabs_, &QTabWidget::currentChanged, this, [this](int i) {
+    if (i >= 0) ensureScanPicture(i);
+  });
   setCentralWidget(scan_tabs_);
 
   // Camera image dock.
@@ -89,17 +95,10 @@ void CalibrationWindow::buildViews() {
   addDockWidget(Qt::RightDockWidgetArea, camera_dock);
 }
 
-// Below: the pair table and the calibration result.
-void CalibrationWindow::buildDocks() {
-  table_ = new QTableView(this);
-  table_->setObjectName("pairsTable");
+// The active scene's pairs (pairs_) in the table; the markers, actions and scene list follow
+// its edits.
+void CalibrationWindow::bindPairs() {
   table_->setModel(pairs_);
-  table_->setSelectionBehavior(QAbstractItemView::SelectRows);
-  table_->setSelectionMode(QAbstractItemView::SingleSelection);
-  table_->setEditTriggers(QAbstractItemView::DoubleClicked | QAbstractItemView::EditKeyPressed);
-  table_->verticalHeader()->hide();
-  table_->horizontalHeader()->setStretchLastSection(true);
-  table_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
   connect(table_->selectionModel(), &QItemSelectionModel::selectionChanged, this, [this] {
     refreshMarkers();
     const int row = selectedPair();
@@ -109,6 +108,24 @@ void CalibrationWindow::buildDocks() {
                     .arg(row + 1),
                 kInfo);
   });
+  connect(pairs_, &PairsModel::pairsEdited, this, [this] {
+    refreshMarkers();
+    updateActions();
+    refreshSceneCombo();
+  });
+}
+
+// Below: the pair table and the calibration result.
+void CalibrationWindow::buildDocks() {
+  table_ = new QTableView(this);
+  table_->setObjectName("pairsTable");
+  table_->setSelectionBehavior(QAbstractItemView::SelectRows);
+  table_->setSelectionMode(QAbstractItemView::SingleSelection);
+  table_->setEditTriggers(QAbstractItemView::DoubleClicked | QAbstractItemView::EditKeyPressed);
+  table_->verticalHeader()->hide();
+  table_->horizontalHeader()->setStretchLastSection(true);
+  table_->horizontalHeader()->setSectionResizeMode(QHeaderView::ResizeToContents);
+  bindPairs();
   auto* table_dock = new QDockWidget(tr("Pairs"), this);
   table_dock->setObjectName("pairsDock");
   table_dock->setWidget(table_);
@@ -176,7 +193,7 @@ void CalibrationWindow::buildFileActions() {
   act_apply_ =
       makeAction(tr("Apply colours"),
                  tr("Colour the cloud from the camera image with this calibration"), [this] {
-                   if (scene_closed_) return;  // the cloud is gone
+                   if (sceneClosed()) return;  // the cloud is gone
                    const QString problem = colouringProblem();
                    if (!problem.isEmpty()) {
                      reportError(tr("Cannot apply colours: ") + problem);
@@ -187,7 +204,7 @@ void CalibrationWindow::buildFileActions() {
   act_restore_ =
       makeAction(tr("Restore colours"),
                  tr("Put back the colours the cloud had before ScanCam coloured it"), [this] {
-                   if (!scene_closed_) emit restoreColoursRequested();
+                   if (!sceneClosed()) emit restoreColoursRequested();
                  });
   act_export_ = makeAction(tr("Export..."),
                            tr("Colour the scan and write a textured mesh (OBJ, glTF) or a coloured "
@@ -252,11 +269,12 @@ void CalibrationWindow::buildToggleActions() {
               kInfo);
   });
   act_pick3d_ = new QAction(tr("Pick in 3D view"), this);
+  act_pick3d_->setObjectName("pick3dAction");
   act_pick3d_->setCheckable(true);
   act_pick3d_->setToolTip(tr("Pick the laser side of pairs on the cloud in the 3D view"));
   act_pick3d_->setEnabled(false);
   connect(act_pick3d_, &QAction::toggled, this, [this](bool on) {
-    if (on && scene_closed_) {  // the cloud is gone: nothing to pick on
+    if (on && sceneClosed()) {  // the cloud is gone: nothing to pick on
       act_pick3d_->setChecked(false);
       return;
     }
@@ -327,6 +345,25 @@ void CalibrationWindow::buildToolBars() {
     refine_bar->addAction(act_refine_);
     refine_bar->addAction(act_refine_options_);
     refine_bar->addAction(act_show_start_);
+    // Blend of the photo and the laser edges (view state only: no undo step, no data change).
+    refine_bar->addSeparator();
+    auto* photo_label = new QLabel(tr("Photo"), refine_bar);
+    photo_label->setContentsMargins(6, 0, 4, 0);
+    refine_bar->addWidget(photo_label);
+    blend_slider_ = new QSlider(Qt::Horizontal, refine_bar);
+    blend_slider_->setObjectName("blendSlider");
+    blend_slider_->setRange(0, 100);
+    blend_slider_->setValue(50);
+    blend_slider_->setMaximumWidth(140);
+    blend_slider_->setToolTip(
+        tr("Blend the camera image and the laser edges: left, the photo alone; right, the edges "
+           "alone (on black); middle, both (with Before Refine: compare before and after)"));
+    connect(blend_slider_, &QSlider::valueChanged, this,
+            [this](int v) { camera_view_->setBlend(v / 100.0); });
+    refine_bar->addWidget(blend_slider_);
+    auto* scan_label = new QLabel(tr("Edges"), refine_bar);
+    scan_label->setContentsMargins(4, 0, 6, 0);
+    refine_bar->addWidget(scan_label);
   }
   auto* tb = addToolBar(tr("ScanCam"));
   tb->setObjectName("scancamToolbar");
@@ -537,8 +574,9 @@ bool CalibrationWindow::loadPairsAsking(const QString& path) {
 // ---- state --------------------------------------------------------------------------------
 
 void CalibrationWindow::setPick3dAvailable(bool available) {
-  if (!available || scene_closed_) act_pick3d_->setChecked(false);
-  act_pick3d_->setEnabled(available && !scene_closed_);
+  pick3d_available_ = available;
+  if (!available || sceneClosed()) act_pick3d_->setChecked(false);
+  act_pick3d_->setEnabled(available && !sceneClosed());
 }
 
 void CalibrationWindow::setRestoreAvailable(bool available) {
@@ -546,7 +584,7 @@ void CalibrationWindow::setRestoreAvailable(bool available) {
   updateActions();
 }
 
-int CalibrationWindow::reopenRememberedInputs() {
+int CalibrationWindow::reopenRememberedInputs(bool with_camera) {
   if (session_->scanFingerprint().isEmpty()) return 0;
   const QString group = QString("qScanCam/scans/%1").arg(session_->scanFingerprint());
   QSettings settings;
@@ -556,7 +594,7 @@ int CalibrationWindow::reopenRememberedInputs() {
   const QString mask = settings.value("mask").toString();
   settings.endGroup();
   QStringList reopened;
-  if (!camera.isEmpty() && QFileInfo::exists(camera) && loadCamera(camera))
+  if (with_camera && !camera.isEmpty() && QFileInfo::exists(camera) && loadCamera(camera))
     reopened << tr("camera %1").arg(camera);
   if (!image.isEmpty() && QFileInfo::exists(image) && loadImage(image))
     reopened << tr("image %1").arg(image);
@@ -569,9 +607,11 @@ int CalibrationWindow::reopenRememberedInputs() {
                    .arg(reopened.join(", ")));
   if (!remembering_) {
     remembering_ = true;
-    connect(this, &CalibrationWindow::inputsChanged, this, [this, group] {
+    // Under the ACTIVE scene's scan (several scenes: each remembers its own image).
+    connect(this, &CalibrationWindow::inputsChanged, this, [this] {
+      if (session_->scanFingerprint().isEmpty()) return;
       QSettings s;
-      s.beginGroup(group);
+      s.beginGroup(QString("qScanCam/scans/%1").arg(session_->scanFingerprint()));
       s.setValue("camera", session_->cameraPath());
       s.setValue("image", session_->imagePath());
       s.setValue("mask", session_->maskPath());
@@ -586,14 +626,25 @@ void CalibrationWindow::setTitleBase(const QString& title) {
 }
 
 void CalibrationWindow::setSceneClosed(const QString& message) {
-  if (scene_closed_) return;
-  scene_closed_ = true;
-  setPick3dAvailable(false);
-  restore_available_ = false;
+  setSceneCloudClosed(activeSceneId(), message);
+}
 
+void CalibrationWindow::setSceneCloudClosed(int scene_id, const QString& message) {
+  const int k = session_->sceneIndex(scene_id);
+  if (k < 0 || session_->sceneCloudClosed(k)) return;
+  session_->setSceneCloudClosed(scene_id);  // scenesChanged -> the actions follow
+  if (k == session_->activeScene()) {
+    act_pick3d_->setChecked(false);
+    act_pick3d_->setEnabled(false);
+    restore_available_ = false;
+  }
   updateActions();
   refreshActiveInputs();
   reportInfo(message, kWarning);
+}
+
+bool CalibrationWindow::sceneClosed() const {
+  return session_->sceneCloudClosed(session_->activeScene());
 }
 
 QString CalibrationWindow::activeInputsText() const { return active_label_->text(); }
@@ -608,7 +659,12 @@ void CalibrationWindow::refreshActiveInputs() {
                .arg(session_->scanName())
                .arg(session_->scan()->rows)
                .arg(session_->scan()->cols);
-  if (scene_closed_) scan += tr(" - its cloud was closed");
+  if (sceneClosed()) scan += tr(" - its cloud was closed");
+  if (session_->sceneCount() > 1)
+    scan = tr("scene %1 of %2: %3")
+               .arg(session_->activeScene() + 1)
+               .arg(session_->sceneCount())
+               .arg(scan);
   const QString text =
       tr("Scan: %1   |   Camera: %2   |   Image: %3   |   Mask: %4   |   Pairs "
          "file: %5")
@@ -624,7 +680,7 @@ void CalibrationWindow::refreshActiveInputs() {
   QString title = title_base_;
   if (!session_->imagePath().isEmpty())
     title += " - " + QFileInfo(session_->imagePath()).fileName();
-  if (scene_closed_) title += tr(" [cloud closed]");
+  if (sceneClosed()) title += tr(" [cloud closed]");
   setWindowTitle(title);
   QStringList tip;
   if (!session_->scanFingerprint().isEmpty())
@@ -730,10 +786,10 @@ void CalibrationWindow::updateActions() {
   act_apply_->setToolTip(colouringProblem().isEmpty()
                              ? tr("Colour the cloud from the camera image with this calibration")
                              : tr("Apply colours: %1").arg(colouringProblem()));
-  act_restore_->setEnabled(restore_available_ && !scene_closed_);
+  act_restore_->setEnabled(restore_available_ && !sceneClosed());
   act_export_->setEnabled(colouringProblem().isEmpty());
   act_delete_->setEnabled(pairs_->size() > 0);
-  if (scene_closed_) {
+  if (sceneClosed()) {
     act_apply_->setEnabled(false);
     act_apply_->setToolTip(tr("The cloud was closed in CloudCompare: nothing to colour"));
   }

@@ -10,6 +10,7 @@
 #include <QResizeEvent>
 #include <QScrollBar>
 #include <QShowEvent>
+#include <QStyleOptionGraphicsItem>
 #include <QWheelEvent>
 #include <algorithm>
 #include <cmath>
@@ -39,6 +40,7 @@ class OverlayPointsItem : public QGraphicsItem {
       bounds_ = QRectF(x0 - 2, y0 - 2, x1 - x0 + 4, y1 - y0 + 4);
     }
   }
+  void imageChanged() { prepareGeometryChange(); }
   QRectF boundingRect() const override { return bounds_; }
   void paint(QPainter* painter, const QStyleOptionGraphicsItem*, QWidget*) override {
     QPen pen(colour_);
@@ -56,6 +58,71 @@ class OverlayPointsItem : public QGraphicsItem {
 };
 }  // namespace
 
+// Draws the view's pyramid: the exposed part of the level LevelForZoom picks for the painter's
+// scale. Scene units are level-0 pixels; a level-k pixel covers (w0 / wk) x (h0 / hk) of them.
+class PyramidItem : public QGraphicsItem {
+ public:
+  explicit PyramidItem(ImageView* view) : view_(view) {
+    setFlag(QGraphicsItem::ItemUsesExtendedStyleOption);  // exposedRect
+  }
+  void imageChanged() { prepareGeometryChange(); }
+  QRectF boundingRect() const override {
+    return QRectF(0, 0, view_->image_.width(), view_->image_.height());
+  }
+  void paint(QPainter* painter, const QStyleOptionGraphicsItem* option, QWidget*) override {
+    if (view_->levels_.empty()) return;
+    const double zoom =
+        QStyleOptionGraphicsItem::levelOfDetailFromTransform(painter->worldTransform());
+    const int k = ImageView::LevelForZoom(zoom, view_->levelCount());
+    view_->shown_level_ = k;
+    const QImage& lv = view_->levels_[static_cast<std::size_t>(k)];
+    const QRectF bounds = boundingRect();
+    const double sx = bounds.width() / lv.width(), sy = bounds.height() / lv.height();
+    const QRectF exposed = option->exposedRect.intersected(bounds);
+    if (exposed.isEmpty()) return;
+    // Whole level pixels around the exposed part.
+    const int x0 = std::max(0, static_cast<int>(std::floor(exposed.left() / sx)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(exposed.top() / sy)));
+    const int x1 = std::min(lv.width(), static_cast<int>(std::ceil(exposed.right() / sx)));
+    const int y1 = std::min(lv.height(), static_cast<int>(std::ceil(exposed.bottom() / sy)));
+    if (x1 <= x0 || y1 <= y0) return;
+    const QRect source(x0, y0, x1 - x0, y1 - y0);
+    const QRectF target(x0 * sx, y0 * sy, source.width() * sx, source.height() * sy);
+    painter->drawImage(target, lv, source);
+  }
+
+ private:
+  ImageView* view_;
+};
+
+int ImageView::LevelForZoom(double zoom, int levels) {
+  if (levels <= 1 || !(zoom > 0.0) || zoom >= 1.0) return 0;
+  const int k = static_cast<int>(std::floor(-std::log2(zoom) + 1e-9));
+  return std::clamp(k, 0, levels - 1);
+}
+
+QImage ImageView::HalfSize(const QImage& rgb32) {
+  const int w = rgb32.width(), h = rgb32.height();
+  QImage out((w + 1) / 2, (h + 1) / 2, QImage::Format_RGB32);
+  for (int y = 0; y < out.height(); ++y) {
+    const auto* a = reinterpret_cast<const QRgb*>(rgb32.constScanLine(2 * y));
+    const auto* b = reinterpret_cast<const QRgb*>(rgb32.constScanLine(std::min(2 * y + 1, h - 1)));
+    auto* o = reinterpret_cast<QRgb*>(out.scanLine(y));
+    for (int x = 0; x < out.width(); ++x) {
+      const int x0 = 2 * x, x1 = std::min(2 * x + 1, w - 1);
+      const QRgb p[4] = {a[x0], a[x1], b[x0], b[x1]};
+      unsigned r = 2, g = 2, bl = 2;
+      for (const QRgb q : p) {
+        r += qRed(q);
+        g += qGreen(q);
+        bl += qBlue(q);
+      }
+      o[x] = qRgb(static_cast<int>(r >> 2), static_cast<int>(g >> 2), static_cast<int>(bl >> 2));
+    }
+  }
+  return out;
+}
+
 ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
   setScene(new QGraphicsScene(this));
   setTransformationAnchor(QGraphicsView::NoAnchor);
@@ -64,8 +131,10 @@ ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
   setRenderHint(QPainter::SmoothPixmapTransform, false);  // see the real pixels when zoomed
   setBackgroundBrush(QColor(40, 40, 40));
   setMouseTracking(true);
-  pixmap_item_ = scene()->addPixmap(QPixmap());
-  pixmap_item_->setTransformationMode(Qt::FastTransformation);
+  backdrop_item_ = scene()->addRect(QRectF(), Qt::NoPen, Qt::black);
+  backdrop_item_->setZValue(-1);
+  pixmap_item_ = new PyramidItem(this);
+  scene()->addItem(pixmap_item_);
   shade_item_ = scene()->addPixmap(QPixmap());
   shade_item_->setZValue(0.5);
   overlay_group_ = scene()->createItemGroup({});
@@ -75,9 +144,20 @@ ImageView::ImageView(QWidget* parent) : QGraphicsView(parent) {
 }
 
 void ImageView::setImage(const QImage& image) {
+  pixmap_item_->imageChanged();
+  levels_.clear();
+  shown_level_ = -1;
   image_ = image;
-  pixmap_item_->setPixmap(QPixmap::fromImage(image));
+  if (!image.isNull()) {
+    levels_.push_back(image.format() == QImage::Format_RGB32
+                          ? image
+                          : image.convertToFormat(QImage::Format_RGB32));
+    while (std::max(levels_.back().width(), levels_.back().height()) > kPyramidTopSidePx)
+      levels_.push_back(HalfSize(levels_.back()));
+  }
+  pixmap_item_->update();
   scene()->setSceneRect(QRectF(0, 0, image.width(), image.height()));
+  backdrop_item_->setRect(QRectF(0, 0, image.width(), image.height()));
   if (auto_fit_ && !image.isNull()) fitInView(pixmap_item_, Qt::KeepAspectRatio);
   rebuildMarkers();
 }
@@ -139,6 +219,27 @@ void ImageView::setMarkers(const QVector<Marker>& markers) {
 void ImageView::setShade(const QImage& shade) {
   shade_ = shade;
   shade_item_->setPixmap(shade.isNull() ? QPixmap() : QPixmap::fromImage(shade));
+}
+
+void ImageView::setBlend(double b) {
+  blend_ = std::clamp(b, 0.0, 1.0);
+  const double photo = std::min(1.0, 2.0 * (1.0 - blend_));
+  pixmap_item_->setOpacity(photo);
+  shade_item_->setOpacity(photo);
+  overlay_group_->setOpacity(std::min(1.0, 2.0 * blend_));
+}
+
+QImage ImageView::composedImage() const {
+  if (image_.isNull()) return QImage();
+  QImage out(image_.size(), QImage::Format_RGB32);
+  out.fill(backgroundBrush().color());
+  QPainter painter(&out);
+  const bool markers = marker_group_->isVisible();
+  marker_group_->setVisible(false);
+  const QRectF r(0, 0, image_.width(), image_.height());
+  scene()->render(&painter, r, r);
+  marker_group_->setVisible(markers);
+  return out;
 }
 
 void ImageView::setOverlayPoints(const QVector<QPointF>& px, const QColor& colour) {

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <random>
 
 #include "scancam/error.h"
@@ -112,6 +113,67 @@ TEST(Ptx, RoundTripSeveralScansIsExact) {
         LoadScan(path, o);
       },
       {"multi.ptx", "has only 3 scans"});
+}
+
+// PtxWriter in parts of any size writes WritePtx's bytes; mismatched parts, a short scan and a
+// non-finite point are refused and leave no file.
+TEST(Ptx, WriterInPartsWritesTheSameBytes) {
+  const std::string dir = test::TempDir();
+  const std::vector<PtxScan> scans = {MakeScan(6, 5, 1, false), MakeScan(4, 7, 2, true)};
+  WritePtx(dir + "/whole.ptx", scans);
+  for (std::size_t part : {1u, 4u, 100u}) {
+    const std::string path = dir + "/parts" + std::to_string(part) + ".ptx";
+    PtxWriter w(path);
+    for (const PtxScan& scan : scans) {
+      w.BeginScan(scan);
+      for (std::size_t k = 0; k < scan.size(); k += part) {
+        const std::size_t e = std::min(scan.size(), k + part);
+        PtxScan p;
+        p.xyz.assign(scan.xyz.begin() + k, scan.xyz.begin() + e);
+        p.intensity.assign(scan.intensity.begin() + k, scan.intensity.begin() + e);
+        if (!scan.rgb.empty()) p.rgb.assign(scan.rgb.begin() + k, scan.rgb.begin() + e);
+        w.AppendPoints(p);
+      }
+    }
+    EXPECT_FALSE(std::filesystem::exists(path)) << "appears only on Commit";
+    w.Commit();
+    EXPECT_EQ(test::ReadFile(path), test::ReadFile(dir + "/whole.ptx")) << "parts of " << part;
+  }
+  const std::string bad = dir + "/bad.ptx";
+  ExpectError(
+      [&] {
+        PtxWriter w(bad);
+        w.BeginScan(scans[0]);
+        PtxScan p = scans[0];
+        p.xyz.pop_back();
+        p.intensity.pop_back();
+        w.AppendPoints(p);
+        w.Commit();
+      },
+      {"bad.ptx", "29 points given for 30 cells"});
+  ExpectError(
+      [&] {
+        PtxWriter w(bad);
+        w.BeginScan(scans[0]);
+        PtxScan p = scans[0];
+        p.xyz.push_back(p.xyz.back());
+        p.intensity.push_back(0.f);
+        w.AppendPoints(p);
+      },
+      {"bad.ptx", "do not match"});
+  ExpectError(
+      [&] {
+        PtxWriter w(bad);
+        w.BeginScan(scans[0]);
+        PtxScan p = scans[0];
+        p.xyz.resize(10);
+        p.intensity.resize(10);
+        w.AppendPoints(p);
+        p.xyz[3].x() = std::nanf("");
+        w.AppendPoints(p);
+      },
+      {"bad.ptx", "point 13 is not finite"});
+  EXPECT_FALSE(std::filesystem::exists(bad));
 }
 
 TEST(Ptx, PoseIsAppliedOnlyWhenAsked) {

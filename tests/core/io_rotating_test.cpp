@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <random>
 #include <string>
 
@@ -193,6 +194,46 @@ TEST(RotatingLog, BadInputsNameFileLineAndProblem) {
   }
   ExpectError([&] { ReadRotatingLog(dir + "/missing.rot"); }, {"missing.rot", "cannot open"});
   ExpectError([&] { LoadScan(dir + "/scan.xyz"); }, {"scan.xyz", "unknown scan format"});
+}
+
+// RotatingLogWriter plane block by plane block writes WriteRotatingLog's bytes; planes out of
+// order or missing are refused and leave no file.
+TEST(RotatingLog, WriterInBlocksWritesTheSameBytes) {
+  const std::string dir = test::TempDir();
+  const RotatingScanData d = MakeData(7, 13, true, 2);
+  WriteRotatingLog(dir + "/whole.rot", d);
+  auto block = [&](int first, int count) {
+    RotatingScanData b = d;
+    b.planes = count;
+    b.phi_rad.assign(d.phi_rad.begin() + first, d.phi_rad.begin() + first + count);
+    const std::size_t k0 = std::size_t(first) * d.beams, k1 = std::size_t(first + count) * d.beams;
+    b.range_m.assign(d.range_m.begin() + k0, d.range_m.begin() + k1);
+    b.intensity.assign(d.intensity.begin() + k0, d.intensity.begin() + k1);
+    return b;
+  };
+  for (int step : {1, 3, 7}) {
+    const std::string path = dir + "/blocks" + std::to_string(step) + ".rot";
+    RotatingLogWriter w(path, d);
+    for (int first = 0; first < d.planes; first += step)
+      w.Append(block(first, std::min(step, d.planes - first)), first);
+    w.Commit();
+    EXPECT_EQ(test::ReadFile(path), test::ReadFile(dir + "/whole.rot")) << "blocks of " << step;
+  }
+  const std::string bad = dir + "/bad.rot";
+  ExpectError(
+      [&] {
+        RotatingLogWriter w(bad, d);
+        w.Append(block(1, 2), 1);
+      },
+      {"bad.rot", "do not follow plane"});
+  ExpectError(
+      [&] {
+        RotatingLogWriter w(bad, d);
+        w.Append(block(0, 3), 0);
+        w.Commit();
+      },
+      {"bad.rot", "3 of 7 planes written"});
+  EXPECT_FALSE(std::filesystem::exists(bad));
 }
 
 TEST(RotatingLog, WriterRejectsInconsistentData) {

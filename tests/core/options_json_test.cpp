@@ -1,5 +1,6 @@
 // Options structs as JSON parameter files (scancam/io/options_json.h): ColourOptions
-// (colour/colour_options_io.h) and CalibrateOptions (solve/calibrate_options_io.h). Round trips,
+// (colour/colour_options_io.h), CalibrateOptions (solve/calibrate_options_io.h) and
+// DenseRefineOptions (refine/refine_options_io.h). Round trips,
 // the checks and their messages (file and key), and the CLI's --params with flags overriding it.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -8,6 +9,8 @@
 
 #include "scancam/colour/colour_options_io.h"
 #include "scancam/error.h"
+#include "scancam/io/json_util.h"
+#include "scancam/refine/refine_options_io.h"
 #include "scancam/solve/calibrate_options_io.h"
 #include "test_util.h"
 
@@ -41,12 +44,20 @@ const std::string& SmallSim() {
   return files.dir;
 }
 
+// The small simulation's scan, camera and image, as CLI arguments.
+std::string SimViewArgs() {
+  const std::string& sim = SmallSim();
+  return " --scan " + sim + "/scan.txt --camera " + sim + "/camera.yaml --image " + sim +
+         "/image.png";
+}
+
 }  // namespace
 }  // namespace scancam
 
 namespace scancam::colour {
 namespace {
 
+using scancam::SimViewArgs;
 using scancam::SmallSim;
 
 ColourOptions NonDefault() {
@@ -144,9 +155,8 @@ TEST(ColourOptionsJson, BadValuesNameTheFileAndTheKey) {
 TEST(ColourOptionsJson, CliColorizeParams) {
   const std::string dir = test::TempDir();
   const std::string sim = SmallSim();
-  const std::string base = "colorize --scan " + sim + "/scan.txt --camera " + sim +
-                           "/camera.yaml --image " + sim + "/image.png --calib " + sim +
-                           "/ground_truth.json --out " + dir + "/c.ply";
+  const std::string base =
+      "colorize" + SimViewArgs() + " --calib " + sim + "/ground_truth.json --out " + dir + "/c.ply";
   ColourOptions off;
   off.occlusion = false;
   WriteColourOptions(dir + "/off.json", off);
@@ -255,3 +265,136 @@ TEST(CalibrateOptionsJson, CliCalibrateParams) {
 
 }  // namespace
 }  // namespace scancam
+
+namespace scancam::refine {
+namespace {
+
+using scancam::SimViewArgs;
+using scancam::SmallSim;
+
+TEST(DenseRefineOptionsJson, RoundTripKeepsEveryValue) {
+  const std::string dir = test::TempDir();
+  DenseRefineOptions o;
+  o.edge_weight = 1.0 / 3.0;  // not a short decimal: the file keeps every bit
+  o.starts = 7;
+  o.start_spread_deg = 2.5;
+  o.start_spread_m = 0.2;
+  o.hops = 2;
+  o.initial_step_deg = 0.8;
+  o.initial_step_m = 0.07;
+  o.final_step_deg = 0.02;
+  o.final_step_m = 0.002;
+  o.max_evaluations = 1234;
+  o.level_sigma_px = {4.0, 1.5, 0.0};
+  o.level_min_step_deg = {0.6, 0.2};
+  o.inner_margin_px = -1.0;
+  o.reanchor_rounds = 1;
+  o.search_on_all_points = true;
+  o.polish_on_all_points = true;
+  o.resamples = 4;
+  o.curvature_step_deg = 0.3;
+  o.curvature_step_m = 0.03;
+  o.ambiguous_std_deg = 0.4;
+  o.ambiguous_std_m = 0.06;
+  o.diverged_deg = 0.7;
+  o.diverged_m = 0.2;
+  o.diverged_objective = 0.001;
+  o.seed = 987654321;
+  o.alignment.edge_sigma_px = 3.0;
+  o.alignment.depth_jump_m = 0.5;
+  o.alignment.depth_jump_fraction = 0.2;
+  o.alignment.no_return_is_edge = true;
+  o.alignment.edge_at_boundary = false;
+  o.alignment.nid_bins = 24;
+  o.alignment.nid_weight = 0.25;
+  o.alignment.occlusion_cell_px = 6;
+  o.alignment.occlusion_tolerance_m = 0.4;
+  o.alignment.occlusion_tolerance_fraction = 0.07;
+  o.alignment.min_range_m = 1.0;
+  o.alignment.max_range_m = 60.0;
+  o.alignment.edge_distance_field = true;
+  o.alignment.nid_gradient_floor = 0.1;
+  o.alignment.tile_rows = 8;
+  o.alignment.tile_cols = 12;
+  EXPECT_TRUE(ValidateDenseRefineOptions(o).empty());
+  EXPECT_TRUE(ValidateDenseRefineOptions(DenseRefineOptions{}).empty());
+  WriteDenseRefineOptions(dir + "/r.json", o);
+  const DenseRefineOptions b = ReadDenseRefineOptions(dir + "/r.json");
+  EXPECT_EQ(DenseRefineOptionsJson(b), DenseRefineOptionsJson(o));
+  EXPECT_NE(DenseRefineOptionsJson(DenseRefineOptions{}), DenseRefineOptionsJson(o));
+  EXPECT_EQ(b.edge_weight, 1.0 / 3.0);
+  EXPECT_EQ(b.starts, 7);
+  EXPECT_EQ(b.seed, 987654321u);
+  EXPECT_EQ(b.level_sigma_px, o.level_sigma_px);
+  EXPECT_EQ(b.level_min_step_deg, o.level_min_step_deg);
+  EXPECT_TRUE(b.polish_on_all_points);
+  EXPECT_EQ(b.alignment.tile_cols, 12);
+  EXPECT_TRUE(b.alignment.edge_distance_field);
+  // Keys absent from a file keep the base's values.
+  const DenseRefineOptions c = ParseDenseRefineOptions(R"({"starts": 3})", "r.json", o);
+  EXPECT_EQ(c.starts, 3);
+  EXPECT_EQ(c.hops, 2);
+  EXPECT_EQ(c.alignment.nid_bins, 24);
+}
+
+TEST(DenseRefineOptionsJson, BadValuesNameTheFileAndTheKey) {
+  // (file text, what the message must say besides the file's name)
+  const std::vector<std::pair<std::string, std::vector<std::string>>> cases = {
+      {R"({"starts": 0})", {"'starts'", "[1, 100]"}},
+      {R"({"starts": 2.5})", {"'starts'", "whole number"}},
+      {R"({"start_spread_deg": 45})", {"'start_spread_deg'", "[0, 30]", "not 45"}},
+      {R"({"edge_weight": "high"})", {"'edge_weight'", "must be a number"}},
+      {R"({"edge_wieght": 0.2})", {"'edge_wieght'", "unknown"}},
+      {R"({"level_sigma_px": []})", {"'level_sigma_px'", "at least one level"}},
+      {R"({"level_sigma_px": [2, "x"]})", {"'level_sigma_px'", "array of finite numbers"}},
+      {R"({"level_sigma_px": [4, 2, 1, 0], "level_min_step_deg": [1]})",
+       {"'level_min_step_deg'", "one step per level"}},
+      {R"({"final_step_deg": 2, "initial_step_deg": 1})",
+       {"'final_step_deg'", "<= initial_step_deg"}},
+      {R"({"alignment": {"nid_bins": 1}})", {"'alignment.nid_bins'", "[2, 256]"}},
+      {R"({"alignment": {"tile_row": 2}})", {"'alignment.tile_row'", "unknown"}},
+      {R"({"scancam": "calibrate options"})", {"'scancam'", "refine options"}},
+  };
+  for (const auto& [text, parts] : cases) {
+    std::vector<std::string> expected = {"r.json"};
+    expected.insert(expected.end(), parts.begin(), parts.end());
+    test::ExpectError([&text = text] { ParseDenseRefineOptions(text, "r.json"); }, expected);
+  }
+}
+
+// `scancam refine --params`: the file's starts are used unless --starts overrides them (the
+// output records the starts searched); a bad file is refused naming it and the key, before any
+// scan is read; a bad flag is named as the flag.
+TEST(DenseRefineOptionsJson, CliRefineParams) {
+  const std::string dir = test::TempDir();
+  const std::string sim = SmallSim();
+  const std::string base = "refine" + SimViewArgs() + " --init " + sim +
+                           "/ground_truth.json --quiet --out " + dir + "/r.json";
+  DenseRefineOptions o;
+  o.starts = 3;
+  o.max_evaluations = 200;
+  o.hops = 0;
+  o.reanchor_rounds = 0;
+  o.resamples = 0;
+  WriteDenseRefineOptions(dir + "/p.json", o);
+  ASSERT_EQ(test::RunCli(dir, base + " --params " + dir + "/p.json"), 0)
+      << test::ReadFile(dir + "/stderr.txt");
+  nlohmann::json j = ReadJsonFile(dir + "/r.json");
+  EXPECT_EQ(j["refinement"]["starts"], 3);
+  EXPECT_LE(j["refinement"]["evaluations"].get<int>(), 260) << j["refinement"].dump();
+  ASSERT_EQ(test::RunCli(dir, base + " --params " + dir + "/p.json --starts 1"), 0)
+      << test::ReadFile(dir + "/stderr.txt");
+  j = ReadJsonFile(dir + "/r.json");
+  EXPECT_EQ(j["refinement"]["starts"], 1);
+  test::WriteFile(dir + "/bad.json", R"({"scancam": "refine options", "spread_m": 0.1})");
+  EXPECT_EQ(test::RunCli(dir, base + " --params " + dir + "/bad.json"), 1);
+  std::string err = test::ReadFile(dir + "/stderr.txt");
+  EXPECT_NE(err.find("bad.json"), std::string::npos) << err;
+  EXPECT_NE(err.find("'spread_m'"), std::string::npos) << err;
+  EXPECT_EQ(test::RunCli(dir, base + " --params " + dir + "/p.json --spread-deg 40"), 1);
+  err = test::ReadFile(dir + "/stderr.txt");
+  EXPECT_NE(err.find("option --spread-deg: must be in [0, 30]"), std::string::npos) << err;
+}
+
+}  // namespace
+}  // namespace scancam::refine

@@ -97,6 +97,20 @@ TEST(Alignment, RanksRoadPinholesReferenceAbovePerturbedPoses) {
   EXPECT_GE(worse, 11) << "NID at the reference " << at_ref.nid;
 }
 
+// The largest |error| / reported std over the six axes (camera frame) of the search's best
+// against `truth`: <= 3 when the reported uncertainty covers the error at 3 sigma.
+double ErrorInSigmas(const refine::DenseRefineResult& r, const Eigen::Isometry3d& truth) {
+  const Eigen::Isometry3d e = r.T_best * truth.inverse();
+  const Eigen::AngleAxisd aa(e.linear());
+  const Eigen::Vector3d w_deg = aa.axis() * aa.angle() * 180.0 / M_PI;
+  double worst = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    worst = std::max(worst, std::abs(w_deg[i]) / r.rotation_std_deg_cam_xyz[i]);
+    worst = std::max(worst, std::abs(e.translation()[i]) / r.translation_std_m_cam_xyz[i]);
+  }
+  return worst;
+}
+
 TEST(DenseRefine, ComesBackFromTwoDegreesAndTwentyCentimetres) {
   const LidarScene& s = Lidar();
   std::mt19937 rng(2);
@@ -112,6 +126,10 @@ TEST(DenseRefine, ComesBackFromTwoDegreesAndTwentyCentimetres) {
   EXPECT_LT(r.heldout_best, r.heldout_start);
   EXPECT_LT(r.nid_best, r.nid_start);
   EXPECT_GT(r.evaluations, 100);
+  // The reported std covers the error at 3 sigma (docs/refine.md, "The reported std"); the
+  // sampling part alone does not have to.
+  EXPECT_LE(ErrorInSigmas(r, s.sim.T_cam_scan), 3.0);
+  EXPECT_LE(r.sampling_rotation_std_deg_cam_xyz.maxCoeff(), r.rotation_std_deg_cam_xyz.maxCoeff());
 }
 
 TEST(DenseRefine, RotatingScannerComesBackFromTwoDegreesAndTwentyCentimetres) {
@@ -125,6 +143,54 @@ TEST(DenseRefine, RotatingScannerComesBackFromTwoDegreesAndTwentyCentimetres) {
   // 0.5 deg cells leave little margin; docs/refine.md had 0.38-0.43 deg before).
   EXPECT_LT(AngleDeg(r.T_cam_scan, s.sim.T_cam_scan), 0.05) << r.reason;
   EXPECT_LT(OffsetM(r.T_cam_scan, s.sim.T_cam_scan), 0.01) << r.reason;
+  EXPECT_LE(ErrorInSigmas(r, s.sim.T_cam_scan), 3.0);
+}
+
+// kitti-000000 started at KITTI's calibration: the result stays within 0.15 deg / 3 cm (issue
+// 16 item 7), and the reported std covers the search's best, which lies 0.5 deg / 12 cm away
+// where NID on this frame is lower (docs/refine.md): the std is not the sampling noise alone
+// (that is 0.03-0.06 deg there, 10-15 times too small).
+TEST(DenseRefine, KittiStartedAtTheReferenceStaysAndItsStdCoversTheSearchsBest) {
+  SCANCAM_REQUIRE_SHARED();
+  const std::string dir = test::SharedDataset("kitti-000000/");
+  colour::ColourView view;
+  view.image = ReadImage(dir + "image_2.png");
+  view.camera = LoadCameraForImage(dir + "calib.txt", dir + "image_2.png");
+  const OrderedScan scan = LoadScan(dir + "velodyne.bin");
+  const Eigen::Isometry3d reference = colour::LoadExtrinsic(dir + "calib.txt");
+  const refine::DenseRefineResult r = refine::DenseRefine({{&scan, view}}, reference);
+  EXPECT_LT(AngleDeg(r.T_cam_scan, reference), 0.15) << r.reason;
+  EXPECT_LT(OffsetM(r.T_cam_scan, reference), 0.03) << r.reason;
+  EXPECT_LE(ErrorInSigmas(r, reference), 3.0) << r.reason;
+  EXPECT_LT(r.sampling_rotation_std_deg_cam_xyz.maxCoeff(), r.rotation_std_deg_cam_xyz.maxCoeff());
+}
+
+// Intensity per laser (AlignmentOptions::intensity_per_row): a laser twice as bright as the
+// next one must not make its points fall in the top bins.
+TEST(Alignment, IntensityPerRowRemovesEachLasersGain) {
+  const LidarScene& s = Lidar();
+  OrderedScan scan = s.sim.scan;
+  ASSERT_TRUE(scan.has_intensity());
+  for (std::size_t i = 0; i < scan.size(); ++i)
+    scan.intensity[i] *= static_cast<float>(1 << ((i / scan.cols) % 2 * 3));  // odd rows x8
+  auto mean_bin_gap = [&](bool per_row) {
+    refine::AlignmentOptions o;
+    o.intensity_per_row = per_row;
+    const refine::AlignmentData d = refine::PrepareAlignment(scan, s.view, o);
+    double sum[2] = {0, 0}, n[2] = {0, 0};
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < scan.size(); ++i) {
+      if (!scan.valid(i)) continue;
+      if (d.intensity_bin[k] != 255) {
+        sum[(i / scan.cols) % 2] += d.intensity_bin[k];
+        ++n[(i / scan.cols) % 2];
+      }
+      ++k;
+    }
+    return sum[1] / n[1] - sum[0] / n[0];
+  };
+  EXPECT_GT(mean_bin_gap(false), 3.0);  // the bright lasers take the top bins
+  EXPECT_LT(std::abs(mean_bin_gap(true)), 1.0);
 }
 
 TEST(DenseRefine, StartedAtTheTruthItStaysThere) {

@@ -404,6 +404,46 @@ TEST(SimSimulate, SameSeedSameBytesOtherSeedOtherData) {
   EXPECT_TRUE(a.at("camera.txt") == c.at("camera.txt"));
 }
 
+// The streaming simulation (SimulateToDirectory, what `scancam simulate` runs for the rotating
+// scanner) writes exactly the bytes of Simulate + WriteSimulation: blocks of 1, 7 (not a
+// divisor of the planes) and more planes than the scan has; the omni preset and a pinhole.
+TEST(SimSimulate, StreamingWritesTheSameBytesAsInMemory) {
+  const std::string dir = test::TempDir();
+  for (const char* camera : {"omni", "pinhole"}) {
+    SimulateOptions o = SmallOptions();
+    o.camera = camera;
+    o.seed = 5;
+    const std::string whole = dir + "/whole-" + camera;
+    const Simulation s = Simulate(o);
+    WriteSimulation(s, whole);
+    const auto expected = ReadDir(whole);
+    ASSERT_EQ(expected.size(), std::string(camera) == "omni" ? 8u : 7u);
+    for (int block : {1, 7, 1000}) {
+      const std::string streamed = dir + "/streamed-" + camera + "-" + std::to_string(block);
+      const Simulation t = SimulateToDirectory(o, streamed, {}, block);
+      EXPECT_EQ(t.valid_cells, s.valid_cells);
+      EXPECT_EQ(t.valid_cells, s.scan.valid_count());
+      EXPECT_TRUE(t.scan.size() == 0 && t.sample.range_m.empty()) << "the scan is not held";
+      ASSERT_EQ(t.pairs.size(), s.pairs.size());
+      const auto got = ReadDir(streamed);
+      ASSERT_EQ(got.size(), expected.size()) << camera << " block " << block;
+      for (const auto& [name, bytes] : expected) {
+        ASSERT_TRUE(got.count(name)) << name;
+        EXPECT_TRUE(bytes == got.at(name))
+            << name << " differs (" << camera << ", blocks of " << block << " planes)";
+      }
+    }
+  }
+}
+
+TEST(SimSimulate, StreamingRefusesTheLidarAndBadBlocks) {
+  const std::string dir = test::TempDir();
+  SimulateOptions o = SmallOptions();
+  o.scanner = "lidar";
+  EXPECT_THROW(SimulateToDirectory(o, dir + "/a"), Error);
+  EXPECT_THROW(SimulateToDirectory(SmallOptions(), dir + "/b", {}, 0), Error);
+}
+
 TEST(SimSimulate, WrongPairsAreMarkedAndReallyWrong) {
   SimulateOptions o = SmallOptions();
   const Simulation s = Simulate(o);

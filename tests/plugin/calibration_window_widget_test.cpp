@@ -124,6 +124,47 @@ class CalibrationWindowTest : public QObject {
     QVERIFY(w->scanView(CalibrationWindow::kIntensityView)->image().isNull());
   }
 
+  // Issue 17 item 4: a tab's picture is made when the tab is first shown (a 50 M-cell scan's
+  // take about a second each), and is the core's view of that image.
+  void scanPicturesAreMadePerTab() {
+    auto w = std::make_unique<CalibrationWindow>();
+    w->setErrorDialogsEnabled(false);
+    w->resize(1200, 800);
+    w->show();
+    QVERIFY(QTest::qWaitForWindowExposed(w.get()));
+    const scancam::OrderedScan& s = *Sim().scan;
+    QVERIFY(w->setScan(Sim().scan, "sim scan"));
+    QCOMPARE(w->scanTabs()->currentIndex(), 0);
+    auto view = [&](int i) { return w->findChild<ImageView*>(QString("scanView%1").arg(i)); };
+    QCOMPARE(view(0)->image().size(), QSize(s.cols, s.rows));
+    for (int i = 1; i < 6; ++i) QVERIFY2(view(i)->image().isNull(), qPrintable(QString::number(i)));
+    w->scanTabs()->setCurrentIndex(2);
+    QCOMPARE(view(2)->image().size(), QSize(s.cols, s.rows));
+    QVERIFY(view(3)->image().isNull());
+    // The +45 deg trace's picture: the core's view of that BA image, pixel for pixel.
+    const cv::Mat want = scancam::MakeView(
+        scancam::ComputeBearingAngle(s, scancam::BaTrace::kDiagPos), scancam::ViewOptions());
+    for (const QPointF& cell : {ValidCellNear(90, 90), ValidCellNear(60, 120)}) {
+      const int r = int(cell.y()), c = int(cell.x());
+      const QRgb got = view(2)->image().pixel(c, r);
+      const cv::Vec3b bgr = want.at<cv::Vec3b>(r, c);
+      QCOMPARE(qRed(got), int(bgr[2]));
+      QCOMPARE(qGreen(got), int(bgr[1]));
+      QCOMPARE(qBlue(got), int(bgr[0]));
+    }
+    // A new orientation: the shown tab is redrawn at once, the others are dropped (out of
+    // date) and redrawn when shown.
+    scancam::plugin::ui::ScanViewOrientation t;
+    t.transpose = true;
+    w->setScanOrientation(t);
+    QCOMPARE(view(2)->image().size(), QSize(s.rows, s.cols));
+    QVERIFY(view(0)->image().isNull());
+    w->scanTabs()->setCurrentIndex(0);
+    QCOMPARE(view(0)->image().size(), QSize(s.rows, s.cols));
+    // The accessor makes a hidden tab's picture too.
+    QCOMPARE(w->scanView(4)->image().size(), QSize(s.rows, s.cols));
+  }
+
   void clicksOnBothViewsMakePairs() {
     auto w = MakeWindow(FreshImage("clicks"));
     QVERIFY(w);

@@ -68,20 +68,7 @@ xdotool windowsize "$main" 1600 1000
 # the cloud and press the plugin's toolbar button (scripts/screenshots.sh) until the window
 # opens (the button is enabled once a cloud is selected).
 echo "== select the cloud, open the calibration window on it"
-win=""
-for _ in $(seq 90); do
-  xdotool mousemove 175 138 click 1
-  sleep 0.3
-  xdotool mousemove 1219 61 click 1
-  # Wait for the window before clicking again: openbox may place it under that spot, and a
-  # second click there would press its "Camera file..." button (a modal dialog then blocks).
-  for _ in $(seq 15); do
-    win="$(xdotool search --onlyvisible --name "ScanCam calibration" 2>/dev/null | tail -1)" || true
-    [ -z "$win" ] || break
-    sleep 0.2
-  done
-  [ -z "$win" ] || break
-done
+open_scancam_window || true
 [ -n "$win" ] || fail "the calibration window did not open"
 xdotool windowmove "$win" 1150 0
 xdotool windowsize "$win" 1400 850

@@ -24,6 +24,7 @@
 // only known during the run, e.g. `scancam ba`'s files).
 #pragma once
 
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -72,6 +73,27 @@ class AtomicFile {
  private:
   std::string path_, final_, tmp_;
   bool done_ = false;
+};
+
+/// A file written in pieces through an AtomicFile: text is appended to buffer() and Flush()
+/// writes it to the temporary once it holds more than 1 MiB (always with force); Commit()
+/// writes the rest, closes and commits. Throws scancam::Error naming `path` when the file
+/// cannot be opened or written; destroyed uncommitted, it removes the temporary.
+class StreamedFile {
+ public:
+  explicit StreamedFile(const std::string& path);
+  ~StreamedFile();
+  StreamedFile(const StreamedFile&) = delete;
+  StreamedFile& operator=(const StreamedFile&) = delete;
+  std::string& buffer() { return buffer_; }
+  void Flush(bool force = false);
+  void Commit();
+
+ private:
+  std::string path_;
+  AtomicFile file_;
+  std::FILE* f_ = nullptr;
+  std::string buffer_;
 };
 
 /// The outputs of one run: see the header comment. At most one batch is open at a time.

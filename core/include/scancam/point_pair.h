@@ -67,6 +67,20 @@ bool AcrossDiscontinuity(const OrderedScan& scan, std::size_t a, std::size_t b,
 std::optional<Eigen::Vector3d> InterpolatePoint(const OrderedScan& scan, double row, double col,
                                                 const InterpolationOptions& options = {});
 
+/// A part of a larger grid held alone: `scan` holds rows [row0, row0 + scan->rows) and columns
+/// [col0, col0 + scan->cols) of a full_rows x full_cols grid.
+struct ScanWindow {
+  const OrderedScan* scan = nullptr;
+  int row0 = 0, col0 = 0;
+  int full_rows = 0, full_cols = 0;
+};
+
+/// InterpolatePoint of the full grid at (row, col) (full-grid coordinates) from a window of it,
+/// with exactly the same arithmetic. Throws scancam::Error when it needs a cell of the full grid
+/// outside the window.
+std::optional<Eigen::Vector3d> InterpolatePoint(const ScanWindow& window, double row, double col,
+                                                const InterpolationOptions& options = {});
+
 /// The laser point of a pair: point_m when given, otherwise InterpolatePoint at the pair's
 /// cell (nullopt when `scan` is null, the pair has no cell, or the cell gives no point).
 std::optional<Eigen::Vector3d> PairLaserPoint(const PointPair& pair, const OrderedScan* scan,

@@ -61,12 +61,12 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
   }
   // Pre-pass: the records, bounds and limits (the XML is written last but its offset and the
   // section's length go into the header first, so every size is known before writing).
-  std::vector<std::uint32_t> cells;
+  std::size_t records = 0;  // valid cells, written in grid order (no list of them: 100 M fit)
   double imin = std::numeric_limits<double>::infinity(), imax = -imin;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(imax), hi = Eigen::Vector3d::Constant(imin);
   for (std::size_t k = 0; k < scan.size(); ++k) {
     if (!scan.valid(k)) continue;
-    cells.push_back(static_cast<std::uint32_t>(k));
+    ++records;
     lo = lo.cwiseMin(scan.point_m[k].cast<double>());
     hi = hi.cwiseMax(scan.point_m[k].cast<double>());
     if (scan.has_intensity()) {
@@ -77,7 +77,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
       }
     }
   }
-  if (cells.empty()) throw FileError(path, "", "the scan has no valid point to write");
+  if (records == 0) throw FileError(path, "", "the scan has no valid point to write");
   const bool intensity = scan.has_intensity();
   const bool colour = rgb != nullptr;
   const int row_bits = BitsFor(0, scan.rows - 1), col_bits = BitsFor(0, scan.cols - 1);
@@ -93,8 +93,8 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
     return (b + 3) / 4 * 4;
   };
   std::uint64_t data_bytes = 0;
-  for (std::size_t done = 0; done < cells.size(); done += kPerPacket)
-    data_bytes += packet_bytes(std::min(kPerPacket, cells.size() - done));
+  for (std::size_t done = 0; done < records; done += kPerPacket)
+    data_bytes += packet_bytes(std::min(kPerPacket, records - done));
   const std::uint64_t section_logical = 48, section_length = 32 + data_bytes;
   // Image blobs after the points: a 16-byte section header, the bytes, zeros up to 4 bytes.
   std::vector<std::uint64_t> blob_logical;
@@ -123,7 +123,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
        "         xmlns:dist=\"http://www.libe57.org/E57_LEICA_Camera_Distortion.txt\">\n"
        "  <formatName type=\"String\"><![CDATA[ASTM E57 3D Imaging Data File]]></formatName>\n"
        "  <guid type=\"String\"><![CDATA[{scancam-file-"
-    << cells.size() << "-" << scan.rows << "x" << scan.cols
+    << records << "-" << scan.rows << "x" << scan.cols
     << "}]]></guid>\n"
        "  <versionMajor type=\"Integer\">1</versionMajor>\n"
        "  <versionMinor type=\"Integer\">0</versionMinor>\n"
@@ -132,7 +132,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
        "  <data3D type=\"Vector\" allowHeterogeneousChildren=\"1\">\n"
        "    <vectorChild type=\"Structure\">\n"
        "      <guid type=\"String\"><![CDATA[{scancam-scan-"
-    << cells.size() << "-" << scan.rows << "x" << scan.cols
+    << records << "-" << scan.rows << "x" << scan.cols
     << "}]]></guid>\n"
        "      <name type=\"String\"><![CDATA[ScanCam scan]]></name>\n"
        "      <pose type=\"Structure\"><rotation type=\"Structure\"><w type=\"Float\">1</w>"
@@ -168,7 +168,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
          "</colorLimits>\n";
   }
   x << "      <points type=\"CompressedVector\" fileOffset=\""
-    << PagedFile::ToPhysical(section_logical) << "\" recordCount=\"" << cells.size()
+    << PagedFile::ToPhysical(section_logical) << "\" recordCount=\"" << records
     << "\">\n        <prototype type=\"Structure\">\n";
   for (const char* axis : {"X", "Y", "Z"}) {
     x << "          <cartesian" << axis << " type=\"Float\" precision=\"single\"/>\n";
@@ -195,7 +195,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
          "type=\"String\"><![CDATA[{scancam-image-"
       << i << "}]]></guid>\n      <name type=\"String\"><![CDATA[" << m.name
       << "]]></name>\n      <associatedData3DGuid type=\"String\"><![CDATA[{scancam-scan-"
-      << cells.size() << "-" << scan.rows << "x" << scan.cols << "}]]></associatedData3DGuid>\n"
+      << records << "-" << scan.rows << "x" << scan.cols << "}]]></associatedData3DGuid>\n"
       << "      <pose type=\"Structure\"><rotation type=\"Structure\"><w type=\"Float\">"
       << XmlNumber(pose.rotation.w()) << "</w><x type=\"Float\">" << XmlNumber(pose.rotation.x())
       << "</x><y type=\"Float\">" << XmlNumber(pose.rotation.y()) << "</y><z type=\"Float\">"
@@ -269,12 +269,14 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
     std::vector<std::vector<std::uint8_t>> chunks(static_cast<std::size_t>(streams));
     std::vector<BitPacker> packers(static_cast<std::size_t>(streams));
     std::vector<std::uint8_t> packet;
-    for (std::size_t done = 0; done < cells.size(); done += kPerPacket) {
-      const std::size_t n = std::min(kPerPacket, cells.size() - done);
+    std::size_t next_cell = 0;  // the grid index of the next record
+    for (std::size_t done = 0; done < records; done += kPerPacket) {
+      const std::size_t n = std::min(kPerPacket, records - done);
       for (auto& c : chunks) c.clear();
       for (auto& p : packers) p.bytes.clear();
       for (std::size_t i = done; i < done + n; ++i) {
-        const std::size_t k = cells[i];
+        while (!scan.valid(next_cell)) ++next_cell;
+        const std::size_t k = next_cell++;
         const Eigen::Vector3f& p = scan.point_m[k];
         int s = 0;
         for (int a = 0; a < 3; ++a, ++s) {
@@ -298,7 +300,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
         packers[s].Put(k / static_cast<std::size_t>(scan.cols), row_bits);
         packers[s + 1].Put(k % static_cast<std::size_t>(scan.cols), col_bits);
       }
-      if (done + n == cells.size()) {
+      if (done + n == records) {
         for (auto& p : packers) p.Finish();
       }
       packet.clear();
@@ -320,8 +322,7 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
       packet[2] = static_cast<std::uint8_t>((packet.size() - 1) & 0xff);
       packet[3] = static_cast<std::uint8_t>((packet.size() - 1) >> 8);
       w.Write(packet.data(), packet.size());
-      if ((done / kPerPacket) % 64 == 0)
-        progress(double(done) / double(cells.size()), "writing E57");
+      if ((done / kPerPacket) % 64 == 0) progress(double(done) / double(records), "writing E57");
     }
     for (std::size_t i = 0; images && i < images->size(); ++i) {
       const std::vector<std::uint8_t>& bytes = (*images)[i].bytes;

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "scancam/io/options_json.h"
 
@@ -27,6 +28,8 @@ class JsonOptionReader {
   void Bool(const std::string& key, bool* value);
   void String(const std::string& key, std::string* value);
   void Vector3(const std::string& key, Eigen::Vector3d* value);
+  /// An array of finite numbers (any length; the module's Validate checks it).
+  void NumberList(const std::string& key, std::vector<double>* value);
   /// A nested object: when present, `visit` reads it with its own reader (then Finish()).
   template <class F>
   void Object(const std::string& key, F&& visit) {
@@ -63,6 +66,7 @@ class JsonOptionWriter {
   void Vector3(const std::string& key, const Eigen::Vector3d* value) {
     j_[key] = {value->x(), value->y(), value->z()};
   }
+  void NumberList(const std::string& key, const std::vector<double>* value) { j_[key] = *value; }
   template <class F>
   void Object(const std::string& key, F&& visit) {
     JsonOptionWriter sub;

@@ -1,6 +1,7 @@
 // Options structs as JSON parameter files (io/options_json.h).
 #include <cmath>
 #include <cstdio>
+#include <utility>
 
 #include "json_option_reader.h"
 #include "scancam/error.h"
@@ -107,6 +108,19 @@ void JsonOptionReader::Vector3(const std::string& key, Eigen::Vector3d* value) {
     out[i] = e.get<double>();
   }
   *value = out;
+}
+
+void JsonOptionReader::NumberList(const std::string& key, std::vector<double>* value) {
+  const nlohmann::json* v = Find(key);
+  if (!v) return;
+  if (!v->is_array()) Fail(key, "must be an array of numbers, found " + Found(*v));
+  std::vector<double> out;
+  for (const nlohmann::json& e : *v) {
+    if (!e.is_number() || !std::isfinite(e.get<double>()))
+      Fail(key, "must be an array of finite numbers, found " + Found(*v));
+    out.push_back(e.get<double>());
+  }
+  *value = std::move(out);
 }
 
 void JsonOptionReader::Kind(const std::string& kind) {

@@ -375,8 +375,8 @@ void CheckRest(PtxParser& parser, int scan_index) {
   }
 }
 
-// The grid of a PTX scan of `columns` x `rows`, every cell invalid: rows = PTX columns, cols =
-// PTX rows, file order (CloudCompare's grid, see ptx.h).
+}  // namespace
+
 OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source) {
   OrderedScan scan = OrderedScan::Empty(columns, rows);
   scan.row_axis = "PTX column (vertical scan line, file order; CloudCompare grid row)";
@@ -385,15 +385,15 @@ OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source) {
   return scan;
 }
 
-// Makes a PTX grid whose point_m holds the file's points ("0 0 0" = no return; ranges and
-// beams still NaN) an ordered scan, in place: ranges, points and beams of the returns, beams
-// of the no-return cells (ptx.h), then the pose when `apply_pose`.
 void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool apply_pose) {
   const std::size_t n = scan.size();
   const int columns = scan.rows, rows = scan.cols;  // PTX's names
   // A cell whose file point is not "0 0 0" (then kept in point_m; "0 0 0" becomes NaN).
   std::vector<std::uint8_t> returned(n, 0);
-  for (std::size_t k = 0; k < n; ++k) {
+  // Cells are independent: in parallel.
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t kk = 0; kk < static_cast<std::ptrdiff_t>(n); ++kk) {
+    const auto k = static_cast<std::size_t>(kk);
     const Eigen::Vector3f p = scan.point_m[k];
     if (p.squaredNorm() == 0.f) {  // "0 0 0": no return
       scan.point_m[k] = Eigen::Vector3f::Constant(OrderedScan::kNaN);
@@ -495,8 +495,6 @@ void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool app
   }
 }
 
-}  // namespace
-
 int CountPtxScans(const std::string& path) {
   PtxParser parser(path);
   PtxScan scan;
@@ -582,76 +580,96 @@ PtxScan PtxFromOrderedScan(const OrderedScan& scan, const Eigen::Matrix4d& trans
 
 void WritePtx(const std::string& path, const std::vector<PtxScan>& scans) {
   if (scans.empty()) throw FileError(path, "", "no scan to write");
-  AtomicFile file(path);
-  std::FILE* f = std::fopen(file.tmp().c_str(), "wb");
-  if (!f) throw FileError(path, "", "cannot open the file for writing");
-  std::string out;
-  bool ok = true;
-  auto flush = [&](bool force) {
-    if (out.size() > (1u << 20) || (force && !out.empty())) {
-      ok = ok && std::fwrite(out.data(), 1, out.size(), f) == out.size();
-      out.clear();
+  PtxWriter w(path);
+  for (const PtxScan& ptx : scans) {
+    w.BeginScan(ptx);
+    w.AppendPoints(ptx);
+  }
+  w.Commit();
+}
+
+PtxWriter::PtxWriter(const std::string& path) : path_(path), file_(path) {}
+
+void PtxWriter::EndScan() {
+  if (scan_ >= 0 && written_ != expected_) {
+    throw FileError(path_, "",
+                    "scan " + std::to_string(scan_) + ": " + std::to_string(written_) +
+                        " points given for " + std::to_string(expected_) + " cells");
+  }
+}
+
+void PtxWriter::BeginScan(const PtxScan& ptx) {
+  EndScan();
+  ++scan_;
+  if (ptx.columns <= 0 || ptx.rows <= 0) {
+    throw FileError(path_, "",
+                    "scan " + std::to_string(scan_) + ": arrays do not match " +
+                        std::to_string(ptx.columns) + " x " + std::to_string(ptx.rows));
+  }
+  expected_ = static_cast<std::size_t>(ptx.columns) * static_cast<std::size_t>(ptx.rows);
+  written_ = 0;
+  rgb_ = -1;
+  std::string& out = file_.buffer();
+  io_detail::AppendNumber(out, static_cast<long long>(ptx.columns));
+  out += '\n';
+  io_detail::AppendNumber(out, static_cast<long long>(ptx.rows));
+  out += '\n';
+  auto vec3 = [&](const Eigen::Vector3d& v) {
+    for (int i = 0; i < 3; ++i) {
+      io_detail::AppendNumber(out, v[i]);
+      out += i < 2 ? ' ' : '\n';
     }
   };
-  try {
-    for (std::size_t s = 0; s < scans.size(); ++s) {
-      const PtxScan& ptx = scans[s];
-      const std::size_t n = static_cast<std::size_t>(ptx.columns) * ptx.rows;
-      if (ptx.columns <= 0 || ptx.rows <= 0 || ptx.xyz.size() != n || ptx.intensity.size() != n ||
-          (!ptx.rgb.empty() && ptx.rgb.size() != n)) {
-        throw FileError(path, "",
-                        "scan " + std::to_string(s) + ": arrays do not match " +
-                            std::to_string(ptx.columns) + " x " + std::to_string(ptx.rows));
-      }
-      for (std::size_t k = 0; k < n; ++k) {
-        if (!ptx.xyz[k].allFinite() || !std::isfinite(ptx.intensity[k])) {
-          throw FileError(path, "",
-                          "scan " + std::to_string(s) + ": point " + std::to_string(k) +
-                              " is not finite (no-returns are written as 0 0 0)");
-        }
-      }
-      io_detail::AppendNumber(out, static_cast<long long>(ptx.columns));
-      out += '\n';
-      io_detail::AppendNumber(out, static_cast<long long>(ptx.rows));
-      out += '\n';
-      auto vec3 = [&](const Eigen::Vector3d& v) {
-        for (int i = 0; i < 3; ++i) {
-          io_detail::AppendNumber(out, v[i]);
-          out += i < 2 ? ' ' : '\n';
-        }
-      };
-      vec3(ptx.scanner_position);
-      for (int a = 0; a < 3; ++a) vec3(ptx.scanner_axes.col(a));
-      for (int k = 0; k < 4; ++k) {  // transposed: one column per line
-        for (int r = 0; r < 4; ++r) {
-          io_detail::AppendNumber(out, ptx.transform(r, k));
-          out += r < 3 ? ' ' : '\n';
-        }
-      }
-      for (std::size_t k = 0; k < n; ++k) {
-        for (int i = 0; i < 3; ++i) {
-          io_detail::AppendNumber(out, ptx.xyz[k][i]);
-          out += ' ';
-        }
-        io_detail::AppendNumber(out, ptx.intensity[k]);
-        if (!ptx.rgb.empty()) {
-          for (int i = 0; i < 3; ++i) {
-            out += ' ';
-            io_detail::AppendNumber(out, static_cast<long long>(ptx.rgb[k][i]));
-          }
-        }
-        out += '\n';
-        flush(false);
+  vec3(ptx.scanner_position);
+  for (int a = 0; a < 3; ++a) vec3(ptx.scanner_axes.col(a));
+  for (int k = 0; k < 4; ++k) {  // transposed: one column per line
+    for (int r = 0; r < 4; ++r) {
+      io_detail::AppendNumber(out, ptx.transform(r, k));
+      out += r < 3 ? ' ' : '\n';
+    }
+  }
+}
+
+void PtxWriter::AppendPoints(const PtxScan& part) {
+  const std::size_t n = part.xyz.size();
+  const int rgb = part.rgb.empty() ? 0 : 1;
+  if (scan_ < 0 || part.intensity.size() != n || (rgb && part.rgb.size() != n) ||
+      written_ + n > expected_ || (rgb_ >= 0 && n > 0 && rgb != rgb_)) {
+    throw FileError(path_, "",
+                    "scan " + std::to_string(std::max(scan_, 0)) + ": arrays do not match " +
+                        std::to_string(part.columns) + " x " + std::to_string(part.rows));
+  }
+  if (n > 0) rgb_ = rgb;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!part.xyz[k].allFinite() || !std::isfinite(part.intensity[k])) {
+      throw FileError(path_, "",
+                      "scan " + std::to_string(scan_) + ": point " + std::to_string(written_ + k) +
+                          " is not finite (no-returns are written as 0 0 0)");
+    }
+  }
+  std::string& out = file_.buffer();
+  for (std::size_t k = 0; k < n; ++k) {
+    for (int i = 0; i < 3; ++i) {
+      io_detail::AppendNumber(out, part.xyz[k][i]);
+      out += ' ';
+    }
+    io_detail::AppendNumber(out, part.intensity[k]);
+    if (rgb) {
+      for (int i = 0; i < 3; ++i) {
+        out += ' ';
+        io_detail::AppendNumber(out, static_cast<long long>(part.rgb[k][i]));
       }
     }
-    flush(true);
-  } catch (...) {
-    std::fclose(f);
-    throw;
+    out += '\n';
+    file_.Flush();
   }
-  ok = (std::fclose(f) == 0) && ok;
-  if (!ok) throw FileError(path, "", "write error");
-  file.Commit();
+  written_ += n;
+}
+
+void PtxWriter::Commit() {
+  if (scan_ < 0) throw FileError(path_, "", "no scan to write");
+  EndScan();
+  file_.Commit();
 }
 
 OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,

@@ -300,12 +300,25 @@ RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progre
 
 void WriteRotatingLog(const std::string& path, const RotatingScanData& d) {
   CheckRotatingScanData(d, path);
-  std::string out;
-  out.reserve(static_cast<std::size_t>(d.planes) * d.beams * 48 + 256);
+  RotatingLogWriter w(path, d);
+  w.Append(d, 0);
+  w.Commit();
+}
+
+RotatingLogWriter::RotatingLogWriter(const std::string& path, const RotatingScanData& d)
+    : path_(path),
+      file_(path),
+      planes_(d.planes),
+      beams_(d.beams),
+      intensity_(!d.intensity.empty()) {
+  if (d.planes <= 0 || d.beams <= 0 || d.theta_rad.size() != static_cast<std::size_t>(d.beams)) {
+    throw FileError(path, "", "rotating scan header: no planes or beams, or theta does not match");
+  }
+  std::string& out = file_.buffer();
   out += "# scancam-rotating 1\n";
   out += "# rotating 2D scanner (ScanCam docs/method.md eq. 3); one line per beam:\n";
   out += "# plane phi_rad theta_rad range_m";
-  out += d.intensity.empty() ? "\n" : " intensity\n";
+  out += intensity_ ? " intensity\n" : "\n";
   out += "# dx_m ";
   io_detail::AppendNumber(out, d.dx_m);
   out += "\n# dz_m ";
@@ -315,24 +328,49 @@ void WriteRotatingLog(const std::string& path, const RotatingScanData& d) {
   out += "\n# beams ";
   io_detail::AppendNumber(out, static_cast<long long>(d.beams));
   out += '\n';
+}
+
+void RotatingLogWriter::Append(const RotatingScanData& d, int first_plane) {
+  const std::size_t n = static_cast<std::size_t>(std::max(d.planes, 0)) * beams_;
+  if (first_plane != next_plane_ || d.planes < 0 || first_plane + d.planes > planes_ ||
+      d.beams != beams_ || d.theta_rad.size() != static_cast<std::size_t>(beams_) ||
+      d.phi_rad.size() != static_cast<std::size_t>(d.planes) || d.range_m.size() != n ||
+      d.intensity.size() != (intensity_ ? n : 0)) {
+    throw FileError(path_, "",
+                    "planes " + std::to_string(first_plane) + ".." +
+                        std::to_string(first_plane + d.planes - 1) + " do not follow plane " +
+                        std::to_string(next_plane_ - 1) + " or do not match the header's " +
+                        std::to_string(planes_) + " planes x " + std::to_string(beams_) + " beams");
+  }
+  std::string& out = file_.buffer();
   for (int i = 0; i < d.planes; ++i) {
     for (int j = 0; j < d.beams; ++j) {
       const std::size_t k = static_cast<std::size_t>(i) * d.beams + j;
-      io_detail::AppendNumber(out, static_cast<long long>(i));
+      io_detail::AppendNumber(out, static_cast<long long>(first_plane + i));
       out += ' ';
       io_detail::AppendNumber(out, d.phi_rad[i]);
       out += ' ';
       io_detail::AppendNumber(out, d.theta_rad[j]);
       out += ' ';
       io_detail::AppendNumber(out, d.range_m[k]);
-      if (!d.intensity.empty()) {
+      if (intensity_) {
         out += ' ';
         io_detail::AppendNumber(out, d.intensity[k]);
       }
       out += '\n';
     }
+    file_.Flush();
   }
-  io_detail::WriteWholeFile(path, out);
+  next_plane_ += d.planes;
+}
+
+void RotatingLogWriter::Commit() {
+  if (next_plane_ != planes_) {
+    throw FileError(
+        path_, "",
+        std::to_string(next_plane_) + " of " + std::to_string(planes_) + " planes written");
+  }
+  file_.Commit();
 }
 
 }  // namespace scancam

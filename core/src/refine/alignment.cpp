@@ -139,6 +139,7 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
   std::stable_sort(edge_at.begin(), edge_at.end(),
                    [](const auto& x, const auto& y) { return x.first < y.first; });
   std::vector<float> intensities;
+  std::vector<int> intensity_row;
   const int tr = std::max(1, options.tile_rows), tc = std::max(1, options.tile_cols);
   const std::uint32_t tiles_per_row = static_cast<std::uint32_t>(scan.cols / tc + 1);
   std::size_t e = 0;
@@ -157,17 +158,38 @@ AlignmentData PrepareAlignment(const OrderedScan& scan, const colour::ColourView
       d.edge_points.push_back(edge_at[e].second);
       d.edge_tile.push_back(tile);
     }
-    if (scan.has_intensity()) intensities.push_back(scan.intensity[i]);
+    if (scan.has_intensity()) {
+      intensities.push_back(scan.intensity[i]);
+      intensity_row.push_back(r);
+    }
   }
   if (scan.has_intensity() && !intensities.empty()) {
-    std::vector<float> sorted = intensities;
-    std::sort(sorted.begin(), sorted.end(),
-              [](float a, float b) { return std::isnan(b) ? !std::isnan(a) : a < b; });
     const int bins = std::max(2, options.nid_bins);
-    std::vector<float> cuts;
-    for (int k = 1; k < bins; ++k) cuts.push_back(sorted[sorted.size() * k / bins]);
+    // Quantile cuts of a set of intensities (NaN sorted last).
+    auto cuts_of = [&](std::vector<float> v) {
+      std::sort(v.begin(), v.end(),
+                [](float a, float b) { return std::isnan(b) ? !std::isnan(a) : a < b; });
+      std::vector<float> cuts;
+      for (int k = 1; k < bins; ++k) cuts.push_back(v[v.size() * k / bins]);
+      return cuts;
+    };
+    const std::vector<float> global = cuts_of(intensities);
+    // Per row (a spinning lidar's laser: each has its own response), when the row has enough
+    // returns for its own quantiles; else the scan's.
+    std::vector<std::vector<float>> row_cuts(static_cast<std::size_t>(scan.rows));
+    if (options.intensity_per_row) {
+      std::vector<std::vector<float>> per_row(static_cast<std::size_t>(scan.rows));
+      for (std::size_t k = 0; k < intensities.size(); ++k)
+        if (std::isfinite(intensities[k])) per_row[intensity_row[k]].push_back(intensities[k]);
+      for (int r = 0; r < scan.rows; ++r)
+        if (per_row[r].size() >= static_cast<std::size_t>(16 * bins))
+          row_cuts[r] = cuts_of(std::move(per_row[r]));
+    }
     d.intensity_bin.reserve(intensities.size());
-    for (float v : intensities) {
+    for (std::size_t k = 0; k < intensities.size(); ++k) {
+      const float v = intensities[k];
+      const std::vector<float>& cuts =
+          row_cuts[intensity_row[k]].empty() ? global : row_cuts[intensity_row[k]];
       const auto it = std::upper_bound(cuts.begin(), cuts.end(), v);
       d.intensity_bin.push_back(static_cast<std::uint8_t>(
           std::isfinite(v) ? std::min<std::ptrdiff_t>(it - cuts.begin(), bins - 1) : 255));

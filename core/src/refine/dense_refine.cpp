@@ -269,6 +269,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     }
     return true;
   };
+  const AlignmentData* scene_now = nullptr;  // the scene `subset` is taking points from
   auto subset = [&](auto keep) {
     Levels L;
     for (const double sigma : o.level_sigma_px) {
@@ -276,11 +277,13 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       F.edge_weight = o.edge_weight;
       F.evaluations = &res.evaluations;
       for (const AlignmentData& d : all)
-        F.scenes.push_back(Smoothed(SubsetAlignment(d,
-                                                    [&](std::uint32_t t, const Eigen::Vector3f& p) {
-                                                      return keep(t, p) && inside(d, p);
-                                                    }),
-                                    sigma));
+        F.scenes.push_back(
+            (scene_now = &d,
+             Smoothed(SubsetAlignment(d,
+                                      [&](std::uint32_t t, const Eigen::Vector3f& p) {
+                                        return keep(t, p) && inside(d, p);
+                                      }),
+                      sigma)));
       L.objective.push_back(std::move(F));
     }
     L.min_step_deg = o.level_min_step_deg;
@@ -364,6 +367,16 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     for (SearchResult& e : ends) e.f = fin.objective.back()(e.T);
     best.f = fin.objective.back()(best.T);
   }
+  // ... and on the held-out half (the uncertainty's spread: ends it ranks with the best).
+  std::vector<double> end_held(ends.size());
+  double best_held = 0.0;
+  {
+    anchors = {best.T};
+    const Levels held_fin = subset(held_half);
+    for (std::size_t e = 0; e < ends.size(); ++e)
+      end_held[e] = held_fin.objective.back()(ends[e].T);
+    best_held = held_fin.objective.back()(best.T);
+  }
   // The start and the best compared on the points inside the image from both.
   anchors = {start, best.T};
   const Levels train_both = with_prior(subset(train_half)), held_both = subset(held_half);
@@ -372,6 +385,9 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   res.train_best = train_both.objective.back()(best.T);
   res.heldout_start = held_both.objective.back()(start);
   res.heldout_best = held_both.objective.back()(best.T);
+  const Levels train_plain = subset(train_half);  // without the pairs' prior
+  const double train_gain =
+      train_plain.objective.back()(start) - train_plain.objective.back()(best.T);
   anchors = {best.T};
   for (const AlignmentData& d : all) {
     const AlignmentScore a = ScoreAlignment(d, start), b = ScoreAlignment(d, best.T);
@@ -421,12 +437,32 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       progress(0.8 + 0.1 * (i + 1) / 6.0, "uncertainty");
     }
     Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
+    // The halves are made of image blocks (uncertainty_blocks_u x _v at the best pose), not of
+    // single tiles: errors shared by neighbouring points (a structure the measure misreads,
+    // an intensity pattern, a moving object) then show in the gradients' difference.
+    const int bu = std::max(1, o.uncertainty_blocks_u), bv = std::max(1, o.uncertainty_blocks_v);
+    const int blocks = bu * bv;
+    auto block_of = [&](const Eigen::Vector3f& p) {
+      const CameraModel& cam = scene_now->camera;
+      const auto uv = cam.ProjectUnbounded(best.T * p.cast<double>());
+      if (!uv) return 0;
+      const int x = std::clamp(static_cast<int>(uv->x() * bu / cam.width()), 0, bu - 1);
+      const int y = std::clamp(static_cast<int>(uv->y() * bv / cam.height()), 0, bv - 1);
+      return y * bu + x;
+    };
     for (int k = 0; k < o.resamples; ++k) {
       const std::uint64_t seed_k = Mix(o.seed + 1000 + static_cast<std::uint64_t>(k));
-      const Levels A = subset(
-          [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ seed_k) & 1) == 0; });
-      const Levels B = subset(
-          [&](std::uint32_t t, const Eigen::Vector3f&) { return (Mix(t ^ seed_k) & 1) == 1; });
+      std::vector<int> order(blocks);  // a random half of the blocks (their first half) is A
+      for (int b = 0; b < blocks; ++b) order[b] = b;
+      std::shuffle(order.begin(), order.end(), std::mt19937_64(seed_k));
+      std::vector<std::uint8_t> in_a(blocks, 0);
+      for (int b = 0; b < blocks / 2; ++b) in_a[order[b]] = 1;
+      const Levels A = subset([&](std::uint32_t t, const Eigen::Vector3f& p) {
+        return blocks > 1 ? in_a[block_of(p)] == 1 : (Mix(t ^ seed_k) & 1) == 0;
+      });
+      const Levels B = subset([&](std::uint32_t t, const Eigen::Vector3f& p) {
+        return blocks > 1 ? in_a[block_of(p)] == 0 : (Mix(t ^ seed_k) & 1) == 1;
+      });
       Vec6 g;
       for (int i = 0; i < 6; ++i) {
         Vec6 e = Vec6::Zero();
@@ -436,6 +472,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
         g[i] = ga - gb;
       }
       G += g * g.transpose() / (4.0 * o.resamples);
+
       progress(0.9 + 0.1 * (k + 1) / o.resamples, "uncertainty");
     }
     // A flat or indefinite curvature: that direction is unconstrained (a huge std).
@@ -448,11 +485,61 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     const Eigen::Matrix<double, 6, 6> Hinv =
         es.eigenvectors() * inv_ev.asDiagonal() * es.eigenvectors().transpose();
     const Eigen::Matrix<double, 6, 6> C = Hinv * G * Hinv;
-    res.covariance_cam = C;
-    Vec6 sd = C.diagonal().cwiseMax(0.0).cwiseSqrt();
-    for (int i = 0; i < 6; ++i) sd[i] = std::min(sd[i], i < 3 ? 180.0 : 100.0);  // unconstrained
+    res.sampling_covariance_cam = C;
+    // The spread: the other searches' ends that the held-out half ranks at least as good as
+    // the best (the training half preferred the best) are answers the data cannot tell apart;
+    // their mean square offset from the best joins the covariance.
+    Eigen::Matrix<double, 6, 6> S = Eigen::Matrix<double, 6, 6>::Zero();
+    int tied = 0;
+    double resolution = 0.0;
+    for (std::size_t e = 0; e < ends.size(); ++e) {
+      const Vec6 d = Between(best.T, ends[e].T);
+      if (d.head<3>().norm() < 1e-6 && d.tail<3>().norm() < 1e-9) continue;  // the best itself
+      if (end_held[e] > best_held) continue;
+      S += d * d.transpose();
+      ++tied;
+      // The training half's preference that the held-out half contradicts.
+      resolution = std::max(resolution, ends[e].f - best.f);
+    }
+    if (tied > 0) S /= tied;
+    res.ends_tied = tied;
+    res.spread_covariance_cam = S;
+    // The flatness term: objective differences up to the objective's resolution delta do not
+    // tell poses apart, i.e. a covariance 2 delta H^-1 (the quadratic's delta level set). delta
+    // is the larger of that contradicted preference and the halves' disagreement on the gain
+    // from the start to the best.
+    res.objective_resolution =
+        std::max(resolution, std::abs(train_gain - (res.heldout_start - res.heldout_best)));
+    const Eigen::Matrix<double, 6, 6> Fl = 2.0 * res.objective_resolution * Hinv;
+    res.flatness_covariance_cam = Fl;
+    // The tension: at the best the two terms' gradients cancel; NID's alone, g_nid, would move
+    // the pose by H^-1 g_nid (and the edge term the other way): where the two measures
+    // disagree, the pose they settle on is uncertain by that much.
+    Vec6 g_nid;
+    auto nid_at = [&](const Vec6& d) {
+      double v = 0.0;
+      for (const AlignmentData& sd : F.scenes) v += ScoreAlignment(sd, Apply(d, best.T)).nid;
+      ++res.evaluations;
+      return v / static_cast<double>(std::max<std::size_t>(1, F.scenes.size()));
+    };
+    for (int i = 0; i < 6; ++i) {
+      Vec6 e = Vec6::Zero();
+      e[i] = h[i];
+      g_nid[i] = (nid_at(e) - nid_at(-e)) / (2 * h[i]);
+    }
+    const Vec6 pull = Hinv * g_nid;
+    res.tension_covariance_cam = pull * pull.transpose();
+    res.covariance_cam = C + S + Fl + res.tension_covariance_cam;
+    auto stds = [](const Eigen::Matrix<double, 6, 6>& M) {
+      Vec6 sd = M.diagonal().cwiseMax(0.0).cwiseSqrt();
+      for (int i = 0; i < 6; ++i) sd[i] = std::min(sd[i], i < 3 ? 180.0 : 100.0);  // unconstrained
+      return sd;
+    };
+    const Vec6 sd = stds(res.covariance_cam), sd_s = stds(C);
     res.rotation_std_deg_cam_xyz = sd.head<3>();
     res.translation_std_m_cam_xyz = sd.tail<3>();
+    res.sampling_rotation_std_deg_cam_xyz = sd_s.head<3>();
+    res.sampling_translation_std_m_cam_xyz = sd_s.tail<3>();
   }
   // Verdict.
   const bool heldout_better = res.heldout_best < res.heldout_start;
@@ -472,8 +559,8 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     int worst = -1;
     double worst_ratio = 1.0;
     for (int i = 0; i < 6; ++i) {
-      const double sd =
-          i < 3 ? res.rotation_std_deg_cam_xyz[i] : res.translation_std_m_cam_xyz[i - 3];
+      const double sd = i < 3 ? res.sampling_rotation_std_deg_cam_xyz[i]
+                              : res.sampling_translation_std_m_cam_xyz[i - 3];
       const double ratio = sd / (i < 3 ? o.ambiguous_std_deg : o.ambiguous_std_m);
       if (ratio > worst_ratio) {
         worst_ratio = ratio;

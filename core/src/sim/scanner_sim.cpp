@@ -109,14 +109,33 @@ double SpinningLidar::MaxStepRad() const {
 
 // ---- sampling -----------------------------------------------------------------------------------
 
-ScanSample SampleScan(const Scene& scene, const SimScanner& scanner,
-                      const Eigen::Isometry3d& T_world_scan, const RangeNoise& noise,
-                      std::uint64_t seed, const Progress& progress) {
-  const int rows = scanner.rows(), cols = scanner.cols();
-  const std::size_t n = std::size_t(rows) * std::size_t(cols);
+struct RowSampler::Rng {
+  explicit Rng(std::uint64_t seed) : r(seed) {}
+  detail::Random r;
+};
+
+RowSampler::RowSampler(const Scene& scene, const SimScanner& scanner,
+                       const Eigen::Isometry3d& T_world_scan, const RangeNoise& noise,
+                       std::uint64_t seed)
+    : scene_(scene),
+      scanner_(scanner),
+      T_world_scan_(T_world_scan),
+      noise_(noise),
+      rng_(std::make_unique<Rng>(detail::SubSeed(seed, 1))) {}
+
+RowSampler::~RowSampler() = default;
+
+ScanSample RowSampler::Next(int count, const Progress& progress) {
+  const int total_rows = scanner_.rows(), cols = scanner_.cols();
+  if (count < 0 || next_row_ + count > total_rows) {
+    throw Error("simulate: rows " + std::to_string(next_row_) + " + " + std::to_string(count) +
+                " past the scanner's " + std::to_string(total_rows));
+  }
+  const int first = next_row_;
+  const std::size_t n = std::size_t(count) * std::size_t(cols);
   ScanSample out;
   ScanTruth& tr = out.truth;
-  tr.rows = rows;
+  tr.rows = count;
   tr.cols = cols;
   tr.point_m.assign(n, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   tr.quad.assign(n, -1);
@@ -128,35 +147,35 @@ ScanSample SampleScan(const Scene& scene, const SimScanner& scanner,
   std::vector<double> true_range(n, std::numeric_limits<double>::quiet_NaN());
 
   const int chunk = 16;
-  for (int r0 = 0; r0 < rows; r0 += chunk) {
-    progress(double(r0) / rows, "casting laser beams");
-    const int r1 = std::min(rows, r0 + chunk);
+  for (int r0 = 0; r0 < count; r0 += chunk) {
+    progress(double(first + r0) / total_rows, "casting laser beams");
+    const int r1 = std::min(count, r0 + chunk);
 #pragma omp parallel for schedule(dynamic)
     for (int r = r0; r < r1; ++r) {
       for (int c = 0; c < cols; ++c) {
         Eigen::Vector3d o, d;
-        scanner.Beam(r, c, &o, &d);
-        const Eigen::Vector3d ow = T_world_scan * o, dw = T_world_scan.linear() * d;
-        const auto hit = scene.Intersect(ow, dw);
+        scanner_.Beam(first + r, c, &o, &d);
+        const Eigen::Vector3d ow = T_world_scan_ * o, dw = T_world_scan_.linear() * d;
+        const auto hit = scene_.Intersect(ow, dw);
         if (!hit) continue;
         const std::size_t i = tr.index(r, c);
         true_range[i] = hit->t;
         tr.point_m[i] = o + hit->t * d;
         tr.quad[i] = hit->quad;
-        tr.colour[i] = scene.TrueColour(*hit, ow + hit->t * dw);
-        out.intensity[i] = scene.Reflectance(*hit);
+        tr.colour[i] = scene_.TrueColour(*hit, ow + hit->t * dw);
+        out.intensity[i] = scene_.Reflectance(*hit);
       }
     }
   }
-  progress(1.0, "casting laser beams");
+  progress(double(first + count) / total_rows, "casting laser beams");
   // Noise in a fixed order: two draws per cell whatever happens, so cells stay aligned.
-  detail::Random rng(detail::SubSeed(seed, 1));
+  detail::Random& rng = rng_->r;
   for (std::size_t i = 0; i < n; ++i) {
-    const double e = rng.Normal() * noise.range_sigma_m;
+    const double e = rng.Normal() * noise_.range_sigma_m;
     const double u = rng.Uniform();
     const double t = true_range[i];
-    if (!std::isfinite(t) || t > noise.max_range_m || t < noise.min_range_m) continue;
-    if (u < noise.dropout_fraction) continue;
+    if (!std::isfinite(t) || t > noise_.max_range_m || t < noise_.min_range_m) continue;
+    if (u < noise_.dropout_fraction) continue;
     const double rho = t + e;
     if (!(rho > 0.0)) continue;
     out.range_m[i] = static_cast<float>(rho);
@@ -164,15 +183,34 @@ ScanSample SampleScan(const Scene& scene, const SimScanner& scanner,
   }
   for (std::size_t i = 0; i < n; ++i)
     if (!tr.valid[i]) out.intensity[i] = std::numeric_limits<float>::quiet_NaN();
+  next_row_ += count;
   return out;
 }
 
-RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample) {
+ScanSample SampleScan(const Scene& scene, const SimScanner& scanner,
+                      const Eigen::Isometry3d& T_world_scan, const RangeNoise& noise,
+                      std::uint64_t seed, const Progress& progress) {
+  RowSampler sampler(scene, scanner, T_world_scan, noise, seed);
+  return sampler.Next(scanner.rows(), progress);
+}
+
+std::optional<Eigen::Vector3d> TruthPoint(const Scene& scene, const SimScanner& scanner,
+                                          const Eigen::Isometry3d& T_world_scan, int row, int col) {
+  Eigen::Vector3d o, d;
+  scanner.Beam(row, col, &o, &d);
+  const auto hit = scene.Intersect(T_world_scan * o, T_world_scan.linear() * d);
+  if (!hit) return std::nullopt;
+  return Eigen::Vector3d(o + hit->t * d);
+}
+
+RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample,
+                                int first_plane) {
   const RotatingScannerParams& p = scanner.params();
   RotatingScanData d;
-  d.planes = p.planes;
+  d.planes = sample.truth.rows;
   d.beams = p.beams;
-  for (int i = 0; i < p.planes; ++i) d.phi_rad.push_back((p.phi0_deg + i * p.phi_step_deg) * kDeg);
+  for (int i = first_plane; i < first_plane + d.planes; ++i)
+    d.phi_rad.push_back((p.phi0_deg + i * p.phi_step_deg) * kDeg);
   for (int j = 0; j < p.beams; ++j)
     d.theta_rad.push_back((p.theta0_deg + j * p.theta_step_deg) * kDeg);
   d.range_m = sample.range_m;
@@ -221,14 +259,43 @@ OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sam
       });
 }
 
+namespace {
+
+// A cell of the noise-free scan: the exact hit as a float point, its range from the beam origin.
+void SetTruthCell(OrderedScan& s, std::size_t i, const Eigen::Vector3d& o,
+                  const Eigen::Vector3d& point) {
+  s.point_m[i] = point.cast<float>();
+  s.range_m[i] = static_cast<float>((point - o).norm());
+}
+
+}  // namespace
+
 OrderedScan TruthOrderedScan(const SimScanner& scanner, const ScanTruth& truth) {
   return ScannerGrid(
       scanner, false, "truth",
       [&](OrderedScan& s, std::size_t i, const Eigen::Vector3d& o, const Eigen::Vector3d&) {
         if (truth.quad[i] < 0) return;
-        s.point_m[i] = truth.point_m[i].cast<float>();
-        s.range_m[i] = static_cast<float>((truth.point_m[i] - o).norm());
+        SetTruthCell(s, i, o, truth.point_m[i]);
       });
+}
+
+OrderedScan TruthWindow(const Scene& scene, const SimScanner& scanner,
+                        const Eigen::Isometry3d& T_world_scan, int row0, int col0, int rows,
+                        int cols) {
+  OrderedScan s = OrderedScan::Empty(rows, cols);
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      Eigen::Vector3d o, d;
+      scanner.Beam(row0 + r, col0 + c, &o, &d);
+      const std::size_t i = s.index(r, c);
+      s.beam_dir[i] = d.cast<float>();
+      const auto p = TruthPoint(scene, scanner, T_world_scan, row0 + r, col0 + c);
+      if (p) SetTruthCell(s, i, o, *p);
+    }
+  s.row_axis = scanner.RowAxis();
+  s.col_axis = scanner.ColAxis();
+  s.source = "truth";
+  return s;
 }
 
 }  // namespace scancam::sim

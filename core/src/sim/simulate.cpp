@@ -7,6 +7,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 
 #include "scancam/camera/camera_io.h"
@@ -113,18 +114,25 @@ bool InsideWithMargin(const CameraModel& cam, const ImageMask& mask, const Eigen
 
 // Gauss-Newton on (row, col) so that the noise-free interpolation lands on X (with step halving:
 // bilinear interpolation is only piecewise smooth). Returns the cell with the smallest error.
-Eigen::Vector2d RefineCell(const OrderedScan& truth, const Eigen::Vector3d& X,
+// The noise-free scan's interpolation (InterpolatePoint) at (row, col).
+using TruthInterpolator = std::function<std::optional<Eigen::Vector3d>(double row, double col)>;
+// An interpolator valid within kTruthReach cells of a cell (FindCandidates moves no further).
+using TruthNear = std::function<TruthInterpolator(const Eigen::Vector2d& cell)>;
+constexpr int kTruthReach = 16;
+
+Eigen::Vector2d RefineCell(const TruthInterpolator& truth, const Eigen::Vector3d& X,
                            Eigen::Vector2d cell) {
   auto err = [&](const Eigen::Vector2d& c) {
-    const auto p = InterpolatePoint(truth, c.x(), c.y());
+    const auto p = truth(c.x(), c.y());
     return p ? (*p - X).norm() : std::numeric_limits<double>::infinity();
   };
   double e0 = err(cell);
+  // At most 20 steps of at most 0.5 cell: within 10 cells of the start (< kTruthReach).
   for (int it = 0; it < 20 && std::isfinite(e0); ++it) {
-    const auto p = InterpolatePoint(truth, cell.x(), cell.y());
+    const auto p = truth(cell.x(), cell.y());
     const double h = 1e-4;
-    const auto pr = InterpolatePoint(truth, cell.x() + h, cell.y());
-    const auto pc = InterpolatePoint(truth, cell.x(), cell.y() + h);
+    const auto pr = truth(cell.x() + h, cell.y());
+    const auto pc = truth(cell.x(), cell.y() + h);
     if (!pr || !pc) break;
     Eigen::Matrix<double, 3, 2> J;
     J.col(0) = (*pr - *p) / h;
@@ -147,7 +155,7 @@ Eigen::Vector2d RefineCell(const OrderedScan& truth, const Eigen::Vector3d& X,
 }
 
 std::vector<Candidate> FindCandidates(const Scene& scene, const Simulation& sim,
-                                      const OrderedScan& truth_scan) {
+                                      const TruthNear& truth_near) {
   std::vector<Candidate> out;
   const SimScanner& sc = *sim.scanner;
   const Eigen::Isometry3d T_scan_world = sim.T_world_scan.inverse();
@@ -183,8 +191,9 @@ std::vector<Candidate> FindCandidates(const Scene& scene, const Simulation& sim,
           cell0->y() > sc.cols() - 2) {
         continue;
       }
-      c.cell = RefineCell(truth_scan, c.X_scan, *cell0);
-      const auto p = InterpolatePoint(truth_scan, c.cell.x(), c.cell.y());
+      const TruthInterpolator truth = truth_near(*cell0);
+      c.cell = RefineCell(truth, c.X_scan, *cell0);
+      const auto p = truth(c.cell.x(), c.cell.y());
       // Points on one face interpolate exactly; at a concave corner the cells lie on two or three
       // surfaces and bilinear interpolation cuts the corner: allow 0.2 cell there.
       if (!p) continue;
@@ -294,7 +303,11 @@ Simulation Simulate(const SimulateOptions& options, const Progress& progress) {
   return Simulate(scene, options, progress);
 }
 
-Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress& progress) {
+namespace {
+
+// Checks the options and sets up the scanner, camera, mask and rig (everything but the scan,
+// image and pairs).
+Simulation Prepare(const SimulateOptions& o) {
   if (o.pairs < 0 || o.wrong_pairs < 0)
     throw Error("simulate: --pairs and --wrong-pairs must be >= 0");
   if (o.wrong_pairs > 0 && o.pairs < 1) throw Error("simulate: wrong pairs need good pairs");
@@ -337,18 +350,11 @@ Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress
       Eigen::AngleAxisd(o.scanner_yaw_deg * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   sim.T_world_scan.translation() = pos;
   sim.T_world_cam = sim.T_world_scan * sim.T_cam_scan.inverse();
-  // Scan.
-  sim.sample = SampleScan(scene, *sim.scanner, sim.T_world_scan, o.noise, o.seed, progress);
-  if (o.scanner == "rotating") {
-    sim.rotating = ToRotatingData(static_cast<const RotatingScanner&>(*sim.scanner), sim.sample);
-    sim.scan = scancam::ToOrderedScan(*sim.rotating, "scan.txt");
-  } else {
-    sim.scan = SampleToOrderedScan(*sim.scanner, sim.sample, "scan.pcd");
-  }
+  return sim;
+}
 
-  // Camera visibility of every hit.
-  ScanTruth& tr = sim.sample.truth;
-  progress(0.0, "camera visibility");
+// Sets truth.visible of every hit of `truth` (a sample of the whole scan or of some rows).
+void MarkVisible(const Scene& scene, const Simulation& sim, ScanTruth& tr) {
 #pragma omp parallel for schedule(dynamic, 256)
   for (long i = 0; i < static_cast<long>(tr.point_m.size()); ++i) {
     if (tr.quad[i] < 0) continue;
@@ -357,19 +363,25 @@ Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress
                         ? 1
                         : 0;
   }
+}
 
-  // Image.
+cv::Mat RenderPhoto(const Scene& scene, const Simulation& sim, const Progress& progress) {
+  const SimulateOptions& o = sim.options;
   RenderOptions ro;
   ro.supersample = o.supersample > 0 ? o.supersample : PresetSupersample(o.camera);
   ro.noise_sigma = o.image_noise_sigma;
   ro.seed = o.seed;
   ro.mask = sim.mask;
-  sim.image = RenderImage(scene, sim.camera, sim.T_world_cam, ro, progress);
+  return RenderImage(scene, sim.camera, sim.T_world_cam, ro, progress);
+}
 
-  // Pairs.
+// Picks the pairs (and their truth) at scene corners; truth_near interpolates the noise-free
+// scan near a cell.
+void PlacePairs(const Scene& scene, Simulation& sim, const TruthNear& truth_near,
+                const Progress& progress) {
+  const SimulateOptions& o = sim.options;
   progress(0.0, "placing pairs");
-  const OrderedScan truth_scan = TruthOrderedScan(*sim.scanner, tr);
-  const std::vector<Candidate> cand = FindCandidates(scene, sim, truth_scan);
+  const std::vector<Candidate> cand = FindCandidates(scene, sim, truth_near);
   detail::Random rng(detail::SubSeed(o.seed, 3));
   std::vector<int> chosen;
   if (!cand.empty() && o.pairs > 0) {
@@ -441,31 +453,74 @@ Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress
     if (a >= 0) chosen.push_back(a);  // do not reuse this image corner for another wrong pair
   }
   progress(1.0, "placing pairs");
+}
+
+}  // namespace
+
+Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress& progress) {
+  Simulation sim = Prepare(o);
+  // Scan.
+  sim.sample = SampleScan(scene, *sim.scanner, sim.T_world_scan, o.noise, o.seed, progress);
+  if (o.scanner == "rotating") {
+    sim.rotating = ToRotatingData(static_cast<const RotatingScanner&>(*sim.scanner), sim.sample);
+    sim.scan = scancam::ToOrderedScan(*sim.rotating, "scan.txt");
+  } else {
+    sim.scan = SampleToOrderedScan(*sim.scanner, sim.sample, "scan.pcd");
+  }
+  sim.valid_cells = sim.scan.valid_count();
+  progress(0.0, "camera visibility");
+  MarkVisible(scene, sim, sim.sample.truth);
+  sim.image = RenderPhoto(scene, sim, progress);
+  const OrderedScan truth_scan = TruthOrderedScan(*sim.scanner, sim.sample.truth);
+  PlacePairs(
+      scene, sim,
+      [&](const Eigen::Vector2d&) -> TruthInterpolator {
+        return [&](double r, double c) { return InterpolatePoint(truth_scan, r, c); };
+      },
+      progress);
   return sim;
 }
 
 // ---- files ----------------------------------------------------------------------------------
 
-std::string ScanFileName(const Simulation& sim) { return sim.rotating ? "scan.txt" : "scan.pcd"; }
+std::string ScanFileName(const Simulation& sim) {
+  return sim.options.scanner == "rotating" ? "scan.txt" : "scan.pcd";
+}
 std::string CameraFileName(const Simulation& sim) {
   return sim.camera.type() == CameraType::kOCam ? "camera.txt" : "camera.yaml";
 }
 
-void WriteSimulation(const Simulation& sim, const std::string& dir, const Progress& progress) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (!fs::is_directory(dir)) throw FileError(dir, "", "cannot create the output directory");
-  const fs::path d(dir);
-  const SimulateOptions& o = sim.options;
+namespace {
 
-  progress(0.0, "writing files");
-  if (sim.rotating) {
-    WriteRotatingLog((d / "scan.txt").string(), *sim.rotating);
-  } else {
-    WriteOrganisedPcd((d / "scan.pcd").string(), sim.scan);
+constexpr const char* kTruthCsvHeader = "row,col,valid,x,y,z,r,g,b,visible\n";
+
+// truth.csv's lines of the rows of `tr` (a sample of the whole scan or of some rows), the first
+// being scan row first_row.
+void AppendTruthRows(StreamedFile& file, const ScanTruth& tr, int first_row) {
+  std::string& out = file.buffer();
+  for (int r = 0; r < tr.rows; ++r) {
+    for (int c = 0; c < tr.cols; ++c) {
+      const std::size_t i = tr.index(r, c);
+      out += std::to_string(first_row + r);
+      out += ',';
+      out += std::to_string(c);
+      out += tr.valid[i] ? ",1," : ",0,";
+      if (tr.quad[i] >= 0) {
+        const Eigen::Vector3d& p = tr.point_m[i];
+        const Eigen::Vector3f& col = tr.colour[i];
+        out += Fixed(p.x(), 6) + "," + Fixed(p.y(), 6) + "," + Fixed(p.z(), 6) + ",";
+        out += Fixed(col.x(), 3) + "," + Fixed(col.y(), 3) + "," + Fixed(col.z(), 3) + ",";
+      } else {
+        out += ",,,,,,";
+      }
+      out += tr.visible[i] ? "1\n" : "0\n";
+    }
+    file.Flush();
   }
-  WritePtx((d / "scan.ptx").string(), {PtxFromOrderedScan(sim.scan)});
+}
+
+// image.png, the camera file, mask.png and pairs.csv.
+void WriteCameraFiles(const Simulation& sim, const std::filesystem::path& d) {
   WritePng((d / "image.png").string(), sim.image);
   if (sim.camera.type() == CameraType::kOCam) {
     SaveCamera(sim.camera, (d / "camera.txt").string(), CameraFileFormat::kOCamCalib);
@@ -477,35 +532,49 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
              MaskImage(sim.mask, sim.camera.width(), sim.camera.height()));
   }
   WritePairsCsv((d / "pairs.csv").string(), sim.pairs);
+}
+
+void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d);
+
+// The output directory, created when missing.
+std::filesystem::path OutputDirectory(const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (!std::filesystem::is_directory(dir)) {
+    throw FileError(dir, "", "cannot create the output directory");
+  }
+  return std::filesystem::path(dir);
+}
+
+}  // namespace
+
+void WriteSimulation(const Simulation& sim, const std::string& dir, const Progress& progress) {
+  const std::filesystem::path d = OutputDirectory(dir);
+  progress(0.0, "writing files");
+  if (sim.rotating) {
+    WriteRotatingLog((d / "scan.txt").string(), *sim.rotating);
+  } else {
+    WriteOrganisedPcd((d / "scan.pcd").string(), sim.scan);
+  }
+  WritePtx((d / "scan.ptx").string(), {PtxFromOrderedScan(sim.scan)});
+  WriteCameraFiles(sim, d);
   progress(0.3, "writing files");
 
-  // truth.csv
   {
-    const ScanTruth& tr = sim.sample.truth;
-    std::string out = "row,col,valid,x,y,z,r,g,b,visible\n";
-    out.reserve(std::size_t(tr.rows) * tr.cols * 64);
-    for (int r = 0; r < tr.rows; ++r)
-      for (int c = 0; c < tr.cols; ++c) {
-        const std::size_t i = tr.index(r, c);
-        out += std::to_string(r);
-        out += ',';
-        out += std::to_string(c);
-        out += tr.valid[i] ? ",1," : ",0,";
-        if (tr.quad[i] >= 0) {
-          const Eigen::Vector3d& p = tr.point_m[i];
-          const Eigen::Vector3f& col = tr.colour[i];
-          out += Fixed(p.x(), 6) + "," + Fixed(p.y(), 6) + "," + Fixed(p.z(), 6) + ",";
-          out += Fixed(col.x(), 3) + "," + Fixed(col.y(), 3) + "," + Fixed(col.z(), 3) + ",";
-        } else {
-          out += ",,,,,,";
-        }
-        out += tr.visible[i] ? "1\n" : "0\n";
-      }
-    WriteFileAtomically((d / "truth.csv").string(), out);
+    StreamedFile truth((d / "truth.csv").string());
+    truth.buffer() = kTruthCsvHeader;
+    AppendTruthRows(truth, sim.sample.truth, 0);
+    truth.Commit();
   }
   progress(0.8, "writing files");
+  WriteGroundTruthJson(sim, d);
+  progress(1.0, "writing files");
+}
 
-  // ground_truth.json
+namespace {
+
+void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d) {
+  const SimulateOptions& o = sim.options;
   {
     using nlohmann::json;
     json j;
@@ -562,7 +631,7 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
     sc["cols"] = sim.scanner->cols();
     sc["row_axis"] = sim.scanner->RowAxis();
     sc["col_axis"] = sim.scanner->ColAxis();
-    if (sim.rotating) {
+    if (sim.options.scanner == "rotating") {
       const RotatingScannerParams& p = o.rotating;
       sc["phi0_deg"] = p.phi0_deg;
       sc["phi_step_deg"] = p.phi_step_deg;
@@ -581,7 +650,7 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
     sc["dropout_fraction"] = o.noise.dropout_fraction;
     sc["max_range_m"] = o.noise.max_range_m;
     sc["min_range_m"] = o.noise.min_range_m;
-    sc["valid_cells"] = sim.scan.valid_count();
+    sc["valid_cells"] = sim.valid_cells;
     j["scanner"] = sc;
     j["truth_file"] = "truth.csv";
     json pairs = json::array();
@@ -607,7 +676,90 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
     j["warnings"] = sim.warnings;
     WriteJsonFile((d / "ground_truth.json").string(), j);
   }
+}
+
+}  // namespace
+
+// ---- streaming ----------------------------------------------------------------------------
+
+Simulation SimulateToDirectory(const SimulateOptions& options, const std::string& dir,
+                               const Progress& progress, int block_rows) {
+  progress(0.0, "building the scene");
+  const Scene scene = BuildOfficeScene();
+  return SimulateToDirectory(scene, options, dir, progress, block_rows);
+}
+
+Simulation SimulateToDirectory(const Scene& scene, const SimulateOptions& o, const std::string& dir,
+                               const Progress& progress, int block_rows) {
+  if (o.scanner != "rotating") {
+    throw Error("simulate: streaming writes the rotating scanner's scan only (not '" + o.scanner +
+                "')");
+  }
+  if (block_rows < 1) throw Error("simulate: block_rows must be >= 1");
+  Simulation sim = Prepare(o);
+  const std::filesystem::path d = OutputDirectory(dir);
+  const auto& scanner = static_cast<const RotatingScanner&>(*sim.scanner);
+  const int rows = scanner.rows(), cols = scanner.cols();
+
+  // The scan, block_rows planes at a time, into scan.txt, scan.ptx and truth.csv. The headers
+  // are those of the whole scan (WriteSimulation's files).
+  RotatingScanData header;
+  {
+    ScanSample none;
+    none.truth.rows = rows;
+    header = ToRotatingData(scanner, none);
+    header.intensity.assign(1, 0.f);  // the simulated scan has intensity
+  }
+  RotatingLogWriter log((d / "scan.txt").string(), header);
+  PtxWriter ptx((d / "scan.ptx").string());
+  {
+    PtxScan ptx_header;
+    ptx_header.columns = rows;  // PtxFromOrderedScan: PTX columns = scan rows
+    ptx_header.rows = cols;
+    ptx.BeginScan(ptx_header);
+  }
+  StreamedFile truth((d / "truth.csv").string());
+  truth.buffer() = kTruthCsvHeader;
+  RowSampler sampler(scene, scanner, sim.T_world_scan, o.noise, o.seed);
+  while (sampler.next_row() < rows) {
+    const int first = sampler.next_row();
+    ScanSample block = sampler.Next(std::min(block_rows, rows - first), progress);
+    progress(double(first) / rows, "camera visibility");
+    MarkVisible(scene, sim, block.truth);
+    progress(double(first) / rows, "writing the scan");
+    const RotatingScanData part = ToRotatingData(scanner, block, first);
+    log.Append(part, first);
+    const OrderedScan grid = scancam::ToOrderedScan(part, "scan.txt");
+    sim.valid_cells += grid.valid_count();
+    ptx.AppendPoints(PtxFromOrderedScan(grid));
+    AppendTruthRows(truth, block.truth, first);
+  }
+  log.Commit();
+  ptx.Commit();
+  truth.Commit();
+
+  sim.image = RenderPhoto(scene, sim, progress);
+  // The noise-free scan near a cell, cast again (a window of it, clipped to the grid).
+  PlacePairs(
+      scene, sim,
+      [&](const Eigen::Vector2d& cell) -> TruthInterpolator {
+        const int r0 = std::clamp(static_cast<int>(std::floor(cell.x())) - kTruthReach, 0, rows);
+        const int c0 = std::clamp(static_cast<int>(std::floor(cell.y())) - kTruthReach, 0, cols);
+        const int r1 =
+            std::clamp(static_cast<int>(std::floor(cell.x())) + kTruthReach + 2, 0, rows);
+        const int c1 =
+            std::clamp(static_cast<int>(std::floor(cell.y())) + kTruthReach + 2, 0, cols);
+        auto window = std::make_shared<OrderedScan>(
+            TruthWindow(scene, scanner, sim.T_world_scan, r0, c0, r1 - r0, c1 - c0));
+        return [window, r0, c0, rows, cols](double r, double c) {
+          return InterpolatePoint(ScanWindow{window.get(), r0, c0, rows, cols}, r, c);
+        };
+      },
+      progress);
+  WriteCameraFiles(sim, d);
+  WriteGroundTruthJson(sim, d);
   progress(1.0, "writing files");
+  return sim;
 }
 
 }  // namespace scancam::sim

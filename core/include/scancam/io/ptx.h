@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "scancam/ordered_scan.h"
+#include "scancam/output_file.h"
 #include "scancam/progress.h"
 
 namespace scancam {
@@ -76,6 +77,16 @@ PtxScan ReadPtxScan(const std::string& path, int scan_index = 0, const Progress&
 /// Converts a PTX scan to an OrderedScan with the grid convention above.
 OrderedScan PtxToOrderedScan(const PtxScan& scan, bool apply_pose, const std::string& source);
 
+/// The grid of a PTX scan of `columns` x `rows` (grid convention above: rows = C, cols = R),
+/// every cell invalid and without intensity, for a caller that fills point_m (and intensity)
+/// with the file's numbers in file order ("0 0 0" = no return, every cell written) and then
+/// calls FinishPtxGrid: the same scan as PtxToOrderedScan without a PtxScan copy (e.g. a
+/// gridded cloud already in memory, plugin/src/cloud_adapter.h).
+OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source);
+/// Makes such a grid an ordered scan in place: ranges and beams of the returns, beams of the
+/// no-return cells (see the top of this file), then the pose when `apply_pose`.
+void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool apply_pose);
+
 /// Builds a PTX scan from an ordered scan whose points are in its scanner frame (rows = PTX
 /// columns, cols = PTX rows, as above; invalid cells become "0 0 0"; intensity 0 when the scan
 /// has none). `transform` is written as the header pose (scanner position and axes from it).
@@ -85,6 +96,29 @@ PtxScan PtxFromOrderedScan(const OrderedScan& scan,
 /// Writes scans to a PTX file with round-trip precision (floats with 9 significant digits,
 /// matrices with 17): reading it back gives exactly the same numbers.
 void WritePtx(const std::string& path, const std::vector<PtxScan>& scans);
+
+/// Writes a PTX file piece by piece, with the bytes WritePtx writes (WritePtx uses it), for
+/// scans too large to hold: BeginScan(header) with a scan's columns, rows and pose (its point
+/// arrays are not read), then AppendPoints(part) with its points in file order, in parts of
+/// any size (each part's xyz, intensity and rgb hold the next points; rgb empty or not in
+/// every part of a scan), then the next scan or Commit(). The file appears only on Commit();
+/// throws scancam::Error naming the file on a point that is not finite, parts that do not
+/// match, a scan with more or fewer points than columns x rows, or a write error.
+class PtxWriter {
+ public:
+  explicit PtxWriter(const std::string& path);
+  void BeginScan(const PtxScan& header);
+  void AppendPoints(const PtxScan& part);
+  void Commit();
+
+ private:
+  void EndScan();
+  std::string path_;
+  StreamedFile file_;
+  int scan_ = -1;
+  std::size_t expected_ = 0, written_ = 0;
+  int rgb_ = -1;  // -1 unknown, 0 none, 1 all
+};
 
 /// LoadScan's entry point.
 OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,

@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "scancam/ordered_scan.h"
+#include "scancam/output_file.h"
 #include "scancam/progress.h"
 
 namespace scancam {
@@ -83,5 +84,26 @@ RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progre
 /// round-trip precision, so ReadRotatingLog gives back exactly the same numbers). Throws
 /// scancam::Error when the data is inconsistent or the file cannot be written.
 void WriteRotatingLog(const std::string& path, const RotatingScanData& data);
+
+/// Writes a scancam-rotating log plane by plane, with the bytes WriteRotatingLog writes (which
+/// uses it), for scans too large to hold. `header` gives planes, beams, theta_rad, dx_m, dz_m
+/// and whether there is intensity (intensity non-empty); its ranges are not read. Append(part,
+/// first_plane) writes the next planes: part.planes planes with their phi_rad, range_m and
+/// intensity (part.beams and part.theta_rad as the header's), the first of them being plane
+/// `first_plane` of the scan. Commit() once every plane is written makes the file appear.
+/// Throws scancam::Error naming the file when the data is inconsistent (planes out of order,
+/// too many or too few) or cannot be written.
+class RotatingLogWriter {
+ public:
+  RotatingLogWriter(const std::string& path, const RotatingScanData& header);
+  void Append(const RotatingScanData& part, int first_plane);
+  void Commit();
+
+ private:
+  std::string path_;
+  StreamedFile file_;
+  int planes_ = 0, beams_ = 0, next_plane_ = 0;
+  bool intensity_ = false;
+};
 
 }  // namespace scancam

@@ -40,7 +40,10 @@ struct AlignmentOptions {
   /// An edge point halfway between the nearer beam and the farther one's direction (at the
   /// nearer range), where the silhouette is; false: on the nearer beam.
   bool edge_at_boundary = true;
-  int nid_bins = 16;                           ///< histogram bins per variable (NID)
+  int nid_bins = 16;  ///< histogram bins per variable (NID)
+  /// Intensity quantile bins per grid row (a spinning lidar's laser) when the row has at
+  /// least 16 x nid_bins returns; false: the whole scan's quantiles.
+  bool intensity_per_row = false;
   double nid_weight = 0.5;                     ///< weight of NID in `combined`
   int occlusion_cell_px = 4;                   ///< depth buffer cell, px
   double occlusion_tolerance_m = 0.3;          ///< a point is hidden when it is farther than the

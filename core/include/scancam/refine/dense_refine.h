@@ -21,18 +21,33 @@
 // accepted only when the held-out objective is lower than the start's; otherwise the start is
 // returned, with the reason.
 //
-// Uncertainty (a split-half sandwich estimate): H, the curvature of the objective at the result
-// (central differences of curvature_step_*), and Cov(g), the covariance of its gradient,
-// estimated from the gradients on `resamples` random splits of the tiles into halves A and B
-// ((g_A - g_B) has four times the covariance of the whole data's gradient); the pose's
-// covariance is H^-1 Cov(g) H^-1, in the camera frame (deg, m), its square roots reported as
-// rotation_std_deg_cam_xyz (small angles about the camera's x, y, z) and
-// translation_std_m_cam_xyz.
+// Uncertainty: covariance_cam (camera frame, deg and m; its square roots are reported as
+// rotation_std_deg_cam_xyz, small angles about the camera's x, y, z, and
+// translation_std_m_cam_xyz) is the sum of three parts:
+//   local     a block split-half sandwich estimate H^-1 Cov(g) H^-1: H, the curvature of the
+//             objective at the result (central differences of curvature_step_*), Cov(g) the
+//             covariance of its gradient from `resamples` random splits of the image's
+//             uncertainty_blocks_u x _v blocks into halves A and B ((g_A - g_B) has four times
+//             the covariance of the whole data's gradient); the objective's noise near its
+//             minimum;
+//   spread    the mean of d d^T over the other searches' ends that the held-out half ranks at
+//             least as good as the best (d: their offset from the best): answers the data
+//             cannot tell apart;
+//   flatness  2 delta H^-1: the poses within delta of the minimum of the objective's local
+//             quadratic, which the data do not tell apart either; delta (objective_resolution)
+//             is the larger of the training half's largest preference for the best over such
+//             an end and the two halves' disagreement on the gain from the start to the best
+//             (|gain_train - gain_heldout|).
+//   tension   p p^T, p = H^-1 g_nid, g_nid the gradient of the NID term alone at the result:
+//             there the two terms' pulls cancel; where the two measures disagree, each pulls
+//             hard and the pose they settle on is uncertain by that much.
+// The sampling_* figures are the local part
+// alone. Measured coverage (docs/refine.md, "The reported std").
 //
 // Verdict: "diverged" when the held-out half rejects the result, or when starts that end
 // within diverged_objective of the best objective lie more than diverged_deg / diverged_m from
 // it (two equally good, different answers); then the start is returned. Else "ambiguous" when
-// a std exceeds ambiguous_std_deg / ambiguous_std_m (the objective is flat along that
+// a local std exceeds ambiguous_std_deg / ambiguous_std_m (the objective is flat along that
 // direction, named in `unconstrained`), else "converged"; both return the result.
 #pragma once
 
@@ -83,7 +98,11 @@ struct DenseRefineOptions {
   /// held-out check is then not independent. Measured not to help (docs/refine.md).
   bool search_on_all_points = false;
   bool polish_on_all_points = false;
-  int resamples = 8;                ///< uncertainty (see the file comment); < 2: none
+  int resamples = 8;  ///< uncertainty (see the file comment); < 2: none
+  /// The uncertainty's halves: random halves of these image blocks (at the best pose);
+  /// 1 x 1: random halves of the grid tiles (sampling noise only).
+  int uncertainty_blocks_u = 6;
+  int uncertainty_blocks_v = 3;
   double curvature_step_deg = 0.2;  ///< finite-difference steps of the uncertainty
   double curvature_step_m = 0.02;
   double ambiguous_std_deg = 0.3;
@@ -117,8 +136,17 @@ struct DenseRefineResult {
   Eigen::Vector3d translation_change_m_cam_xyz = Eigen::Vector3d::Zero();
   Eigen::Vector3d rotation_std_deg_cam_xyz = Eigen::Vector3d::Zero();
   Eigen::Vector3d translation_std_m_cam_xyz = Eigen::Vector3d::Zero();
-  /// The pose's covariance, (omega deg, v m) in the camera frame (see the file comment).
+  /// The pose's covariance, (omega deg, v m) in the camera frame (see the file comment): the
+  /// sum of the local (sampling_*), spread and flatness parts; the std above are its roots.
   Eigen::Matrix<double, 6, 6> covariance_cam = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 6> sampling_covariance_cam = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 6> spread_covariance_cam = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 6> flatness_covariance_cam = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 6> tension_covariance_cam = Eigen::Matrix<double, 6, 6>::Zero();
+  double objective_resolution = 0.0;  ///< delta of the flatness term (objective units)
+  Eigen::Vector3d sampling_rotation_std_deg_cam_xyz = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sampling_translation_std_m_cam_xyz = Eigen::Vector3d::Zero();
+  int ends_tied = 0;  ///< other searches' ends within the objective's noise of the best
   double starts_spread_deg = 0.0, starts_spread_m = 0.0;  ///< among the agreeing starts
   int starts_agreeing = 0;
   int evaluations = 0;

@@ -25,6 +25,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -138,8 +139,37 @@ ScanSample SampleScan(const Scene& scene, const SimScanner& scanner,
                       const Eigen::Isometry3d& T_world_scan, const RangeNoise& noise,
                       std::uint64_t seed, const Progress& progress = {});
 
+/// The same in blocks of rows, in order, for scans too large to hold: Next(count) casts rows
+/// [next_row(), next_row() + count) and returns them as a sample of `count` rows (truth.rows
+/// = count); the blocks put together are exactly SampleScan's sample (noise drawn cell by cell
+/// from one generator across blocks). The scene and scanner must outlive the sampler.
+class RowSampler {
+ public:
+  RowSampler(const Scene& scene, const SimScanner& scanner, const Eigen::Isometry3d& T_world_scan,
+             const RangeNoise& noise, std::uint64_t seed);
+  ~RowSampler();
+  ScanSample Next(int count, const Progress& progress = {});
+  int next_row() const { return next_row_; }
+
+ private:
+  struct Rng;
+  const Scene& scene_;
+  const SimScanner& scanner_;
+  Eigen::Isometry3d T_world_scan_;
+  RangeNoise noise_;
+  std::unique_ptr<Rng> rng_;
+  int next_row_ = 0;
+};
+
+/// The exact surface point (scanner frame) beam (row, col) hits, or nullopt; what the truth of
+/// SampleScan holds for that cell.
+std::optional<Eigen::Vector3d> TruthPoint(const Scene& scene, const SimScanner& scanner,
+                                          const Eigen::Isometry3d& T_world_scan, int row, int col);
+
 /// The rotating scanner's log data (for WriteRotatingLog / ToOrderedScan) of a sample.
-RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample);
+/// With first_plane: the sample holds planes [first_plane, first_plane + sample.truth.rows).
+RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample,
+                                int first_plane = 0);
 
 /// An ordered scan of a sample from any scanner (point = origin + range * dir per beam).
 OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sample,
@@ -148,5 +178,11 @@ OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sam
 /// The noise-free ordered scan of the truth (every hit a return): what interpolation of a
 /// perfect scan gives; used to place pairs and in tests.
 OrderedScan TruthOrderedScan(const SimScanner& scanner, const ScanTruth& truth);
+
+/// Cells [row0, row0 + rows) x [col0, col0 + cols) of TruthOrderedScan, cast again (the same
+/// values), for a scan too large to hold (see point_pair.h ScanWindow).
+OrderedScan TruthWindow(const Scene& scene, const SimScanner& scanner,
+                        const Eigen::Isometry3d& T_world_scan, int row0, int col0, int rows,
+                        int cols);
 
 }  // namespace scancam::sim

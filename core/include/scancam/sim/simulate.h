@@ -126,6 +126,7 @@ struct Simulation {
   ScanSample sample;                         ///< ranges, intensities, truth (visible filled in)
   std::optional<RotatingScanData> rotating;  ///< for the rotating scanner
   OrderedScan scan;                          ///< as the project's importers give it
+  std::size_t valid_cells = 0;               ///< cells with a return
   cv::Mat image;                             ///< BGR
   std::vector<PointPair> pairs;
   std::vector<PairTruth> pair_truth;
@@ -151,6 +152,20 @@ Simulation Simulate(const Scene& scene, const SimulateOptions& options,
 /// Writes the files listed in the file comment into `dir` (created when missing). Throws
 /// scancam::Error naming the file when one cannot be written.
 void WriteSimulation(const Simulation& sim, const std::string& dir, const Progress& progress = {});
+
+/// Simulate + WriteSimulation in one pass for the rotating scanner, for scans too large to
+/// hold (e.g. 14400 x 7201 cells): block_rows scan planes are cast, written to scan.txt,
+/// scan.ptx and truth.csv and dropped before the next ones; the noise-free scan that places the
+/// pairs is cast again near each corner. The files are byte for byte WriteSimulation's of
+/// Simulate(options). Returns the simulation without its scan (sample, rotating and scan empty;
+/// valid_cells, camera, rig, image and pairs set). Memory: O(block_rows x beams), not O(cells).
+/// Throws scancam::Error for another scanner or bad options, and naming the file when one
+/// cannot be written (the files of the directory stay as they were then).
+Simulation SimulateToDirectory(const SimulateOptions& options, const std::string& dir,
+                               const Progress& progress = {}, int block_rows = 32);
+Simulation SimulateToDirectory(const Scene& scene, const SimulateOptions& options,
+                               const std::string& dir, const Progress& progress = {},
+                               int block_rows = 32);
 
 /// Name of the scan file WriteSimulation writes ("scan.txt" or "scan.pcd") and of the camera
 /// file ("camera.txt" or "camera.yaml").
