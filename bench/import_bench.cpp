@@ -62,8 +62,8 @@ void WriteFiles(Files& f) {
     if (scan.valid(k))
       scan.intensity[k] = 0.5f + 0.5f * std::sin(0.37f * float(k % 997) + scan.range_m[k]);
   }
-  scancam::WritePtx(f.ptx, {scancam::PtxFromOrderedScan(scan)});
-  scancam::WriteE57(f.e57, scan);
+  scancam::io::WritePtx(f.ptx, {scancam::io::PtxFromOrderedScan(scan)});
+  scancam::io::WriteE57(f.e57, scan);
   pcl::PointCloud<pcl::PointXYZI> cloud(static_cast<std::uint32_t>(f.cols),
                                         static_cast<std::uint32_t>(f.rows));
   cloud.is_dense = false;
@@ -97,20 +97,20 @@ void RunImport(benchmark::State& state, const std::string& path,
 }
 
 void BM_ScanCamPtx(benchmark::State& state) {
-  RunImport(state, g_files.ptx, [] { return scancam::LoadPtx(g_files.ptx, 0, false).size(); });
+  RunImport(state, g_files.ptx, [] { return scancam::io::LoadPtx(g_files.ptx, 0, false).size(); });
 }
 BENCHMARK(BM_ScanCamPtx)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 void BM_ScanCamE57(benchmark::State& state) {
-  RunImport(state, g_files.e57, [] { return scancam::LoadE57(g_files.e57).size(); });
+  RunImport(state, g_files.e57, [] { return scancam::io::LoadE57(g_files.e57).size(); });
 }
 BENCHMARK(BM_ScanCamE57)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 void BM_ScanCamPcd(benchmark::State& state) {
   RunImport(state, g_files.pcd, [] {
-    scancam::PcdLoadOptions o;
+    scancam::io::PcdLoadOptions o;
     o.mode = "organised";
-    return scancam::LoadPcd(g_files.pcd, o).size();
+    return scancam::io::LoadPcd(g_files.pcd, o).size();
   });
 }
 BENCHMARK(BM_ScanCamPcd)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);

@@ -99,20 +99,20 @@ Scene MakeScene(const std::string& name) {
       const std::string d = Datasets() + "/" + (name == "kitti" ? "kitti-000000" : "road-pinhole");
       if (!std::filesystem::exists(d)) throw std::runtime_error(d + " not found");
       if (name == "kitti") {
-        s.scan = scancam::LoadScan(d + "/velodyne.bin");
-        s.view.camera = scancam::LoadCameraForImage(d + "/calib.txt", d + "/image_2.png");
+        s.scan = scancam::io::LoadScan(d + "/velodyne.bin");
+        s.view.camera = scancam::camera::LoadCameraForImage(d + "/calib.txt", d + "/image_2.png");
         s.view.image = scancam::ReadImage(d + "/image_2.png");
-        s.reference =
-            scancam::KittiVeloToCam2(scancam::ReadKittiCalib(d + "/calib.txt"), d + "/calib.txt");
+        s.reference = scancam::camera::KittiVeloToCam2(
+            scancam::camera::ReadKittiCalib(d + "/calib.txt"), d + "/calib.txt");
       } else {
-        s.scan = scancam::LoadScan(d + "/scan.pcd");
-        s.view.camera = scancam::LoadCamera(d + "/camera-intrinsic.json");
+        s.scan = scancam::io::LoadScan(d + "/scan.pcd");
+        s.view.camera = scancam::camera::LoadCamera(d + "/camera-intrinsic.json");
         s.view.image = scancam::ReadImage(d + "/image.png");
         s.reference = sc::LoadExtrinsic(d + "/reference-extrinsic.json");
       }
       s.start = Perturb(s.reference, 1.5, 0.18, 1);
     }
-    s.view.mask = scancam::FindValidRegion(s.view.camera, s.view.image).mask;
+    s.view.mask = scancam::camera::FindValidRegion(s.view.camera, s.view.image).mask;
   } catch (const std::exception& e) {
     s.error = e.what();
   }
@@ -229,12 +229,12 @@ void BM_ProjectPoints(benchmark::State& state, const std::string& name) {
     const Eigen::Vector3f& p = s.scan.point_m[i];
     pts.emplace_back(p.x(), p.y(), p.z());
   }
-  const scancam::CameraModel& cam = s.view.camera;
+  const scancam::camera::CameraModel& cam = s.view.camera;
   const std::vector<double>& q = cam.params();
   cv::Matx33d K;
   std::vector<double> dist;
-  using P = scancam::PinholeModel;
-  if (cam.type() == scancam::CameraType::kPinhole) {
+  using P = scancam::camera::PinholeModel;
+  if (cam.type() == scancam::camera::CameraType::kPinhole) {
     K = cv::Matx33d(q[P::kIdxFx], 0, q[P::kIdxCx], 0, q[P::kIdxFy], q[P::kIdxCy], 0, 0, 1);
     dist.assign(q.begin() + P::kIdxDist, q.begin() + P::kIdxDist + P::kNumDist);
   } else {  // the cost of a pinhole projection at this image size

@@ -60,8 +60,9 @@ RoomScene MakeRoomScene(int rows, int cols) {
   d.view.T_cam_scan.setIdentity();
   d.view.T_cam_scan.linear() = R;
   d.view.T_cam_scan.translation() = -R * centre;
-  d.view.camera = CameraModel::Pinhole(kFocalPx, kFocalPx, (kImageW - 1) / 2.0, (kImageH - 1) / 2.0,
-                                       {-0.1, 0.05, 0.0, 0.0, 0.0}, kImageW, kImageH, "bench");
+  d.view.camera =
+      camera::CameraModel::Pinhole(kFocalPx, kFocalPx, (kImageW - 1) / 2.0, (kImageH - 1) / 2.0,
+                                   {-0.1, 0.05, 0.0, 0.0, 0.0}, kImageW, kImageH, "bench");
   d.view.image.create(kImageH, kImageW, CV_8UC3);
   cv::randu(d.view.image, cv::Scalar::all(0), cv::Scalar::all(255));
   d.view.name = "bench image";

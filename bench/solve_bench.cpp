@@ -14,14 +14,14 @@
 namespace {
 
 struct Data {
-  scancam::CameraModel cam;
+  scancam::camera::CameraModel cam;
   Eigen::Isometry3d T;
   std::vector<scancam::PointPair> pairs;
 };
 
 Data MakeData(int n) {
   Data d;
-  d.cam = scancam::CameraModel::Pinhole(800, 800, 639.5, 479.5, {}, 1280, 960);
+  d.cam = scancam::camera::CameraModel::Pinhole(800, 800, 639.5, 479.5, {}, 1280, 960);
   d.T = Eigen::Isometry3d::Identity();
   d.T.linear() = scancam::RpyDegToRotation({1, -2, 3}) *
                  (Eigen::Matrix3d() << 0, -1, 0, 0, 0, -1, 1, 0, 0).finished();
@@ -46,7 +46,7 @@ void BM_ScanCamCalibrate(benchmark::State& state) {
   const Data d = MakeData(static_cast<int>(state.range(0)));
   scancam::bench::ResetPeakRss();
   for (auto _ : state) {
-    auto c = scancam::Calibrate(d.pairs, nullptr, d.cam, {});
+    auto c = scancam::solve::Calibrate(d.pairs, nullptr, d.cam, {});
     benchmark::DoNotOptimize(c.T_cam_scan);
   }
   state.SetItemsProcessed(state.iterations() * state.range(0));

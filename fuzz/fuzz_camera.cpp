@@ -21,14 +21,14 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = scancam::fuzz::WriteInput(data, size, SCANCAM_FUZZ_EXT);
   try {
-    scancam::DetectCameraFileFormat(path);
+    scancam::camera::DetectCameraFileFormat(path);
   } catch (const scancam::Error&) {
   }
-  scancam::CameraModel camera;
+  scancam::camera::CameraModel camera;
   try {
-    scancam::LoadCameraOptions options;
-    options.format = scancam::CameraFileFormat::SCANCAM_FUZZ_CAMERA_FORMAT;
-    camera = scancam::LoadCamera(path, options);
+    scancam::camera::LoadCameraOptions options;
+    options.format = scancam::camera::CameraFileFormat::SCANCAM_FUZZ_CAMERA_FORMAT;
+    camera = scancam::camera::LoadCamera(path, options);
   } catch (const scancam::Error&) {
     return 0;
   }

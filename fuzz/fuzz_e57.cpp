@@ -17,20 +17,20 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<uint8_t> bytes(data, data + size);
   for (size_t page = 0; page + 1024 <= bytes.size(); page += 1024) {
-    const uint32_t crc = scancam::E57Crc32c(bytes.data() + page, 1020);
+    const uint32_t crc = scancam::io::E57Crc32c(bytes.data() + page, 1020);
     for (int i = 0; i < 4; ++i) bytes[page + 1020 + i] = static_cast<uint8_t>(crc >> (24 - 8 * i));
   }
   const std::string path = scancam::fuzz::WriteInput(bytes.data(), bytes.size(), ".e57");
-  scancam::E57FileInfo info;
+  scancam::io::E57FileInfo info;
   try {
-    info = scancam::ReadE57Info(path);
+    info = scancam::io::ReadE57Info(path);
   } catch (const scancam::Error&) {
     return 0;  // bad input, reported as it should be
   }
   try {
-    scancam::ScanLoadOptions options;
+    scancam::io::ScanLoadOptions options;
     options.format = "e57";
-    const scancam::OrderedScan scan = scancam::LoadScan(path, options);
+    const scancam::OrderedScan scan = scancam::io::LoadScan(path, options);
     try {
       scancam::CheckScan(scan, path);
     } catch (const scancam::Error& e) {
@@ -40,7 +40,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   }
   if (!info.images.empty()) {
     try {
-      scancam::ExtractE57Image(path, 0, path + ".blob");
+      scancam::io::ExtractE57Image(path, 0, path + ".blob");
     } catch (const scancam::Error&) {
     }
   }

@@ -25,13 +25,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   std::vector<scancam::PointPair> pairs;
   try {
-    pairs = scancam::ParsePairsCsv(text, "fuzz.csv");
+    pairs = scancam::io::ParsePairsCsv(text, "fuzz.csv");
   } catch (const scancam::Error&) {
     return 0;
   }
   std::vector<scancam::PointPair> again;
   try {
-    again = scancam::ParsePairsCsv(scancam::FormatPairsCsv(pairs), "fuzz-roundtrip.csv");
+    again = scancam::io::ParsePairsCsv(scancam::io::FormatPairsCsv(pairs), "fuzz-roundtrip.csv");
   } catch (const scancam::Error& e) {
     scancam::fuzz::Fail(std::string("written pairs do not parse back: ") + e.what());
   }

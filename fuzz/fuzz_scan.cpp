@@ -56,12 +56,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = scancam::fuzz::WriteInput(data, size, SCANCAM_FUZZ_EXT);
   scancam::OrderedScan scan;
   try {
-    scancam::ScanLoadOptions options;
+    scancam::io::ScanLoadOptions options;
     options.format = SCANCAM_FUZZ_FORMAT;
 #ifdef SCANCAM_FUZZ_PCD_MODE
     options.pcd_mode = SCANCAM_FUZZ_PCD_MODE;
 #endif
-    scan = scancam::LoadScan(path, options);
+    scan = scancam::io::LoadScan(path, options);
   } catch (const scancam::Error&) {
     return 0;  // bad input, reported as it should be
   }

@@ -112,24 +112,24 @@ void WritePcdEncodings(const PcdCloud& c, const std::string& stem) {
 }
 
 // The camera in every format that can hold it, each into its harness's corpus.
-void SaveCameraEverywhere(const CameraModel& camera, const std::string& stem) {
+void SaveCameraEverywhere(const camera::CameraModel& camera, const std::string& stem) {
   struct Target {
-    CameraFileFormat format;
+    camera::CameraFileFormat format;
     const char* harness;
     const char* ext;
   };
   const Target targets[] = {
-      {CameraFileFormat::kOpenCv, "fuzz_camera_opencv_yaml", ".yaml"},
-      {CameraFileFormat::kOpenCv, "fuzz_camera_opencv_json", ".json"},
-      {CameraFileFormat::kOCamCalib, "fuzz_camera_ocamcalib", ".txt"},
-      {CameraFileFormat::kKalibr, "fuzz_camera_kalibr", ".yaml"},
-      {CameraFileFormat::kRosCameraInfo, "fuzz_camera_ros", ".yaml"},
-      {CameraFileFormat::kOpenCalib, "fuzz_camera_opencalib", ".json"},
+      {camera::CameraFileFormat::kOpenCv, "fuzz_camera_opencv_yaml", ".yaml"},
+      {camera::CameraFileFormat::kOpenCv, "fuzz_camera_opencv_json", ".json"},
+      {camera::CameraFileFormat::kOCamCalib, "fuzz_camera_ocamcalib", ".txt"},
+      {camera::CameraFileFormat::kKalibr, "fuzz_camera_kalibr", ".yaml"},
+      {camera::CameraFileFormat::kRosCameraInfo, "fuzz_camera_ros", ".yaml"},
+      {camera::CameraFileFormat::kOpenCalib, "fuzz_camera_opencalib", ".json"},
   };
   for (const Target& t : targets) {
     const std::string path = Dir(t.harness) + "/" + stem + t.ext;
     try {
-      SaveCamera(camera, path, t.format);
+      camera::SaveCamera(camera, path, t.format);
       ++g_count;
     } catch (const Error&) {
       // the model does not fit this format
@@ -139,16 +139,16 @@ void SaveCameraEverywhere(const CameraModel& camera, const std::string& stem) {
 
 // The harness of a camera file, from its detected format and extension.
 std::string CameraHarness(const fs::path& file) {
-  switch (DetectCameraFileFormat(file.string())) {
-    case CameraFileFormat::kOpenCv:
+  switch (camera::DetectCameraFileFormat(file.string())) {
+    case camera::CameraFileFormat::kOpenCv:
       return file.extension() == ".json" ? "fuzz_camera_opencv_json" : "fuzz_camera_opencv_yaml";
-    case CameraFileFormat::kOCamCalib:
+    case camera::CameraFileFormat::kOCamCalib:
       return "fuzz_camera_ocamcalib";
-    case CameraFileFormat::kKalibr:
+    case camera::CameraFileFormat::kKalibr:
       return "fuzz_camera_kalibr";
-    case CameraFileFormat::kRosCameraInfo:
+    case camera::CameraFileFormat::kRosCameraInfo:
       return "fuzz_camera_ros";
-    case CameraFileFormat::kOpenCalib:
+    case camera::CameraFileFormat::kOpenCalib:
       return "fuzz_camera_opencalib";
     default:
       return "";
@@ -195,12 +195,13 @@ void FromSimulation(const std::string& scanner, const std::string& camera) {
   sim::WriteSimulation(s, sim_dir.string());
 
   // Scans.
-  const PtxScan ptx = PtxFromOrderedScan(s.scan);
-  WritePtx(Seed("fuzz_ptx", stem + ".ptx"), {ptx});
+  const io::PtxScan ptx = io::PtxFromOrderedScan(s.scan);
+  io::WritePtx(Seed("fuzz_ptx", stem + ".ptx"), {ptx});
   Eigen::Matrix4d moved = Eigen::Matrix4d::Identity();
   moved(0, 3) = 1.5;
   moved(2, 3) = -0.25;
-  WritePtx(Seed("fuzz_ptx", stem + "_two_scans.ptx"), {ptx, PtxFromOrderedScan(s.scan, moved)});
+  io::WritePtx(Seed("fuzz_ptx", stem + "_two_scans.ptx"),
+               {ptx, io::PtxFromOrderedScan(s.scan, moved)});
   {  // E57 with row/column indices, intensity and colour on every other cell
     std::vector<std::array<std::uint8_t, 3>> rgb(s.scan.size());
     std::vector<std::uint8_t> coloured(s.scan.size());
@@ -208,31 +209,32 @@ void FromSimulation(const std::string& scanner, const std::string& camera) {
       rgb[k] = {std::uint8_t(k), std::uint8_t(3 * k), std::uint8_t(7 * k)};
       coloured[k] = k % 2;
     }
-    WriteE57(Seed("fuzz_e57", stem + ".e57"), s.scan, &rgb, &coloured);
+    io::WriteE57(Seed("fuzz_e57", stem + ".e57"), s.scan, &rgb, &coloured);
   }
   if (s.rotating) {
-    WriteRotatingLog(Seed("fuzz_rotating_log", stem + ".txt"), *s.rotating);
-    WriteMrpt2DScanRawlog(Seed("fuzz_rawlog", stem + "_2d_scans.rawlog"), *s.rotating);
+    io::WriteRotatingLog(Seed("fuzz_rotating_log", stem + ".txt"), *s.rotating);
+    io::WriteMrpt2DScanRawlog(Seed("fuzz_rawlog", stem + "_2d_scans.rawlog"), *s.rotating);
   }
   const std::string organised = Seed("fuzz_pcd", stem + "_organised.pcd");
-  WriteOrganisedPcd(organised, s.scan);
+  io::WriteOrganisedPcd(organised, s.scan);
   const PcdCloud cloud = ReadPcd(organised);
   WritePcdEncodings(cloud, stem + "_organised");
   WritePcdEncodings(Decimate(cloud, 1), stem + "_unordered");
 
   // Pairs: as simulated (cells), and with the x,y,z columns too.
-  WriteText("fuzz_pairs_csv", stem + ".csv", FormatPairsCsv(s.pairs));
+  WriteText("fuzz_pairs_csv", stem + ".csv", io::FormatPairsCsv(s.pairs));
   std::vector<PointPair> with_points = s.pairs;
   for (std::size_t i = 0; i < with_points.size() && i < s.pair_truth.size(); ++i)
     with_points[i].point_m = s.pair_truth[i].scan_point_m;
-  WriteText("fuzz_pairs_csv", stem + "_xyz.csv", FormatPairsCsv(with_points));
+  WriteText("fuzz_pairs_csv", stem + "_xyz.csv", io::FormatPairsCsv(with_points));
 
   // Camera, calibration, images.
   SaveCameraEverywhere(s.camera, stem);
   Copy(sim_dir / "ground_truth.json", "fuzz_calibration_json", stem + "_ground_truth.json");
   try {
-    const Calibration c = Calibrate(s.pairs, &s.scan, s.camera);
-    WriteJsonFile(Seed("fuzz_calibration_json", stem + "_calibrate.json"), CalibrationToJson(c));
+    const solve::Calibration c = solve::Calibrate(s.pairs, &s.scan, s.camera);
+    io::WriteJsonFile(Seed("fuzz_calibration_json", stem + "_calibrate.json"),
+                      solve::CalibrationToJson(c));
   } catch (const Error& e) {
     std::fprintf(stderr, "fuzz_make_seeds: no calibrate seed from %s: %s\n", stem.c_str(),
                  e.what());
@@ -337,12 +339,13 @@ int main(int argc, char** argv) {
     SyntheticKitti();
     for (const char* preset : {"fisheye", "equirect"})
       SaveCameraEverywhere(sim::PresetCamera(preset), preset);
-    SaveCameraEverywhere(CameraModel::Pinhole(610.5, 612.25, 319.5, 239.75,
-                                              {0.1, -0.05, 0.001, -0.002, 0.01, 0.02, -0.01, 0.003},
-                                              640, 480, "rational"),
-                         "pinhole_rational");
-    SaveCameraEverywhere(CameraModel::Omni(0.9, 380.0, 381.5, 399.5, 299.5, 0.0,
-                                           {-0.2, 0.05, 0.0005, -0.0004}, 800, 600, "mei"),
+    SaveCameraEverywhere(
+        camera::CameraModel::Pinhole(610.5, 612.25, 319.5, 239.75,
+                                     {0.1, -0.05, 0.001, -0.002, 0.01, 0.02, -0.01, 0.003}, 640,
+                                     480, "rational"),
+        "pinhole_rational");
+    SaveCameraEverywhere(camera::CameraModel::Omni(0.9, 380.0, 381.5, 399.5, 299.5, 0.0,
+                                                   {-0.2, 0.05, 0.0005, -0.0004}, 800, 600, "mei"),
                          "omni_mei");
     for (const auto& e : fs::directory_iterator(fs::path(argv[2]) / "share" / "cameras")) {
       if (e.path().extension() == ".md") continue;

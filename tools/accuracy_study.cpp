@@ -184,14 +184,14 @@ std::vector<PointPair> Usable(const Bench& b, std::vector<PointPair> pairs) {
 
 Err RunScanCam(const Bench& b, const std::vector<PointPair>& pairs, const std::string& method,
                bool refine, bool weighted, const Options& o) {
-  scancam::CalibrateOptions co;
+  scancam::solve::CalibrateOptions co;
   co.method = method;
   co.refine = refine;
   co.weighted = weighted;
   co.sigma_px = o.sigma_px;
   co.sigma_cells = o.sigma_cells;
   try {
-    const auto c = scancam::Calibrate(pairs, &b.sim.scan, b.sim.camera, co);
+    const auto c = scancam::solve::Calibrate(pairs, &b.sim.scan, b.sim.camera, co);
     return ErrorOf(c.T_cam_scan, b.sim.T_cam_scan, c.mean_px);
   } catch (const std::exception&) {
     return {};
@@ -235,13 +235,13 @@ std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> CramerRao(const Bench
   exact.sigma_px = exact.sigma_cells = 0;
   std::mt19937 unused(0);
   const auto pairs = Usable(b, NoisyPairs(b, idx, exact, unused));
-  scancam::CalibrateOptions co;
+  scancam::solve::CalibrateOptions co;
   co.method = "epnp";
   co.sigma_px = o.sigma_px;
   co.sigma_cells = o.sigma_cells;
   co.refine_options.scale_covariance = false;
   try {
-    const auto c = scancam::Calibrate(pairs, &b.sim.scan, b.sim.camera, co);
+    const auto c = scancam::solve::Calibrate(pairs, &b.sim.scan, b.sim.camera, co);
     if (!c.has_covariance) return std::nullopt;
     return std::make_pair(Eigen::Vector3d(c.std_rpy_deg.cwiseAbs2()),
                           Eigen::Vector3d(c.std_t_m.cwiseAbs2()));
@@ -487,8 +487,8 @@ int main(int argc, char** argv) {
     pairs[0].image_u = pairs[1].image_u;
     pairs[0].image_v = pairs[1].image_v;
     pairs.erase(pairs.begin() + 1);
-    scancam::CalibrateOptions co;
-    const auto c = scancam::Calibrate(pairs, &omni.sim.scan, omni.sim.camera, co);
+    scancam::solve::CalibrateOptions co;
+    const auto c = scancam::solve::Calibrate(pairs, &omni.sim.scan, omni.sim.camera, co);
     flagged += !c.pairs[0].inlier;
     ewrong.push_back(ErrorOf(c.T_cam_scan, omni.sim.T_cam_scan, c.mean_px));
   }

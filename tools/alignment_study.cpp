@@ -58,7 +58,7 @@ int main(int argc, char** argv) {
   const int n = argc > 7 ? std::stoi(argv[7]) : 12;
   const int seed = argc > 8 ? std::stoi(argv[8]) : 1;
   try {
-    OrderedScan scan = LoadScan(argv[1]);
+    OrderedScan scan = io::LoadScan(argv[1]);
     if (std::getenv("MOTION_V")) {  // a spinning lidar's sweep moved: v m/s along x, 0.1 s
       const double v = std::atof(std::getenv("MOTION_V"));  // per turn, clockwise, az 0 at t 0
       for (std::size_t i = 0; i < scan.size(); ++i) {
@@ -72,13 +72,13 @@ int main(int argc, char** argv) {
       }
     }
     ColourView view;
-    view.camera = LoadCameraForImage(argv[2], argv[3]);
+    view.camera = camera::LoadCameraForImage(argv[2], argv[3]);
     view.image = ReadViewImage(argv[3]);  // the view rule (colour/view_io.h), size see below
     if (view.image.rows != view.camera.height()) {  // road2-pinhole: 1080 in the file, 1200 image
       std::fprintf(stderr, "camera height %d -> image height %d\n", view.camera.height(),
                    view.image.rows);
-      view.camera =
-          CameraModel(view.camera.type(), view.camera.params(), view.image.cols, view.image.rows);
+      view.camera = camera::CameraModel(view.camera.type(), view.camera.params(), view.image.cols,
+                                        view.image.rows);
     }
     view.mask = ChooseViewRegion(view.camera, view.image, "");
     view.T_cam_scan = LoadExtrinsic(argv[4]);
@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     refine::AlignmentData data = refine::PrepareAlignment(scan, view, OptionsFromEnv());
     if (std::getenv("FIXED_MARGIN")) {  // only the points inside the image by a margin at ref
       const double m = std::atof(std::getenv("FIXED_MARGIN"));
-      const CameraModel cam = view.camera;
+      const camera::CameraModel cam = view.camera;
       data = refine::SubsetAlignment(data, [&](std::uint32_t, const Eigen::Vector3f& p) {
         const auto uv = cam.ProjectUnbounded(ref * p.cast<double>());
         return uv && uv->x() > m && uv->x() < cam.width() - m && uv->y() > m &&

@@ -69,17 +69,17 @@ void Dump(const sim::Scene& scene, const sim::Simulation& s, const colour::Colou
 // Also prints the false occlusions on ground in clear view (colour/ground_view.h).
 void RoadStudy(const std::string& dir, const std::string& calib, const colour::ColourOptions& o,
                int lost) {
-  const OrderedScan scan = LoadScan(dir + "/scan.pcd");
+  const OrderedScan scan = io::LoadScan(dir + "/scan.pcd");
   colour::ColourView v;
   v.name = dir + "/image.png";
-  v.camera = LoadCamera(dir + "/camera-intrinsic.json");
+  v.camera = camera::LoadCamera(dir + "/camera-intrinsic.json");
   // The view's image rule (colour/view_io.h), the size not checked: see above. No mask (the
   // study's figures are without the automatic valid region).
   v.image = colour::ReadViewImage(v.name);
   if (v.image.cols != v.camera.width() || v.image.rows != v.camera.height()) {
     std::printf("note: camera file is %dx%d, image %dx%d: camera taken with the image's size\n",
                 v.camera.width(), v.camera.height(), v.image.cols, v.image.rows);
-    v.camera = CameraModel(v.camera.type(), v.camera.params(), v.image.cols, v.image.rows);
+    v.camera = camera::CameraModel(v.camera.type(), v.camera.params(), v.image.cols, v.image.rows);
   }
   v.T_cam_scan = colour::LoadExtrinsic(calib.empty() ? dir + "/reference-extrinsic.json" : calib);
   const colour::ColouredScan res = colour::Colourise(scan, {v}, o);

@@ -116,7 +116,7 @@ int RunBa(const Args& args) {
   const std::string path = args.positional()[0];
   const bool quiet = args.has("--quiet");
 
-  const ScanLoadOptions load = ParseScanLoadOptions(args);
+  const io::ScanLoadOptions load = ParseScanLoadOptions(args);
 
   std::vector<GridStep> extra;
   for (const auto& s : args.all("--step")) extra.push_back(ParseStep(s));
@@ -192,7 +192,7 @@ int RunBa(const Args& args) {
                 "' is not equalize or percentile");
 
   const Progress progress(StderrProgress(quiet));
-  OrderedScan scan = LoadScan(path, load, progress);
+  OrderedScan scan = io::LoadScan(path, load, progress);
   if (scan.rows <= 0 || scan.cols <= 0) throw FileError(path, "", "the scan grid is empty");
   // The images read ranges, beam directions and intensities only: the points (12 of the 32
   // bytes per cell, ordered_scan.h) are released, the largest part of the peak at full size.

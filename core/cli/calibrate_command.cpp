@@ -38,7 +38,7 @@ std::vector<PointPair> SnapPairs(const std::vector<PointPair>& pairs, const cv::
                                  const OrderedScan* scan, bool quiet) {
   std::vector<PointPair> out = pairs;
   int moved = 0;
-  auto describe = [](const SnapResult& r, const char* unit) {
+  auto describe = [](const pick::SnapResult& r, const char* unit) {
     std::ostringstream s;
     s << std::fixed << std::setprecision(2);
     if (r.accepted)
@@ -50,13 +50,13 @@ std::vector<PointPair> SnapPairs(const std::vector<PointPair>& pairs, const cv::
   };
   for (std::size_t k = 0; k < out.size(); ++k) {
     PointPair& p = out[k];
-    std::optional<SnapResult> ri, rs;
-    if (!image.empty()) ri = SnapImagePoint(image, {p.image_u, p.image_v});
-    if (scan && p.has_scan_cell()) rs = SnapScanCell(*scan, {p.scan_row, p.scan_col});
+    std::optional<pick::SnapResult> ri, rs;
+    if (!image.empty()) ri = pick::SnapImagePoint(image, {p.image_u, p.image_v});
+    if (scan && p.has_scan_cell()) rs = pick::SnapScanCell(*scan, {p.scan_row, p.scan_col});
     const bool ok = (ri || rs) && (!ri || ri->accepted) && (!rs || rs->accepted);
     if (ok) {
-      if (ri) ApplyImageSnap(*ri, p);
-      if (rs) ApplyScanSnap(*rs, p);
+      if (ri) pick::ApplyImageSnap(*ri, p);
+      if (rs) pick::ApplyScanSnap(*rs, p);
       ++moved;
     }
     if (quiet) continue;
@@ -75,12 +75,12 @@ std::vector<PointPair> SnapPairs(const std::vector<PointPair>& pairs, const cv::
 // point (cross) joined by the residual, green for inliers and red for flagged pairs, numbered;
 // and the pick suggestions as magenta squares "next k". Only scene `scene`'s pairs and
 // suggestions (the photo is that scene's).
-cv::Mat PlotPairs(const cv::Mat& image, const Calibration& cal, int scene) {
+cv::Mat PlotPairs(const cv::Mat& image, const solve::Calibration& cal, int scene) {
   cv::Mat out = image.clone();
   const double s = std::max(1.0, image.cols / 640.0);  // line widths for big images
   const int th = static_cast<int>(std::lround(s));
   auto pt = [](const Eigen::Vector2d& p) { return cv::Point2d(p.x(), p.y()); };
-  for (const PairResult& p : cal.pairs) {
+  for (const solve::PairResult& p : cal.pairs) {
     if (p.scene != scene) continue;
     const cv::Scalar col = p.inlier ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 0, 255);
     cv::circle(out, pt(p.image_px), static_cast<int>(6 * s), col, th, cv::LINE_AA);
@@ -174,8 +174,8 @@ int RunCalibrate(const Args& args) {
   std::string e57_label;
   colour::ColourView view;
   if (from_e57) {
-    const ScanLoadOptions load = ParseScanLoadOptions(args);
-    const E57FileInfo info = ReadE57Info(scan_paths[0]);
+    const io::ScanLoadOptions load = ParseScanLoadOptions(args);
+    const io::E57FileInfo info = io::ReadE57Info(scan_paths[0]);
     const int s = load.e57_scan_index;
     if (s < 0 || s >= static_cast<int>(info.scans.size()))
       throw FileError(scan_paths[0], "",
@@ -192,7 +192,7 @@ int RunCalibrate(const Args& args) {
     view = colour::LoadView({camera_path, first_image, "", args.get("--mask")},
                             ParseViewLoadOptions(args), &region_how);
   }
-  const CameraModel& camera = view.camera;
+  const camera::CameraModel& camera = view.camera;
   std::vector<cv::Mat> images;
   for (std::size_t k = 0; k < image_paths.size(); ++k)
     images.push_back(k == 0 ? view.image : colour::ReadViewImage(image_paths[k], camera));
@@ -201,10 +201,11 @@ int RunCalibrate(const Args& args) {
   if (args.has("--plot") && image.empty())
     throw Error("--plot needs --image (the photo to draw on)");
   std::vector<std::vector<PointPair>> scene_pairs;
-  for (const auto& p : pairs_paths) scene_pairs.push_back(ReadPairsCsv(p));
+  for (const auto& p : pairs_paths) scene_pairs.push_back(io::ReadPairsCsv(p));
   std::vector<OrderedScan> scans(scan_paths.size());
   for (std::size_t k = 0; k < scan_paths.size(); ++k) {
-    scans[k] = LoadScan(scan_paths[k], ParseScanLoadOptions(args), Progress(StderrProgress(quiet)));
+    scans[k] =
+        io::LoadScan(scan_paths[k], ParseScanLoadOptions(args), Progress(StderrProgress(quiet)));
   }
   const bool have_scan = !scans.empty();
   if (args.has("--snap-out") && !args.has("--snap")) throw Error("--snap-out needs --snap");
@@ -215,7 +216,7 @@ int RunCalibrate(const Args& args) {
       scene_pairs[k] =
           SnapPairs(scene_pairs[k], scene_image, have_scan ? &scans[k] : nullptr, quiet);
       if (!snap_paths.empty()) {
-        WritePairsCsv(snap_paths[k], scene_pairs[k]);
+        io::WritePairsCsv(snap_paths[k], scene_pairs[k]);
         if (!quiet) std::cout << "wrote " << snap_paths[k] << "\n";
       }
     }
@@ -223,8 +224,8 @@ int RunCalibrate(const Args& args) {
 
   // The options: a parameter file (--params, solve/calibrate_options_io.h), then the flags
   // given here; the core checks the result.
-  CalibrateOptions opt;
-  if (args.has("--params")) opt = ReadCalibrateOptions(args.get("--params"));
+  solve::CalibrateOptions opt;
+  if (args.has("--params")) opt = solve::ReadCalibrateOptions(args.get("--params"));
   opt.image_mask = view.mask;
   opt.suggest_picks = args.get_int("--suggest", opt.suggest_picks);
   opt.method = args.get("--method", opt.method);
@@ -240,7 +241,7 @@ int RunCalibrate(const Args& args) {
   opt.sigma_point_m = args.get_double("--sigma-point-m", opt.sigma_point_m);
   opt.noise_prior_pairs = args.get_double("--noise-prior-pairs", opt.noise_prior_pairs);
   // A value from the file was checked when it was read: a problem here is a flag's.
-  ThrowFirstOptionProblem(ValidateCalibrateOptions(opt),
+  ThrowFirstOptionProblem(solve::ValidateCalibrateOptions(opt),
                           {{"method", "--method"},
                            {"threshold_px", "--threshold-px"},
                            {"threshold_cells", "--threshold-cells"},
@@ -252,10 +253,10 @@ int RunCalibrate(const Args& args) {
                            {"noise_prior_pairs", "--noise-prior-pairs"},
                            {"refine_options.loss", "--loss"}});
   opt.pairs_source = pairs_paths[0];
-  std::vector<CalibrationScene> scene_list;
+  std::vector<solve::CalibrationScene> scene_list;
   for (std::size_t k = 0; k < scenes; ++k)
     scene_list.push_back({scene_pairs[k], have_scan ? &scans[k] : nullptr, pairs_paths[k]});
-  const Calibration cal = CalibrateScenes(scene_list, camera, opt);
+  const solve::Calibration cal = solve::CalibrateScenes(scene_list, camera, opt);
 
   // One scene: the names as strings (as before); several: one array entry per scene.
   auto names = [&](const std::vector<std::string>& v) {
@@ -266,7 +267,7 @@ int RunCalibrate(const Args& args) {
   if (have_scan) json_inputs["scan"] = names(scan_paths);
   if (!image_paths.empty()) json_inputs["image"] = names(image_paths);
   if (from_e57) json_inputs["e57_image"] = args.get_int("--e57-image", 0);
-  nlohmann::json out = CalibrationToJson(cal, json_inputs);
+  nlohmann::json out = solve::CalibrationToJson(cal, json_inputs);
   // The alignment check (refine/alignment_check.h): does the photo line up with the scan best
   // at the result, or at a pose nearby? Per scene with a scan and an image.
   std::vector<std::string> alignment_lines;
@@ -331,10 +332,10 @@ int RunCalibrate(const Args& args) {
       const Eigen::Vector3d d_t = -e.tail<3>();
       const Eigen::Vector3d z_r = d_deg.cwiseQuotient(cal.std_rot_cam_deg);
       const Eigen::Vector3d z_t = d_t.cwiseQuotient(cal.std_t_m);
-      out["error_vs_truth"]["rotation_error_deg_cam_xyz"] = Vector3ToJson(d_deg);
-      out["error_vs_truth"]["translation_error_m"] = Vector3ToJson(d_t);
-      out["error_vs_truth"]["rotation_error_over_std"] = Vector3ToJson(z_r);
-      out["error_vs_truth"]["translation_error_over_std"] = Vector3ToJson(z_t);
+      out["error_vs_truth"]["rotation_error_deg_cam_xyz"] = io::Vector3ToJson(d_deg);
+      out["error_vs_truth"]["translation_error_m"] = io::Vector3ToJson(d_t);
+      out["error_vs_truth"]["rotation_error_over_std"] = io::Vector3ToJson(z_r);
+      out["error_vs_truth"]["translation_error_over_std"] = io::Vector3ToJson(z_t);
       std::ostringstream m;
       m << std::fixed << std::setprecision(1) << "\n  error / reported std: rotation about camera "
         << "x/y/z " << z_r.x() << " " << z_r.y() << " " << z_r.z() << ", translation x/y/z "
@@ -345,7 +346,7 @@ int RunCalibrate(const Args& args) {
       std::cout << "against " << truth_label << ": rotation error " << rot_deg
                 << " deg, translation error " << t_m << " m" << verdict << "\n";
   }
-  WriteJsonFile(out_path, out);
+  io::WriteJsonFile(out_path, out);
   for (std::size_t k = 0; k < plot_paths.size(); ++k) {
     WritePng(plot_paths[k], PlotPairs(images[k], cal, static_cast<int>(k)));
     if (!quiet) std::cout << "wrote " << plot_paths[k] << "\n";
@@ -357,7 +358,7 @@ int RunCalibrate(const Args& args) {
   }
   if (!quiet) std::cout << "valid region: " << region_how << "\n";
   if (!quiet) {
-    std::cout << FormatCalibrationSummary(cal);
+    std::cout << solve::FormatCalibrationSummary(cal);
     for (const std::string& line : alignment_lines) std::cout << line << "\n";
     std::cout << "wrote " << out_path << "\n";
   }

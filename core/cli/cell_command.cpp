@@ -65,8 +65,8 @@ int RunCell(const Args& args) {
     q = {CellQuery::Kind::kXyz, p.x(), p.y(), p.z()};
   }
   const CropRanges crop = ParseCropRanges(args);
-  const ScanLoadOptions load = ParseScanLoadOptions(args);
-  const OrderedScan scan = LoadScan(path, load, Progress(StderrProgress(true)));
+  const io::ScanLoadOptions load = ParseScanLoadOptions(args);
+  const OrderedScan scan = io::LoadScan(path, load, Progress(StderrProgress(true)));
   if (scan.rows <= 0 || scan.cols <= 0) throw FileError(path, "", "the scan grid is empty");
   const ScanAngles angles = ComputeScanAngles(scan);
   const ScanView plain = MakeScanView(crop, angles, scan.rows, scan.cols, false);

@@ -235,14 +235,14 @@ int RunColorize(const Args& args) {
   std::vector<ColourView> views(n);
   std::vector<std::string> region_how(n);
   const ViewLoadOptions view_options = ParseViewLoadOptions(args);
-  const ScanLoadOptions load = ParseScanLoadOptions(args);
+  const io::ScanLoadOptions load = ParseScanLoadOptions(args);
   std::vector<std::string> notes;
   if (from_e57) {
     // The scan file's images; T_cam_scan from the image's pose and the loaded scan's.
     if (load.format != "e57" && !(load.format == "auto" && Ext(scan_path) == ".e57"))
       throw Error("option --e57-image: the images are read from the --scan E57 file, but '" +
                   scan_path + "' is not one (.e57 or --format e57)");
-    const E57FileInfo info = ReadE57Info(scan_path);
+    const io::E57FileInfo info = io::ReadE57Info(scan_path);
     const int s = load.e57_scan_index;
     if (s < 0 || s >= static_cast<int>(info.scans.size()))
       throw FileError(scan_path, "",
@@ -270,7 +270,7 @@ int RunColorize(const Args& args) {
   }
   // The scan after the views: a bad camera, image, mask or pose file fails before a long scan
   // import.
-  const OrderedScan scan = LoadScan(scan_path, load, progress);
+  const OrderedScan scan = io::LoadScan(scan_path, load, progress);
   std::vector<std::string> written;
   if (!region_out.empty()) {
     for (std::size_t k = 0; k < n; ++k) {
@@ -299,7 +299,7 @@ int RunColorize(const Args& args) {
       rgb[i] = {coloured.rgb[i].r, coloured.rgb[i].g, coloured.rgb[i].b};
       has[i] = coloured.state[i] == PointState::kColoured;
     }
-    WriteE57(out_e57, scan, &rgb, &has, progress);
+    io::WriteE57(out_e57, scan, &rgb, &has, progress);
     written.push_back(out_e57);
   }
   std::size_t mesh_faces = 0, mesh_textured = 0;

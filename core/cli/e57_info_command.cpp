@@ -14,7 +14,7 @@
 namespace scancam::cli {
 namespace {
 
-std::string PoseText(const E57Pose& p) {
+std::string PoseText(const io::E57Pose& p) {
   if (!p.present) return "none (identity)";
   std::ostringstream s;
   s.precision(9);
@@ -33,19 +33,19 @@ int RunE57Info(const Args& args) {
     const std::string out = args.required("--out");
     CheckOutputs({{"--out", out}}, {{"E57 file", path}});
     const int index = args.get_int("--extract-image", 0);
-    const std::string type = ExtractE57Image(path, index, out);
+    const std::string type = io::ExtractE57Image(path, index, out);
     std::cout << "image " << index << " (" << type << ") written to " << out << "\n";
     return 0;
   }
   if (args.has("--out")) throw Error("--out is only used with --extract-image");
-  const E57FileInfo info = ReadE57Info(path);
+  const io::E57FileInfo info = io::ReadE57Info(path);
   std::ostringstream o;
   o << path << ": E57 version " << info.version_major << "." << info.version_minor << ", "
     << info.file_bytes << " bytes"
     << (info.library.empty() ? std::string() : ", written by " + info.library) << "\n";
   o << info.scans.size() << " scan" << (info.scans.size() == 1 ? "" : "s") << "\n";
   for (std::size_t k = 0; k < info.scans.size(); ++k) {
-    const E57ScanInfo& s = info.scans[k];
+    const io::E57ScanInfo& s = info.scans[k];
     o << "  scan " << k << ": " << (s.name.empty() ? std::string("(no name)") : s.name) << ", "
       << s.record_count << " points, " << (s.cartesian ? "cartesian" : "spherical")
       << (s.has_intensity ? ", intensity" : "") << (s.has_colour ? ", colour" : "");
@@ -64,7 +64,7 @@ int RunE57Info(const Args& args) {
   }
   o << info.images.size() << " image" << (info.images.size() == 1 ? "" : "s") << "\n";
   for (std::size_t k = 0; k < info.images.size(); ++k) {
-    const E57ImageInfo& m = info.images[k];
+    const io::E57ImageInfo& m = info.images[k];
     o << "  image " << k << ": " << (m.name.empty() ? std::string("(no name)") : m.name) << ", "
       << (m.representation.empty() ? std::string("no representation") : m.representation);
     if (!m.representation.empty()) {
@@ -85,7 +85,7 @@ int RunE57Info(const Args& args) {
     if (m.associated_scan >= 0) o << ", of scan " << m.associated_scan;
     o << "\n    pose: " << PoseText(m.pose) << "\n";
     if (m.has_leica_distortion) {
-      const E57LeicaDistortion& d = m.leica;
+      const io::E57LeicaDistortion& d = m.leica;
       o << "    Leica distortion: type '" << d.type << "', camera " << d.camera_number
         << ", fx fy cx cy = " << d.fx_px << " " << d.fy_px << " " << d.cx_px << " " << d.cy_px
         << " px, k1..k6 = " << d.k[0] << " " << d.k[1] << " " << d.k[2] << " " << d.k[3] << " "
@@ -94,7 +94,7 @@ int RunE57Info(const Args& args) {
     }
     // As a camera (colorize --e57-image): the model, or why not.
     try {
-      const CameraModel cam = E57ImageCamera(path, m, static_cast<int>(k));
+      const camera::CameraModel cam = camera::E57ImageCamera(path, m, static_cast<int>(k));
       o << "    camera: " << cam.Describe() << " (colorize --e57-image " << k << ")\n";
     } catch (const Error& e) {
       o << "    camera: none: " << e.what() << "\n";
@@ -106,7 +106,7 @@ int RunE57Info(const Args& args) {
     const auto t0 = std::chrono::steady_clock::now();
     for (std::size_t k = 0; k < info.scans.size(); ++k) {
       std::size_t counts[3] = {0, 0, 0};
-      ReadE57Points(path, static_cast<int>(k), [&](const E57Point* p, std::size_t n) {
+      io::ReadE57Points(path, static_cast<int>(k), [&](const io::E57Point* p, std::size_t n) {
         for (std::size_t i = 0; i < n; ++i) ++counts[p[i].state];
       });
       std::cout << "  scan " << k << " read: " << counts[0] << " valid, " << counts[1]

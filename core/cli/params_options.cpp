@@ -10,10 +10,10 @@ OptionSpec ParamsOptionSpec(const std::string& keys, const std::string& writer) 
               "). Flags given here override it."};
 }
 
-void ThrowFirstOptionProblem(const std::vector<OptionProblem>& problems,
+void ThrowFirstOptionProblem(const std::vector<io::OptionProblem>& problems,
                              const std::vector<std::pair<std::string, std::string>>& flags) {
   if (problems.empty()) return;
-  const OptionProblem& p = problems[0];
+  const io::OptionProblem& p = problems[0];
   std::string flag = "--params key '" + p.key + "'";
   for (const auto& f : flags)
     if (p.key == f.first) flag = f.second;

@@ -21,7 +21,7 @@ OptionSpec ParamsOptionSpec(const std::string& keys,
 /// "option FLAG: what" for the first problem of the core's Validate function, FLAG the flag
 /// that sets that key (`flags`: JSON key -> flag). The file's values were checked when it was
 /// read, so a problem is a flag's; a key without a flag is named as "--params key 'K'".
-void ThrowFirstOptionProblem(const std::vector<OptionProblem>& problems,
+void ThrowFirstOptionProblem(const std::vector<io::OptionProblem>& problems,
                              const std::vector<std::pair<std::string, std::string>>& flags);
 
 }  // namespace scancam::cli

@@ -111,13 +111,13 @@ int RunRefine(const Args& args) {
   po.noise.sigma_px = args.get_double("--sigma-px", po.noise.sigma_px);
   po.noise.sigma_cells = args.get_double("--sigma-cells", po.noise.sigma_cells);
   po.noise.sigma_point_m = args.get_double("--sigma-point-m", po.noise.sigma_point_m);
-  ThrowFirstOptionProblem(ValidateCalibrateOptions(po.noise),
+  ThrowFirstOptionProblem(solve::ValidateCalibrateOptions(po.noise),
                           {{"sigma_px", "--sigma-px"},
                            {"sigma_cells", "--sigma-cells"},
                            {"sigma_point_m", "--sigma-point-m"}});
   // The pairs files first (small, fail fast).
   std::vector<refine::ScenePairs> scene_pairs;
-  for (const auto& p : pairs_paths) scene_pairs.push_back({ReadPairsCsv(p), p});
+  for (const auto& p : pairs_paths) scene_pairs.push_back({io::ReadPairsCsv(p), p});
 
   const Progress progress(StderrProgress(quiet));
   // The views first (small files, fail fast), then the scans.
@@ -131,7 +131,7 @@ int RunRefine(const Args& args) {
     v.T_cam_scan = start;
   }
   for (std::size_t k = 0; k < scans.size(); ++k) {
-    loaded[k] = LoadScan(scans[k], ParseScanLoadOptions(args), progress);
+    loaded[k] = io::LoadScan(scans[k], ParseScanLoadOptions(args), progress);
     if (!loaded[k].has_intensity() && !quiet) {
       std::cerr << "warning: " << scans[k]
                 << " has no intensity: only the depth-edge term aligns it (weaker)\n";
@@ -144,7 +144,7 @@ int RunRefine(const Args& args) {
           ? refine::DenseRefine(scenes, start, o, progress)
           : refine::RefineWithPairs(scenes, scene_pairs, start, o, po, &pc, progress);
 
-  Calibration c;
+  solve::Calibration c;
   c.T_cam_scan = r.T_cam_scan;
   c.rotation_rpy_deg = RotationToRpyDeg(r.T_cam_scan.linear());
   c.method = "dense refinement";
@@ -156,14 +156,14 @@ int RunRefine(const Args& args) {
   inputs["cameras"] = cameras;
   if (args.has("--init")) inputs["init"] = args.get("--init");
   if (!pairs_paths.empty()) inputs["pairs"] = pairs_paths;
-  nlohmann::json j = CalibrationToJson(c, inputs);
+  nlohmann::json j = solve::CalibrationToJson(c, inputs);
   nlohmann::json rj;
   rj["verdict"] = r.verdict;
   rj["accepted"] = r.accepted;
   rj["reason"] = r.reason;
   if (!r.unconstrained.empty()) rj["unconstrained"] = r.unconstrained;
-  rj["T_cam_scan_start"] = PoseToJson(start);
-  rj["T_cam_scan_best"] = PoseToJson(r.T_best);
+  rj["T_cam_scan_start"] = io::PoseToJson(start);
+  rj["T_cam_scan_best"] = io::PoseToJson(r.T_best);
   rj["rotation_change_deg_cam_xyz"] = Vec(r.rotation_change_deg_cam_xyz);
   rj["translation_change_m_cam_xyz"] = Vec(r.translation_change_m_cam_xyz);
   rj["rotation_std_deg_cam_xyz"] = Vec(r.rotation_std_deg_cam_xyz);
@@ -209,11 +209,11 @@ int RunRefine(const Args& args) {
                    {"accept_delta_chi2", po.accept_delta_chi2},
                    {"passed", pc.passed},
                    {"reason", pc.reason},
-                   {"T_cam_scan_pairs", PoseToJson(pc.T_pairs)}};
+                   {"T_cam_scan_pairs", io::PoseToJson(pc.T_pairs)}};
     if (!pc.prior_note.empty()) rj["pairs"]["prior_note"] = pc.prior_note;
   }
   j["refinement"] = rj;
-  WriteJsonFile(out_path, j);
+  io::WriteJsonFile(out_path, j);
 
   if (!quiet) {
     std::cout << "verdict: " << r.verdict << (r.accepted ? "" : " (the start is kept)") << ": "

@@ -36,8 +36,8 @@ std::vector<OptionSpec> ScanLoadOptionSpecs() {
   };
 }
 
-ScanLoadOptions ParseScanLoadOptions(const Args& args) {
-  ScanLoadOptions load;
+io::ScanLoadOptions ParseScanLoadOptions(const Args& args) {
+  io::ScanLoadOptions load;
   load.format = args.get("--format", load.format);
   if (args.has("--dx-m") || args.has("--dz-m")) {
     load.has_offsets = true;

@@ -15,7 +15,7 @@ namespace scancam::cli {
 std::vector<OptionSpec> ScanLoadOptionSpecs();
 
 /// Reads those options into ScanLoadOptions (defaults where absent).
-ScanLoadOptions ParseScanLoadOptions(const Args& args);
+io::ScanLoadOptions ParseScanLoadOptions(const Args& args);
 
 /// Appends `more` to `specs` (for building a command's option list).
 inline std::vector<OptionSpec> Concat(std::vector<OptionSpec> specs,

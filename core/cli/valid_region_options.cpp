@@ -32,12 +32,13 @@ colour::ViewLoadOptions ParseViewLoadOptions(const Args& args) {
   return o;
 }
 
-cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
+cv::Mat ChooseValidRegion(const Args& args, const camera::CameraModel& camera, const cv::Mat& image,
                           const std::string& mask_path, std::string* how) {
   return colour::ChooseViewRegion(camera, image, mask_path, ParseViewLoadOptions(args), how);
 }
 
-void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera) {
+void WriteValidRegion(const std::string& path, const cv::Mat& region,
+                      const camera::CameraModel& camera) {
   WritePng(path, region.empty() ? cv::Mat(camera.height(), camera.width(), CV_8UC1, cv::Scalar(255))
                                 : region);
 }

@@ -24,11 +24,12 @@ colour::ViewLoadOptions ParseViewLoadOptions(const Args& args);
 /// camera's size, errors naming the file), else FindValidRegion(camera, image) unless
 /// --no-auto-mask (then empty: every pixel usable). `image` may be empty (calibrate without
 /// --image: the model's domain only). *how says which, in one line for the summary.
-cv::Mat ChooseValidRegion(const Args& args, const CameraModel& camera, const cv::Mat& image,
+cv::Mat ChooseValidRegion(const Args& args, const camera::CameraModel& camera, const cv::Mat& image,
                           const std::string& mask_path, std::string* how);
 
 /// Writes `region` (or an all-valid image of the camera's size when empty) as an 8-bit PNG to
 /// `path`. The caller has checked `path` against its inputs with CheckOutputs before any work.
-void WriteValidRegion(const std::string& path, const cv::Mat& region, const CameraModel& camera);
+void WriteValidRegion(const std::string& path, const cv::Mat& region,
+                      const camera::CameraModel& camera);
 
 }  // namespace scancam::cli

@@ -28,7 +28,7 @@ namespace scancam::plugin::io {
 namespace {
 
 // The scan's pose (scan frame -> file frame) with CloudCompare's global shift added.
-Eigen::Isometry3d PoseOf(const scancam::E57Pose& pose, const CCVector3d& shift) {
+Eigen::Isometry3d PoseOf(const scancam::io::E57Pose& pose, const CCVector3d& shift) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = pose.rotation.normalized().toRotationMatrix();
   T.translation() = pose.translation + Eigen::Vector3d(shift.x, shift.y, shift.z);
@@ -60,20 +60,21 @@ struct GlobalShift {
 // in a cell: the one LoadE57 kept). [3] = 0: no record found, 1: the file marks the colour
 // invalid, 2: valid.
 std::vector<CellColour> CellColours(const std::string& path, int scan_index,
-                                    const scancam::E57ScanInfo& info,
+                                    const scancam::io::E57ScanInfo& info,
                                     const scancam::OrderedScan& scan) {
   long long r0 = info.row_min, c0 = info.column_min;
   if (!info.has_index_bounds) {
     r0 = c0 = std::numeric_limits<long long>::max();
-    scancam::ReadE57Points(path, scan_index, [&](const scancam::E57Point* p, std::size_t n) {
-      for (std::size_t i = 0; i < n; ++i) {
-        r0 = std::min(r0, p[i].row);
-        c0 = std::min(c0, p[i].column);
-      }
-    });
+    scancam::io::ReadE57Points(path, scan_index,
+                               [&](const scancam::io::E57Point* p, std::size_t n) {
+                                 for (std::size_t i = 0; i < n; ++i) {
+                                   r0 = std::min(r0, p[i].row);
+                                   c0 = std::min(c0, p[i].column);
+                                 }
+                               });
   }
   std::vector<CellColour> cells(scan.size(), {0, 0, 0, 0});
-  scancam::ReadE57Points(path, scan_index, [&](const scancam::E57Point* p, std::size_t n) {
+  scancam::io::ReadE57Points(path, scan_index, [&](const scancam::io::E57Point* p, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) {
       if (p[i].state != 0) continue;
       const long long r = p[i].row - r0, c = p[i].column - c0;
@@ -111,19 +112,19 @@ void AddColourValidField(ccPointCloud& cloud, const std::vector<std::uint8_t>& v
                      .arg(kColourValidSfName));
 }
 
-QString ScanName(const scancam::E57ScanInfo& info, int index) {
+QString ScanName(const scancam::io::E57ScanInfo& info, int index) {
   return info.name.empty() ? QString("Scan %1").arg(index) : QString::fromStdString(info.name);
 }
 
 // A scan with rowIndex / columnIndex as a cloud with its grid (see the header). `shift`: the
 // global shift applied to its points.
-ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
-                               GlobalShift& global, CCVector3d& shift,
+ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::io::E57ScanInfo& info,
+                               int index, GlobalShift& global, CCVector3d& shift,
                                const scancam::Progress& progress) {
-  scancam::E57LoadOptions options;
+  scancam::io::E57LoadOptions options;
   options.scan_index = index;
   options.apply_pose = false;
-  const scancam::OrderedScan scan = scancam::LoadE57(path, options, progress);
+  const scancam::OrderedScan scan = scancam::io::LoadE57(path, options, progress);
 
   const Eigen::Matrix3d R = info.pose.rotation.normalized().toRotationMatrix();
   const Eigen::Vector3d t = info.pose.translation;
@@ -160,7 +161,7 @@ ccPointCloud* LoadGriddedCloud(const std::string& path, const scancam::E57ScanIn
 // and a ccGBLSensor at the pose without angular steps (the qScanCam window re-grids about it
 // with estimated steps, cloud_adapter.h ScanOfUngriddedCloud): nothing is dropped, unlike the
 // re-gridded OrderedScan the CLI works on (one point per cell).
-ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57ScanInfo& info,
+ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::io::E57ScanInfo& info,
                                  int index, GlobalShift& global, CCVector3d& shift,
                                  const scancam::Progress& progress) {
   const Eigen::Matrix3d R = info.pose.rotation.normalized().toRotationMatrix();
@@ -182,9 +183,9 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
   std::vector<std::uint8_t> colour_valid;
   bool shift_decided = false, preserve_shift = true;
   Eigen::Vector3d shift_e = Eigen::Vector3d::Zero();
-  scancam::ReadE57Points(
+  scancam::io::ReadE57Points(
       path, index,
-      [&](const scancam::E57Point* p, std::size_t n) {
+      [&](const scancam::io::E57Point* p, std::size_t n) {
         for (std::size_t i = 0; i < n; ++i) {
           if (p[i].state != 0) continue;
           const Eigen::Vector3d x = R * Eigen::Vector3d(p[i].xyz[0], p[i].xyz[1], p[i].xyz[2]) + t;
@@ -237,21 +238,21 @@ ccPointCloud* LoadUnorderedCloud(const std::string& path, const scancam::E57Scan
   return cloud.release();
 }
 
-ccPointCloud* LoadScanCloud(const std::string& path, const scancam::E57ScanInfo& info, int index,
-                            GlobalShift& global, CCVector3d& shift,
+ccPointCloud* LoadScanCloud(const std::string& path, const scancam::io::E57ScanInfo& info,
+                            int index, GlobalShift& global, CCVector3d& shift,
                             const scancam::Progress& progress) {
   return info.has_grid_index ? LoadGriddedCloud(path, info, index, global, shift, progress)
                              : LoadUnorderedCloud(path, info, index, global, shift, progress);
 }
 
 // A pinhole representation with what a camera sensor needs.
-bool UsablePinhole(const scancam::E57ImageInfo& image) {
+bool UsablePinhole(const scancam::io::E57ImageInfo& image) {
   return image.representation == "pinhole" && image.pixel_width_m > 0 && image.pixel_height_m > 0 &&
          image.focal_length_m > 0 && image.width_px > 0 && image.height_px > 0;
 }
 
 // A pinhole image's camera (see the header), or null for other representations.
-ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector3d& shift) {
+ccCameraSensor* PinholeCamera(const scancam::io::E57ImageInfo& image, const CCVector3d& shift) {
   if (!UsablePinhole(image)) return nullptr;
   ccCameraSensor::IntrinsicParameters params;
   params.vertFocal_pix = static_cast<float>(image.focal_length_m / image.pixel_height_m);
@@ -273,10 +274,10 @@ ccCameraSensor* PinholeCamera(const scancam::E57ImageInfo& image, const CCVector
 
 // Cameras go under their scan's cloud (the first cloud when the image names none; the file's
 // group when the file has no scan).
-void AddImages(const scancam::E57FileInfo& info, const std::vector<ccPointCloud*>& clouds,
+void AddImages(const scancam::io::E57FileInfo& info, const std::vector<ccPointCloud*>& clouds,
                const std::vector<CCVector3d>& shifts, ccHObject& container) {
   for (std::size_t i = 0; i < info.images.size(); ++i) {
-    const scancam::E57ImageInfo& image = info.images[i];
+    const scancam::io::E57ImageInfo& image = info.images[i];
     const QString name =
         image.name.empty() ? QString("image %1").arg(i) : QString::fromStdString(image.name);
     // Its scan's cloud, else the first cloud, else the file's group (no shift).
@@ -345,7 +346,7 @@ CC_FILE_ERROR E57Filter::loadFile(const QString& filename, ccHObject& container,
   const std::string path = filename.toStdString();
   std::vector<ccPointCloud*> clouds;
   try {
-    const scancam::E57FileInfo info = scancam::ReadE57Info(path);
+    const scancam::io::E57FileInfo info = scancam::io::ReadE57Info(path);
     if (info.scans.empty() && std::none_of(info.images.begin(), info.images.end(), UsablePinhole))
       throw scancam::FileError(path, "",
                                "the file has no scan (data3D is empty) and no pinhole image "
@@ -431,8 +432,8 @@ CC_FILE_ERROR E57Filter::saveToFile(ccHObject* entity, const QString& filename,
               coloured[k] = !flag_sf || flag_sf->getValue(unsigned(idx)) == want;
             }
           }
-          scancam::WriteE57(path, scan, rgb.empty() ? nullptr : &rgb,
-                            coloured.empty() ? nullptr : &coloured, progress);
+          scancam::io::WriteE57(path, scan, rgb.empty() ? nullptr : &rgb,
+                                coloured.empty() ? nullptr : &coloured, progress);
         });
     if (cloud->isShifted())
       ccLog::Warning(QString("[E57] %1: saved in CloudCompare's shifted coordinates (the global "

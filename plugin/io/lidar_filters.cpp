@@ -35,7 +35,7 @@ struct Returns {
 bool IsReturn(const Eigen::Vector3f& p) { return p.allFinite() && !p.isZero(0.f); }
 
 Returns KittiReturns(const std::string& path) {
-  scancam::KittiCloud k = scancam::ReadKittiBin(path);
+  scancam::io::KittiCloud k = scancam::io::ReadKittiBin(path);
   Returns r;
   for (std::size_t i = 0; i < k.points_m.size(); ++i) {
     if (!IsReturn(k.points_m[i])) continue;
@@ -129,10 +129,10 @@ CC_FILE_ERROR LoadLidar(const QString& filename, const char* format, const char*
     std::vector<std::string> notes;
     RunWithCcProgress(parameters.parentWidget, QString("Loading %1 file").arg(tag),
                       [&](const scancam::Progress& progress) {
-                        scancam::ScanLoadOptions options;
+                        scancam::io::ScanLoadOptions options;
                         options.format = format;
                         options.notes = &notes;
-                        scan = scancam::LoadScan(path, options, progress);
+                        scan = scancam::io::LoadScan(path, options, progress);
                         returns =
                             std::string(format) == "kitti" ? KittiReturns(path) : PcdReturns(path);
                         matched = !returns.points_m.empty() && Unplaced(returns, scan, extra);

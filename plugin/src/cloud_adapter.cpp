@@ -80,7 +80,7 @@ Eigen::Isometry3d SensorPose(const ccGBLSensor& sensor) {
   return ToEigen(sensor.getRigidTransformation());
 }
 
-scancam::AngularSteps SensorSteps(const ccGBLSensor& sensor) {
+scancam::io::AngularSteps SensorSteps(const ccGBLSensor& sensor) {
   const double az = sensor.getYawStep() * 180.0 / M_PI, el = sensor.getPitchStep() * 180.0 / M_PI;
   return {az > 0.0 ? az : 0.0, el > 0.0 ? el : 0.0};
 }
@@ -106,7 +106,7 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
   // The points go straight into the grid (no PtxScan copy), then become ranges and beams in
   // place exactly as a PTX file's do (EmptyPtxGrid / FinishPtxGrid).
   auto scan = std::make_shared<scancam::OrderedScan>(
-      scancam::EmptyPtxGrid(static_cast<int>(g.h), static_cast<int>(g.w), CloudName(cloud)));
+      scancam::io::EmptyPtxGrid(static_cast<int>(g.h), static_cast<int>(g.w), CloudName(cloud)));
   scan->intensity.assign(n, 0.f);
   CloudScan cs;
   cs.cell_to_point.assign(n, -1);
@@ -153,7 +153,7 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
                          " refers to point " + std::to_string(g.indexes[std::size_t(k)]) +
                          " but the cloud has " + std::to_string(size) + " points");
   progress(0.5, "beam directions");
-  scancam::FinishPtxGrid(*scan, Eigen::Matrix4d::Identity(), /*apply_pose=*/false);
+  scancam::io::FinishPtxGrid(*scan, Eigen::Matrix4d::Identity(), /*apply_pose=*/false);
   cs.scan = std::move(scan);
   std::size_t not_in_grid = 0;
 #pragma omp parallel for reduction(+ : not_in_grid)
@@ -240,18 +240,19 @@ scancam::Progress Scaled(const scancam::Progress& progress, double fraction) {
 
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
                            const Eigen::Vector3d& origin_scan,
-                           const scancam::AngularSteps& requested,
-                           const scancam::AngularSteps& sensor, const scancam::Progress& progress) {
+                           const scancam::io::AngularSteps& requested,
+                           const scancam::io::AngularSteps& sensor,
+                           const scancam::Progress& progress) {
   const ScanFramePoints in = PointsInScanFrame(cloud, T_cloud_scan);
   const bool has_intensity = !in.intensity.empty();
-  const scancam::AngularSteps steps = scancam::ChooseGridSteps(
+  const scancam::io::AngularSteps steps = scancam::io::ChooseGridSteps(
       in.points, origin_scan, Eigen::Quaterniond::Identity(), requested, sensor);
-  scancam::RegridOptions opt;
+  scancam::io::RegridOptions opt;
   opt.step_deg = steps.azimuth_deg;
   opt.elevation_step_deg = steps.elevation_deg;
   opt.source = CloudName(cloud);
   CloudScan cs;
-  cs.scan = std::make_shared<scancam::OrderedScan>(scancam::RegridSpherical(
+  cs.scan = std::make_shared<scancam::OrderedScan>(scancam::io::RegridSpherical(
       in.points, has_intensity ? &in.intensity : nullptr, origin_scan, opt, Scaled(progress, 0.8)));
   progress(0.8, "matching points to cells");
   MapCellsToPoints(cs, in.points);
@@ -267,7 +268,7 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
 }
 
 CloudScan ScanOfUngriddedCloud(const ccPointCloud& cloud, const Eigen::Vector3d& origin,
-                               const scancam::AngularSteps& requested,
+                               const scancam::io::AngularSteps& requested,
                                const scancam::Progress& progress) {
   if (const ccGBLSensor* sensor = FindGblSensor(cloud))
     return ScanByRegridding(cloud, SensorPose(*sensor), Eigen::Vector3d::Zero(), requested,
@@ -279,13 +280,13 @@ CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d&
                              const Eigen::Vector3d& origin_scan,
                              const scancam::Progress& progress) {
   const ScanFramePoints in = PointsInScanFrame(cloud, T_cloud_scan);
-  scancam::RegridOptions opt;
+  scancam::io::RegridOptions opt;
   opt.source = CloudName(cloud);
   std::string note;
   CloudScan cs;
-  cs.scan = std::make_shared<scancam::OrderedScan>(scancam::RegridUnordered(
+  cs.scan = std::make_shared<scancam::OrderedScan>(scancam::io::RegridUnordered(
       in.points, in.intensity.empty() ? nullptr : &in.intensity, origin_scan,
-      scancam::UnorderedGrid::kRecoverRings, opt, Scaled(progress, 0.8), &note));
+      scancam::io::UnorderedGrid::kRecoverRings, opt, Scaled(progress, 0.8), &note));
   progress(0.8, "matching points to cells");
   MapCellsToPoints(cs, in.points);
   cs.description = QString::fromStdString(note);

@@ -72,8 +72,8 @@ CloudScan ScanFromGrid(const ccPointCloud& cloud, std::size_t grid_index,
 /// else both estimated. Throws scancam::Error (e.g. no point, grid too large).
 CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T_cloud_scan,
                            const Eigen::Vector3d& origin_scan,
-                           const scancam::AngularSteps& requested,
-                           const scancam::AngularSteps& sensor = {},
+                           const scancam::io::AngularSteps& requested,
+                           const scancam::io::AngularSteps& sensor = {},
                            const scancam::Progress& progress = {});
 
 /// The scan of a cloud without a scan grid as the calibration window and the -SCANCAM_*
@@ -82,7 +82,7 @@ CloudScan ScanByRegridding(const ccPointCloud& cloud, const Eigen::Isometry3d& T
 /// `requested` steps or estimated ones: the grid `scancam` builds for the same points
 /// (ChooseGridSteps), so that a pair picked by cell names the same point in every front end.
 CloudScan ScanOfUngriddedCloud(const ccPointCloud& cloud, const Eigen::Vector3d& origin,
-                               const scancam::AngularSteps& requested,
+                               const scancam::io::AngularSteps& requested,
                                const scancam::Progress& progress = {});
 
 /// A spinning lidar without a ring field (e.g. a KITTI or driver PCD opened in CloudCompare):
@@ -97,7 +97,7 @@ CloudScan ScanByRingRecovery(const ccPointCloud& cloud, const Eigen::Isometry3d&
 /// The sensor pose (scan frame in the cloud) of a ccGBLSensor.
 Eigen::Isometry3d SensorPose(const ccGBLSensor& sensor);
 /// Its angular steps, degrees: yaw = azimuth (columns), pitch = elevation (rows); 0 = unknown.
-scancam::AngularSteps SensorSteps(const ccGBLSensor& sensor);
+scancam::io::AngularSteps SensorSteps(const ccGBLSensor& sensor);
 
 /// Colour statistics of one application.
 struct ApplyStats {

@@ -60,7 +60,7 @@ bool Require(ccCommandLineInterface& cmd, const QString& keyword,
 CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
                  const QMap<QString, QString>& opts) {
   if (HasScanGrid(cloud)) return ScanFromGrid(cloud, 0, ToProgress(cmd.progressDialog()));
-  scancam::AngularSteps requested;
+  scancam::io::AngularSteps requested;
   if (opts.contains("GRID_STEP")) {
     bool ok = false;
     requested.azimuth_deg = opts["GRID_STEP"].toDouble(&ok);
@@ -103,27 +103,31 @@ struct CalibCommand : public ccCommandLineInterface::Command {
       // The camera (and the image, checked against it): the view without a pose or region.
       scancam::colour::ViewLoadOptions no_region;
       no_region.auto_region = false;
-      const scancam::CameraModel camera =
+      const scancam::camera::CameraModel camera =
           scancam::colour::LoadView(
               {o["CAMERA"].toStdString(), o.value("IMAGE").toStdString(), "", ""}, no_region)
               .camera;
-      const std::vector<scancam::PointPair> pairs = scancam::ReadPairsCsv(o["PAIRS"].toStdString());
+      const std::vector<scancam::PointPair> pairs =
+          scancam::io::ReadPairsCsv(o["PAIRS"].toStdString());
       CloudScan cs;
       if (!cmd.clouds().empty() && cmd.clouds().back().pc)
         cs = ScanOf(cmd, *cmd.clouds().back().pc, o);
       // The options: defaults or the -PARAMS file (solve/calibrate_options_io.h), then -METHOD.
-      scancam::CalibrateOptions opt;
-      if (o.contains("PARAMS")) opt = scancam::ReadCalibrateOptions(o["PARAMS"].toStdString());
+      scancam::solve::CalibrateOptions opt;
+      if (o.contains("PARAMS"))
+        opt = scancam::solve::ReadCalibrateOptions(o["PARAMS"].toStdString());
       if (o.contains("METHOD")) opt.method = o["METHOD"].toLower().toStdString();
       opt.pairs_source = o["PAIRS"].toStdString();
-      const scancam::Calibration cal = scancam::Calibrate(pairs, cs.scan.get(), camera, opt);
+      const scancam::solve::Calibration cal =
+          scancam::solve::Calibrate(pairs, cs.scan.get(), camera, opt);
       nlohmann::json inputs = {{"camera", o["CAMERA"].toStdString()},
                                {"pairs", o["PAIRS"].toStdString()}};
       if (!cmd.clouds().empty()) inputs["scan"] = cmd.clouds().back().basename.toStdString();
       if (o.contains("IMAGE")) inputs["image"] = o["IMAGE"].toStdString();
-      scancam::WriteJsonFile(o["OUT"].toStdString(), scancam::CalibrationToJson(cal, inputs));
+      scancam::io::WriteJsonFile(o["OUT"].toStdString(),
+                                 scancam::solve::CalibrationToJson(cal, inputs));
       for (const QString& line :
-           QString::fromStdString(scancam::FormatCalibrationSummary(cal)).split('\n'))
+           QString::fromStdString(scancam::solve::FormatCalibrationSummary(cal)).split('\n'))
         if (!line.isEmpty()) cmd.print("[ScanCam] " + line);
       cmd.print("[ScanCam] wrote " + o["OUT"]);
     } catch (const std::exception& e) {

@@ -233,10 +233,10 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam::plugin::CloudScan* out) {
   }
   // The steps the one grid policy gives (io/regrid.h ChooseGridSteps, as -SCANCAM_COLORIZE and
   // `scancam`): the dialog's defaults.
-  const scancam::AngularSteps estimated =
-      scancam::ChooseGridSteps(pts, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), {});
+  const scancam::io::AngularSteps estimated = scancam::io::ChooseGridSteps(
+      pts, Eigen::Vector3d::Zero(), Eigen::Quaterniond::Identity(), {});
   // A spinning lidar without a ring field (KITTI, many drivers' PCDs): offer its lasers.
-  const scancam::RecoveredRings rings = scancam::RecoverRings(pts, Eigen::Vector3d::Zero());
+  const scancam::io::RecoveredRings rings = scancam::io::RecoverRings(pts, Eigen::Vector3d::Zero());
   scancam::plugin::ui::RegridDialog dlg(cloud->getName(), estimated.azimuth_deg,
                                         estimated.elevation_deg, parent,
                                         QString::fromStdString(rings.summary), rings.count > 0);
@@ -248,7 +248,7 @@ bool qScanCam::buildScan(ccPointCloud* cloud, scancam::plugin::CloudScan* out) {
   }
   // Steps left at the estimate the dialog shows (rounded to 4 decimals) mean the estimate
   // itself, computed about the chosen origin: the grid -SCANCAM_COLORIZE and `scancam` build.
-  scancam::AngularSteps requested{dlg.azimuthStepDeg(), dlg.elevationStepDeg()};
+  scancam::io::AngularSteps requested{dlg.azimuthStepDeg(), dlg.elevationStepDeg()};
   if (std::abs(requested.azimuth_deg - estimated.azimuth_deg) <= 0.5e-4 &&
       std::abs(requested.elevation_deg - estimated.elevation_deg) <= 0.5e-4)
     requested = {};

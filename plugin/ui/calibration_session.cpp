@@ -33,7 +33,6 @@
 namespace scancam::plugin::ui {
 
 namespace {
-constexpr char kScanTag[] = "# scancam-scan:";
 
 // Runs `work` in a worker thread; this (the GUI) thread passes the worker's progress on to
 // `ui` (the progress runner's Progress: the dialog) and keeps the event loop going. When `ui`
@@ -90,8 +89,8 @@ class CalibrationSession::PoseCommand : public QUndoCommand {
  public:
   /// `before_rows`: the table rows of `before`'s pairs (solve()'s return); the pairs' residuals
   /// come back with `before` while the complete pairs are still `pairs_csv`.
-  PoseCommand(CalibrationSession* session, Calibration before, QString before_source,
-              std::vector<int> before_rows, std::string pairs_csv, Calibration after,
+  PoseCommand(CalibrationSession* session, solve::Calibration before, QString before_source,
+              std::vector<int> before_rows, std::string pairs_csv, solve::Calibration after,
               QString after_source, const QString& text)
       : QUndoCommand(text),
         session_(session),
@@ -106,17 +105,18 @@ class CalibrationSession::PoseCommand : public QUndoCommand {
   }
   void undo() override {
     if (!is(after_)) return;
-    const bool same_pairs = FormatPairsCsv(session_->pairs_->completePointPairs()) == pairs_csv_;
+    const bool same_pairs =
+        scancam::io::FormatPairsCsv(session_->pairs_->completePointPairs()) == pairs_csv_;
     session_->setCalibration(before_, before_source_,
                              same_pairs ? before_rows_ : std::vector<int>());
   }
 
  private:
-  bool is(const Calibration& c) const {
+  bool is(const solve::Calibration& c) const {
     return session_->calibration_ && SamePose(session_->calibration_->T_cam_scan, c.T_cam_scan);
   }
   CalibrationSession* session_;
-  Calibration before_, after_;
+  solve::Calibration before_, after_;
   QString before_source_, after_source_;
   std::vector<int> before_rows_;
   std::string pairs_csv_;
@@ -241,14 +241,14 @@ const cv::Mat& CalibrationSession::edgeCells() const {
 void CalibrationSession::checkImageSize() {
   if (!camera_.valid() || image_bgr_.empty()) return;
   try {
-    CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
+    camera::CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
   } catch (const std::exception& e) {
     emit report(QString::fromStdString(e.what()), kError);
   }
 }
 
 void CalibrationSession::loadCamera(const QString& path) {
-  CameraModel cam = LoadCamera(path.toStdString());
+  camera::CameraModel cam = camera::LoadCamera(path.toStdString());
   camera_ = std::move(cam);
   ++camera_generation_;
   camera_path_ = path;
@@ -299,7 +299,7 @@ void CalibrationSession::loadImage(const QString& path) {
       } else if (QFileInfo::exists(autosave_path_)) {
         // Pairs made (or loaded) before any image: kept, and the image's pairs added to them.
         const int before = pairs_->size();
-        pairs_->appendPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
+        pairs_->appendPointPairs(scancam::io::ReadPairsCsv(autosave_path_.toStdString()));
         msg += tr("; kept the %1 pairs made before the image and appended the %2 pairs of %3 "
                   "(Ctrl+Z takes them out)")
                    .arg(before)
@@ -381,7 +381,7 @@ void CalibrationSession::refreshValidRegion() {
       image_bgr_.cols != camera_.width() || image_bgr_.rows != camera_.height())
     return;
   try {
-    const ValidRegion r = FindValidRegion(camera_, image_bgr_);
+    const camera::ValidRegion r = camera::FindValidRegion(camera_, image_bgr_);
     valid_region_ = r.mask;
     valid_region_text_ = QString::fromStdString(r.Describe());
     if (mask_.empty())
@@ -534,160 +534,6 @@ void CalibrationSession::setSceneCloudClosed(int id) {
   emit changed();
 }
 
-// ---- pairs files --------------------------------------------------------------------------
-
-QString CalibrationSession::SidecarPath(const QString& image_path) {
-  return image_path + ".scancam-pairs.csv";
-}
-
-QString CalibrationSession::sidecarFor(const QString& image_path) const {
-  const QString primary = SidecarPath(image_path);
-  if (scan_fingerprint_.isEmpty() || !QFileInfo::exists(primary)) return primary;
-  const QString owner = PairsFileScan(primary);
-  // A file without the line predates it: it is taken (and marked) for this scan.
-  if (owner.isEmpty() || owner.section(' ', 0, 0) == scan_fingerprint_) return primary;
-  return image_path + ".scancam-pairs." + scan_fingerprint_ + ".csv";
-}
-
-QString CalibrationSession::reloadSidecarPairs() {
-  if (!QFileInfo::exists(autosave_path_)) return {};
-  const QString owner = PairsFileScan(autosave_path_);
-  pairs_->setPointPairs(ReadPairsCsv(autosave_path_.toStdString()));
-  restoreIncompletePair(autosave_path_);
-  return tr("; reloaded %1 pairs%2 from %3%4")
-      .arg(pairs_->completeCount())
-      .arg(pairs_->size() > pairs_->completeCount() ? tr(" and a half-picked one") : QString())
-      .arg(QFileInfo(autosave_path_).fileName())
-      .arg(owner.isEmpty() ? tr(" (the file does not say which scan it was made with: check "
-                                "the pairs)")
-                           : tr(" (made with this scan and this image)"));
-}
-
-QString CalibrationSession::ScanFingerprint(const OrderedScan& scan) {
-  QCryptographicHash h(QCryptographicHash::Sha1);
-  const std::int64_t size[2] = {scan.rows, scan.cols};
-  h.addData(reinterpret_cast<const char*>(size), sizeof(size));
-  // At most ~1 M points: enough to tell scans apart, fast on any scan.
-  const std::size_t n = scan.point_m.size();
-  const std::size_t stride = std::max<std::size_t>(1, n / 1000000);
-  for (std::size_t i = 0; i < n; i += stride)
-    h.addData(reinterpret_cast<const char*>(scan.point_m[i].data()), 3 * sizeof(float));
-  return QString::fromLatin1(h.result().toHex().left(16));
-}
-
-QString CalibrationSession::PairsFileScan(const QString& pairs_path) {
-  std::ifstream in(pairs_path.toStdString());
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind(kScanTag, 0) == 0)
-      return QString::fromStdString(line.substr(sizeof(kScanTag) - 1)).trimmed();
-    if (!line.empty() && line[0] != '#') break;  // the tag comes before the header
-  }
-  return {};
-}
-
-void CalibrationSession::loadPairs(const QString& path, PairsLoad how) {
-  const std::vector<PointPair> pairs = ReadPairsCsv(path.toStdString());
-  const QString owner = PairsFileScan(path);
-  // Autosave goes on to the current target (the file read is not overwritten by edits).
-  // One undo step brings the previous pairs back.
-  undo_->beginMacro(how == PairsLoad::kReplace
-                        ? tr("Load pairs from %1").arg(QFileInfo(path).fileName())
-                        : tr("Append pairs from %1").arg(QFileInfo(path).fileName()));
-  try {
-    if (how == PairsLoad::kReplace) {
-      pairs_->setPointPairs(pairs);
-      restoreIncompletePair(path);
-    } else {
-      pairs_->appendPointPairs(pairs);
-    }
-  } catch (...) {
-    undo_->endMacro();
-    throw;
-  }
-  undo_->endMacro();
-  calibration_.reset();
-  coloured_.reset();
-  emit changed();
-  QString msg = how == PairsLoad::kReplace
-                    ? tr("Loaded %1 pairs from %2 (Ctrl+Z brings the previous pairs back)")
-                    : tr("Appended %1 pairs from %2 (Ctrl+Z takes them out again)");
-  msg = msg.arg(pairs.size()).arg(QFileInfo(path).fileName());
-  const QString owner_fp = owner.section(' ', 0, 0);
-  const bool other_scan =
-      !owner_fp.isEmpty() && !scan_fingerprint_.isEmpty() && owner_fp != scan_fingerprint_;
-  if (other_scan)
-    msg += tr("; the file says it was made with another scan (%1)").arg(owner.section(' ', 1));
-  emit report(msg, other_scan ? kWarning : kInfo);
-  reportPairProblems(QFileInfo(path).fileName());
-}
-
-void CalibrationSession::reportPairProblems(const QString& source) {
-  const std::vector<int> rows = pairs_->rowsWithScanProblems();
-  if (rows.empty()) return;
-  QStringList numbers;
-  for (std::size_t k = 0; k < rows.size() && k < 12; ++k) numbers << QString::number(rows[k] + 1);
-  if (rows.size() > 12) numbers << "...";
-  emit report(tr("%1: %2 of %3 pairs do not fit scan %4 (marked orange in the table; the "
-                 "tooltip says why): %5. First: pair %6 %7")
-                  .arg(source)
-                  .arg(rows.size())
-                  .arg(pairs_->size())
-                  .arg(scan_name_)
-                  .arg(numbers.join(", "))
-                  .arg(rows.front() + 1)
-                  .arg(pairs_->scanProblem(rows.front())),
-              kWarning);
-}
-
-void CalibrationSession::restoreIncompletePair(const QString& path) {
-  std::ifstream in(path.toStdString());
-  std::string line;
-  while (std::getline(in, line))
-    if (pairs_->restoreIncompletePair(line)) break;
-}
-
-void CalibrationSession::writePairsFile(const QString& path) const {
-  WritePairsFile(path, scan_fingerprint_, scan_name_, *pairs_);
-}
-
-void CalibrationSession::WritePairsFile(const QString& path, const QString& fingerprint,
-                                        const QString& name, const PairsModel& pairs) {
-  // The half-picked pair too, as a comment line (pairs_model.h).
-  std::string text;
-  if (!fingerprint.isEmpty())
-    text += std::string(kScanTag) + " " + fingerprint.toStdString() + " " +
-            name.simplified().toStdString() + "\n";
-  text += FormatPairsCsv(pairs.completePointPairs()) + pairs.incompletePairComment();
-  QSaveFile file(path);  // writes a temporary file and renames it over `path` on commit
-  if (!file.open(QIODevice::WriteOnly) ||
-      file.write(text.data(), static_cast<qint64>(text.size())) !=
-          static_cast<qint64>(text.size()) ||
-      !file.commit()) {
-    throw Error(path.toStdString() + ": cannot write the pairs file (" +
-                file.errorString().toStdString() + ")");
-  }
-}
-
-void CalibrationSession::savePairs(const QString& path) {
-  writePairsFile(path);
-  autosave_path_ = path;
-  emit changed();
-  emit report(tr("Saved %1 pairs to %2 (later changes are saved there automatically)")
-                  .arg(pairs_->completeCount())
-                  .arg(path),
-              kInfo);
-}
-
-void CalibrationSession::autosave() {
-  if (loading_pairs_ || autosave_path_.isEmpty()) return;
-  try {
-    writePairsFile(autosave_path_);
-  } catch (const std::exception& e) {
-    emit report(tr("Autosave failed: %1").arg(e.what()), kWarning);
-  }
-}
-
 void CalibrationSession::autosaveModel(PairsModel* m) {
   if (m == pairs_) {
     autosave();
@@ -715,68 +561,29 @@ void CalibrationSession::autosaveModel(PairsModel* m) {
   // A removed scene's pairs (held by the undo stack): its file is left as it was.
 }
 
-// ---- picking ------------------------------------------------------------------------------
-
-CalibrationSession::Pick CalibrationSession::pickImage(double u, double v, int selected) {
-  if (image_bgr_.empty()) return {-1, tr("Open the camera image first"), kWarning};
-  if (camera_.valid() && camera_.width() == image_bgr_.cols &&
-      camera_.height() == image_bgr_.rows && !camera_.Unproject(Eigen::Vector2d(u, v)))
-    return {-1,
-            tr("Pixel (%1, %2) is outside the camera's field of view: not used")
-                .arg(u, 0, 'f', 1)
-                .arg(v, 0, 'f', 1),
-            kWarning};
-  const int row = pairs_->placeImageHalf(QPointF(u, v), selected);
-  const EditablePair& p = pairs_->pairs()[static_cast<std::size_t>(row)];
-  return {
-      row,
-      p.complete()
-          ? tr("Pair %1 complete (%2 pairs)").arg(row + 1).arg(pairs_->completeCount())
-          : tr("Pair %1: image point set, now click the same point on a scan view").arg(row + 1),
-      kInfo};
-}
-
-CalibrationSession::Pick CalibrationSession::pickScan(double row, double col, int selected) {
-  if (!scan_) return {-1, QString(), kInfo};
-  if (!InterpolatePoint(*scan_, row, col))
-    return {-1,
-            tr("Scan cell (row %1, col %2) has no laser return: not used")
-                .arg(row, 0, 'f', 1)
-                .arg(col, 0, 'f', 1),
-            kWarning};
-  const int r = pairs_->placeScanHalf(row, col, selected);
-  const EditablePair& p = pairs_->pairs()[static_cast<std::size_t>(r)];
-  return {
-      r,
-      p.complete()
-          ? tr("Pair %1 complete (%2 pairs)").arg(r + 1).arg(pairs_->completeCount())
-          : tr("Pair %1: scan point set, now click the same point on the camera image").arg(r + 1),
-      kInfo};
-}
-
 // ---- calibration --------------------------------------------------------------------------
 
 std::vector<int> CalibrationSession::solve(const std::string& method) {
   if (sceneCount() > 1) return solveScenes(method);
   if (!camera_.valid()) throw Error("choose the camera file first");
   if (!image_bgr_.empty())
-    CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
+    camera::CheckImageSize(camera_, image_bgr_.cols, image_bgr_.rows, image_path_.toStdString());
   std::vector<int> rows;
   const std::vector<PointPair> pairs = pairs_->completePointPairs(&rows);
-  CalibrateOptions opt;
+  solve::CalibrateOptions opt;
   opt.method = method;
   opt.pairs_source = "pairs";
   // Pick suggestions stay off the mask (a mask of another size is reported elsewhere).
   const cv::Mat& mask = effectiveMask();
   if (!mask.empty() && mask.cols == camera_.width() && mask.rows == camera_.height())
     opt.image_mask = mask;
-  Calibration cal = Calibrate(pairs, scan_.get(), camera_, opt);
+  solve::Calibration cal = solve::Calibrate(pairs, scan_.get(), camera_, opt);
   pairs_->setResults(cal, rows);
   takeSolve(std::move(cal), rows, {sceneId(active_)});
   return rows;
 }
 
-void CalibrationSession::takeSolve(Calibration cal, const std::vector<int>& rows,
+void CalibrationSession::takeSolve(solve::Calibration cal, const std::vector<int>& rows,
                                    const std::vector<int>& scene_ids) {
   solve_rows_ = rows;
   calibration_scene_ids_ = scene_ids;
@@ -795,7 +602,7 @@ std::vector<int> CalibrationSession::solveScenes(const std::string& method) {
   std::vector<std::vector<PointPair>> pairs(n);
   std::vector<std::vector<int>> rows(n);
   std::vector<std::string> sources(n);
-  std::vector<CalibrationScene> list;
+  std::vector<solve::CalibrationScene> list;
   std::vector<std::size_t> offset(n, 0);
   std::size_t total = 0;
   QStringList skipped;
@@ -803,7 +610,8 @@ std::vector<int> CalibrationSession::solveScenes(const std::string& method) {
   for (std::size_t k = 0; k < n; ++k) {
     const SceneState& sc = *scenes_[k];
     if (!sc.image_bgr.empty())
-      CheckImageSize(camera_, sc.image_bgr.cols, sc.image_bgr.rows, sc.image_path.toStdString());
+      camera::CheckImageSize(camera_, sc.image_bgr.cols, sc.image_bgr.rows,
+                             sc.image_path.toStdString());
     pairs[k] = sc.pairs->completePointPairs(&rows[k]);
     if (pairs[k].empty()) {
       skipped << QString::number(k + 1);
@@ -818,7 +626,7 @@ std::vector<int> CalibrationSession::solveScenes(const std::string& method) {
     ids.push_back(sc.id);
   }
   if (list.empty()) throw Error("no scene has complete pairs yet");
-  CalibrateOptions opt;
+  solve::CalibrateOptions opt;
   opt.method = method;
   opt.pairs_source = list.front().pairs_source;
   // The suggestions stay off scene 1's mask (the CLI takes the first image's).
@@ -828,11 +636,11 @@ std::vector<int> CalibrationSession::solveScenes(const std::string& method) {
       first.image_bgr.cols == camera_.width() && first.image_bgr.rows == camera_.height()) {
     mask = first.valid_region_camera == camera_generation_
                ? first.valid_region
-               : FindValidRegion(camera_, first.image_bgr).mask;
+               : camera::FindValidRegion(camera_, first.image_bgr).mask;
   }
   if (!mask.empty() && mask.cols == camera_.width() && mask.rows == camera_.height())
     opt.image_mask = mask;
-  Calibration cal = CalibrateScenes(list, camera_, opt);
+  solve::Calibration cal = solve::CalibrateScenes(list, camera_, opt);
   // Each scene's pairs get their residuals: the calibration numbers pairs over all scenes.
   std::vector<int> active_rows;
   for (std::size_t k = 0; k < n; ++k) {
@@ -851,7 +659,7 @@ std::vector<int> CalibrationSession::solveScenes(const std::string& method) {
 }
 
 void CalibrationSession::loadCalibration(const QString& path) {
-  Calibration c;
+  solve::Calibration c;
   c.T_cam_scan = colour::LoadExtrinsic(path.toStdString());
   c.rotation_rpy_deg = RotationToRpyDeg(c.T_cam_scan.linear());
   c.method = "loaded";
@@ -873,11 +681,11 @@ void CalibrationSession::saveCalibration(const QString& path) const {
   if (!image_path_.isEmpty()) inputs["image"] = image_path_.toStdString();
   if (!autosave_path_.isEmpty()) inputs["pairs"] = autosave_path_.toStdString();
   if (!scan_name_.isEmpty()) inputs["scan"] = scan_name_.toStdString();
-  WriteJsonFile(path.toStdString(), CalibrationToJson(*calibration_, inputs));
+  scancam::io::WriteJsonFile(path.toStdString(), solve::CalibrationToJson(*calibration_, inputs));
 }
 
-void CalibrationSession::setCalibration(const std::optional<Calibration>& c, const QString& source,
-                                        const std::vector<int>& rows) {
+void CalibrationSession::setCalibration(const std::optional<solve::Calibration>& c,
+                                        const QString& source, const std::vector<int>& rows) {
   calibration_ = c;
   calibration_source_ = source;
   solve_rows_ = rows;
@@ -895,7 +703,7 @@ const CalibrationSession::Refinement& CalibrationSession::refinePose() {
   // Everything the worker reads is its own (copies; the scan is shared and immutable), so
   // that nothing the event loop does meanwhile can pull it away.
   const std::shared_ptr<const OrderedScan> scan = scan_;
-  const Calibration before = *calibration_;
+  const solve::Calibration before = *calibration_;
   const QString before_source = calibration_source_;
   const std::vector<refine::RefineScene> scenes = {{scan.get(), colourView()}};
   const refine::DenseRefineOptions options = refine_options_;
@@ -911,7 +719,7 @@ const CalibrationSession::Refinement& CalibrationSession::refinePose() {
     throw Error("the scan, image or pose changed while refining: the result is not used");
   refinement_ = Refinement{before.T_cam_scan, result};
   if (result.accepted) {
-    Calibration after;
+    solve::Calibration after;
     after.T_cam_scan = result.T_cam_scan;
     after.rotation_rpy_deg = RotationToRpyDeg(after.T_cam_scan.linear());
     after.method = "dense refinement";
@@ -920,7 +728,8 @@ const CalibrationSession::Refinement& CalibrationSession::refinePose() {
                              ? tr("the %1 solve").arg(QString::fromStdString(before.method))
                              : before_source;
     undo_->push(new PoseCommand(this, before, before_source, solve_rows_,
-                                FormatPairsCsv(pairs_->completePointPairs()), after, from,
+                                scancam::io::FormatPairsCsv(pairs_->completePointPairs()), after,
+                                from,
                                 tr("Refine (%1)").arg(QString::fromStdString(result.verdict))));
   } else {
     emit changed();  // the panel shows the verdict; the pose stays

@@ -133,7 +133,7 @@ class CalibrationSession : public QObject {
   /// Colours the scan and writes a textured mesh (.glb, .obj) or a coloured cloud (.ply);
   /// returns what was written ("N triangles").
   QString exportModel(const QString& path);
-  const std::optional<Calibration>& calibration() const { return calibration_; }
+  const std::optional<solve::Calibration>& calibration() const { return calibration_; }
   /// The file the calibration was loaded from (empty after a solve).
   QString calibrationSource() const { return calibration_source_; }
   std::optional<Eigen::Isometry3d> pose() const;
@@ -194,7 +194,7 @@ class CalibrationSession : public QObject {
   std::shared_ptr<const OrderedScan> scan() const { return scan_; }
   QString scanName() const { return scan_name_; }
   QString scanFingerprint() const { return scan_fingerprint_; }
-  const CameraModel& camera() const { return camera_; }
+  const camera::CameraModel& camera() const { return camera_; }
   QString cameraPath() const { return camera_path_; }
   const cv::Mat& imageBgr() const { return image_bgr_; }
   /// CV_8UC1 of the grid's size: the scan's BA edge cells (colour::BaEdgeCells; made by the
@@ -247,7 +247,8 @@ class CalibrationSession : public QObject {
   std::vector<int> solveScenes(const std::string& method);
   /// A solve's result becomes the calibration (`rows`: the active scene's pairs' table rows in
   /// solve order; `scene_ids`: calibrationSceneId).
-  void takeSolve(Calibration cal, const std::vector<int>& rows, const std::vector<int>& scene_ids);
+  void takeSolve(solve::Calibration cal, const std::vector<int>& rows,
+                 const std::vector<int>& scene_ids);
   void restoreIncompletePair(const QString& path);
   QString reloadSidecarPairs();
   void reportPairProblems(const QString& source);
@@ -260,7 +261,7 @@ class CalibrationSession : public QObject {
   class PoseCommand;
   /// Makes `c` the calibration (from `source`; `rows`: its pairs' table rows, for their
   /// residuals, or empty) and recomputes what depends on the pose.
-  void setCalibration(const std::optional<Calibration>& c, const QString& source,
+  void setCalibration(const std::optional<solve::Calibration>& c, const QString& source,
                       const std::vector<int>& rows);
 
   ProgressRunner runner_;
@@ -274,7 +275,7 @@ class CalibrationSession : public QObject {
   mutable cv::Mat edge_cells_;                 // colour::BaEdgeCells of the scan, once made
   mutable EdgeCellsSource edge_cells_source_;  // cleared once edge_cells_ is made
   cv::Mat image_edge_distance_;                // colour::ImageEdgeDistance of the image
-  CameraModel camera_;
+  camera::CameraModel camera_;
   QString camera_path_;
   cv::Mat image_bgr_;
   QString image_path_;
@@ -284,7 +285,7 @@ class CalibrationSession : public QObject {
   cv::Mat valid_region_;
   QString valid_region_text_;
   QString autosave_path_;
-  std::optional<Calibration> calibration_;
+  std::optional<solve::Calibration> calibration_;
   QString calibration_source_;
   std::vector<int> solve_rows_;  // the table rows of calibration_->pairs (solve's return)
   std::optional<colour::ColouredScan> coloured_;

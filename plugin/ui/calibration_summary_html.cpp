@@ -12,7 +12,7 @@ QString Num(double v, int digits) { return QString::number(v, 'f', digits); }
 QString Escaped(const std::string& s) { return QString::fromStdString(s).toHtmlEscaped(); }
 }  // namespace
 
-QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loaded_from,
+QString CalibrationSummaryHtml(const solve::CalibrationSummary& s, const QString& loaded_from,
                                const QString& edge_alignment) {
   const bool solved = loaded_from.isEmpty();
   QString html;
@@ -53,7 +53,7 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
     // `scancam calibrate` prints it: with the noise model right each sigma is ~N(0, 1).
     html += tr("<br><b>Each scene alone vs the joint result</b> (difference / its std):");
     for (std::size_t k = 0; k < s.scenes.size(); ++k) {
-      const SceneResult& r = s.scenes[k];
+      const solve::SceneResult& r = s.scenes[k];
       html += tr("<br>&nbsp; scene %1 (%2, %3 pairs): ")
                   .arg(QString::number(k + 1),
                        // the pairs file's name (the whole path is in the JSON and the tooltip
@@ -80,7 +80,7 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
     }
   }
   if (solved) {
-    const CalibrationSummary::Residuals& e = s.residuals;
+    const solve::CalibrationSummary::Residuals& e = s.residuals;
     html += tr("<br><b>Reprojection error</b> (inliers): mean %1 px, std %2, max %3 px; "
                "angular mean %4 deg, max %5 deg")
                 .arg(Num(e.mean_px, 2), Num(e.std_px, 2), Num(e.max_px, 2), Num(e.mean_deg, 3),
@@ -90,7 +90,7 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
                  "noise model expects: the picks are noisier than assumed</span>")
                   .arg(Num(s.noise_fit->reduced_chi_square, 1));
     QStringList flagged;
-    for (const CalibrationSummary::Pair& p : s.pairs)
+    for (const solve::CalibrationSummary::Pair& p : s.pairs)
       if (!p.inlier) flagged << tr("#%1 (%2 deg)").arg(p.number).arg(Num(p.error_deg, 2));
     if (!flagged.isEmpty())
       html += tr("<br><span style='color:#c00000'><b>Flagged pairs</b>: %1</span>")
@@ -101,7 +101,7 @@ QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loade
                 .arg(edge_alignment.toHtmlEscaped());
   if (solved && !s.suggestions.empty()) {
     html += tr("<br><b>To tighten the result</b>, pick next a feature near the magenta marks:");
-    for (const CalibrationSummary::Suggestion& g : s.suggestions) {
+    for (const solve::CalibrationSummary::Suggestion& g : s.suggestions) {
       html +=
           tr("<br>&nbsp; next %1: %2pixel (%3, %4) &rarr; rotation std about the camera's "
              "x / y / z %5 %6 %7 deg, translation std %8 %9 %10 cm; %11")

@@ -14,7 +14,7 @@ namespace scancam::plugin::ui {
 /// solve's figures, flagged pairs and suggestions are not shown: there was no solve); empty
 /// after a solve. `edge_alignment`: the edge-alignment sentence (empty: not shown). Every
 /// string from the data (file name, labels, reasons, warnings) is HTML-escaped.
-QString CalibrationSummaryHtml(const CalibrationSummary& s, const QString& loaded_from = {},
+QString CalibrationSummaryHtml(const solve::CalibrationSummary& s, const QString& loaded_from = {},
                                const QString& edge_alignment = {});
 
 /// A refinement (Refine) as HTML: verdict and reason, figures before and after, the change and

@@ -539,15 +539,15 @@ void CalibrationWindow::clickWithSnap(bool image, double a, double b) {
     return;
   }
   guarded(tr("Snap"), [&] {
-    SnapResult r;
+    pick::SnapResult r;
     if (image) {
       if (session_->imageBgr().empty()) {
         addImagePick(a, b);  // says what is missing
         return;
       }
-      r = SnapImagePoint(session_->imageBgr(), Eigen::Vector2d(a, b));
+      r = pick::SnapImagePoint(session_->imageBgr(), Eigen::Vector2d(a, b));
     } else {
-      r = SnapScanCell(*session_->scan(), Eigen::Vector2d(a, b));
+      r = pick::SnapScanCell(*session_->scan(), Eigen::Vector2d(a, b));
     }
     if (!r.accepted) {
       if (image)
@@ -636,7 +636,7 @@ void CalibrationWindow::refreshMarkers() {
   // Where to pick next (the last solve's suggestions), magenta, on both sides.
   if (session_->calibration() && session_->calibrationSource().isEmpty()) {
     for (std::size_t k = 0; k < session_->calibration()->suggestions.size(); ++k) {
-      const PickSuggestion& g = session_->calibration()->suggestions[k];
+      const solve::PickSuggestion& g = session_->calibration()->suggestions[k];
       if (session_->calibrationSceneId(g.scene) != activeSceneId()) continue;  // another scene's
       Marker m;
       m.id = static_cast<int>(k) + 1;
@@ -692,9 +692,9 @@ bool CalibrationWindow::calibrate() {
       throw;
     }
     QApplication::restoreOverrideCursor();
-    const Calibration& c = *session_->calibration();
+    const solve::Calibration& c = *session_->calibration();
     // Show the first flagged pair: that is the one to look at.
-    for (const PairResult& r : c.pairs) {
+    for (const solve::PairResult& r : c.pairs) {
       if (!r.inlier && r.index >= 0 && r.index < static_cast<int>(rows.size()) &&
           rows[static_cast<std::size_t>(r.index)] >= 0) {
         table_->scrollTo(pairs_->index(rows[static_cast<std::size_t>(r.index)], 0));
@@ -758,8 +758,8 @@ void CalibrationWindow::showResult() {
     result_view_->clear();
     return;
   }
-  QString html = CalibrationSummaryHtml(SummariseCalibration(*c), session_->calibrationSource(),
-                                        session_->alignmentText());
+  QString html = CalibrationSummaryHtml(solve::SummariseCalibration(*c),
+                                        session_->calibrationSource(), session_->alignmentText());
   if (const auto& r = session_->lastRefinement()) {
     const bool current = r->result.accepted && c->method == "dense refinement";
     html = RefinementSummaryHtml(r->result, current) + "<hr>" + html;

@@ -201,7 +201,7 @@ class CalibrationWindow : public QMainWindow {
   /// The state this window shows.
   CalibrationSession* session() const { return session_; }
   std::shared_ptr<const OrderedScan> scan() const { return session_->scan(); }
-  const CameraModel& camera() const { return session_->camera(); }
+  const camera::CameraModel& camera() const { return session_->camera(); }
   bool hasCamera() const { return session_->camera().valid(); }
   /// The camera image, BGR 8-bit (empty when none).
   const cv::Mat& imageBgr() const { return session_->imageBgr(); }
@@ -255,7 +255,7 @@ class CalibrationWindow : public QMainWindow {
   QAction* addSceneAction() const { return act_add_scene_; }
   QAction* removeSceneAction() const { return act_remove_scene_; }
   /// The last solve (or loaded calibration).
-  const std::optional<Calibration>& calibration() const { return session_->calibration(); }
+  const std::optional<solve::Calibration>& calibration() const { return session_->calibration(); }
   std::optional<Eigen::Isometry3d> pose() const { return session_->pose(); }
   /// Empty when camera, image and pose are ready for colouring; else what is missing.
   QString colouringProblem() const { return session_->colouringProblem(); }

@@ -391,9 +391,9 @@ bool PairsModel::restoreIncompletePair(const std::string& line) {
   return true;
 }
 
-void PairsModel::setResults(const Calibration& calibration, const std::vector<int>& rows) {
+void PairsModel::setResults(const solve::Calibration& calibration, const std::vector<int>& rows) {
   for (auto& p : pairs_) p.solved = false;
-  for (const PairResult& r : calibration.pairs) {
+  for (const solve::PairResult& r : calibration.pairs) {
     if (r.index < 0 || r.index >= static_cast<int>(rows.size())) continue;
     const int row = rows[static_cast<std::size_t>(r.index)];
     if (row < 0 || row >= size()) continue;

@@ -130,7 +130,7 @@ class PairsModel : public QAbstractTableModel {
   bool restoreIncompletePair(const std::string& line);
 
   /// Stores the residuals of a solve made on completePointPairs(&rows) (same order).
-  void setResults(const Calibration& calibration, const std::vector<int>& rows);
+  void setResults(const solve::Calibration& calibration, const std::vector<int>& rows);
   void clearResults();
 
  signals:

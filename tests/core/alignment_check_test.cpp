@@ -100,10 +100,11 @@ TEST_P(AlignmentCheckReal, FindsTheReferenceAndNotAPoseOffIt) {
   view.image = ReadImage(image_path);
   // road2's intrinsic file says 1080 rows for its 1200-row image: the file's K with the
   // image's size, as the other road2 tests do; KITTI's calib.txt has no size.
-  const CameraModel file = LoadCameraForImage(test::SharedDataset(r.camera), image_path);
-  view.camera = CameraModel(file.type(), file.params(), view.image.cols, view.image.rows);
-  view.mask = FindValidRegion(view.camera, view.image).mask;
-  const OrderedScan scan = LoadScan(test::SharedDataset(r.scan));
+  const camera::CameraModel file =
+      camera::LoadCameraForImage(test::SharedDataset(r.camera), image_path);
+  view.camera = camera::CameraModel(file.type(), file.params(), view.image.cols, view.image.rows);
+  view.mask = camera::FindValidRegion(view.camera, view.image).mask;
+  const OrderedScan scan = io::LoadScan(test::SharedDataset(r.scan));
   const Eigen::Isometry3d reference = colour::LoadExtrinsic(test::SharedDataset(r.reference));
   ExpectTheCheckFindsTheReference(refine::PrepareAlignment(scan, view), reference);
 }

@@ -490,7 +490,7 @@ TEST(SobelEdges, PeaksOnStepEdgeNoFakeEdgesAtHoles) {
 // eq. 4 computes it, equals the angle at P_i measured on the importer's 3D points.
 TEST(BearingAngle, RealLidarMatchesAnglesOfThePoints) {
   SCANCAM_REQUIRE_SHARED();
-  const OrderedScan s = LoadScan(test::SharedDataset("road-pinhole/scan.pcd"));
+  const OrderedScan s = io::LoadScan(test::SharedDataset("road-pinhole/scan.pcd"));
   ASSERT_GT(s.rows, 32);
   ASSERT_GT(s.cols, 1000);
   const Eigen::Vector3d o = s.origin_m;

@@ -52,14 +52,14 @@ Eigen::Vector3d RotVecErr(const Eigen::Isometry3d& est, const Eigen::Isometry3d&
   return aa.angle() * aa.axis();
 }
 
-bool HasWarning(const Calibration& c, const std::string& text) {
+bool HasWarning(const solve::Calibration& c, const std::string& text) {
   for (const auto& w : c.warnings)
     if (w.find(text) != std::string::npos) return true;
   return false;
 }
 
-CalibrateOptions Fast() {
-  CalibrateOptions o;
+solve::CalibrateOptions Fast() {
+  solve::CalibrateOptions o;
   o.suggest_picks = 0;
   return o;
 }
@@ -75,10 +75,10 @@ TEST(CalibrateScenes, JointSolveRecoversTheTruthAndASecondSceneTightensTheStd) {
   ASSERT_GE(eb.size(), 6u);
   std::mt19937 rng(11);
   const auto pa = Noisy(ea, a, rng), pb = Noisy(eb, b, rng);
-  const CalibrateOptions o = Fast();
-  const Calibration alone = Calibrate(pa, &a.scan, a.camera, o);
-  const Calibration joint =
-      CalibrateScenes({{pa, &a.scan, "a.csv"}, {pb, &b.scan, "b.csv"}}, a.camera, o);
+  const solve::CalibrateOptions o = Fast();
+  const solve::Calibration alone = solve::Calibrate(pa, &a.scan, a.camera, o);
+  const solve::Calibration joint =
+      solve::CalibrateScenes({{pa, &a.scan, "a.csv"}, {pb, &b.scan, "b.csv"}}, a.camera, o);
   ASSERT_TRUE(joint.has_covariance);
   EXPECT_EQ(joint.pair_count, static_cast<int>(pa.size() + pb.size()));
   for (std::size_t i = 0; i < joint.pairs.size(); ++i)
@@ -103,14 +103,14 @@ TEST(CalibrateScenes, JointSolveRecoversTheTruthAndASecondSceneTightensTheStd) {
   }
   // Each scene alone against the joint result.
   ASSERT_EQ(joint.scenes.size(), 2u);
-  for (const SceneResult& s : joint.scenes) {
+  for (const solve::SceneResult& s : joint.scenes) {
     ASSERT_TRUE(s.solved) << s.error;
     EXPECT_GT(s.mahalanobis, 0.0);
     EXPECT_LT(s.mahalanobis, 5.0);
   }
   EXPECT_TRUE(joint.scenes[0].T_cam_scan.isApprox(alone.T_cam_scan, 1e-9));
   // The JSON carries the scenes and the pairs' scene.
-  const nlohmann::json j = CalibrationToJson(joint);
+  const nlohmann::json j = solve::CalibrationToJson(joint);
   ASSERT_EQ(j.at("scenes").size(), 2u);
   EXPECT_EQ(j.at("scenes")[1].at("pairs"), "b.csv");
   EXPECT_EQ(j.at("scenes")[1].at("vs_joint").at("rotation_diff_sigma").size(), 3u);
@@ -119,7 +119,7 @@ TEST(CalibrateScenes, JointSolveRecoversTheTruthAndASecondSceneTightensTheStd) {
   auto bad = pb;
   bad[2].image_u = 1e5;
   try {
-    CalibrateScenes({{pa, &a.scan, "a.csv"}, {bad, &b.scan, "b.csv"}}, a.camera, o);
+    solve::CalibrateScenes({{pa, &a.scan, "a.csv"}, {bad, &b.scan, "b.csv"}}, a.camera, o);
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("b.csv"), std::string::npos) << e.what();
@@ -135,12 +135,12 @@ TEST(CalibrateScenes, SceneVersusJointSigmaIsStandardNormal) {
   std::mt19937 rng(21);
   double sum2 = 0, maha2 = 0;
   int count = 0, solves = 0;
-  const CalibrateOptions o = Fast();
+  const solve::CalibrateOptions o = Fast();
   for (int t = 0; t < 12; ++t) {
     const auto pa = Noisy(ea, a, rng), pb = Noisy(eb, b, rng);
-    const Calibration c =
-        CalibrateScenes({{pa, &a.scan, "a.csv"}, {pb, &b.scan, "b.csv"}}, a.camera, o);
-    for (const SceneResult& s : c.scenes) {
+    const solve::Calibration c =
+        solve::CalibrateScenes({{pa, &a.scan, "a.csv"}, {pb, &b.scan, "b.csv"}}, a.camera, o);
+    for (const solve::SceneResult& s : c.scenes) {
       ASSERT_TRUE(s.solved) << s.error;
       for (int k = 0; k < 3; ++k) {
         for (double z : {s.rotation_diff_sigma(k), s.translation_diff_sigma(k)}) {
@@ -177,10 +177,10 @@ TEST(CalibrateUncertainty, CameraAxesStdMatchesMonteCarloAtPitchMinus89) {
   Eigen::Vector3d mc = Eigen::Vector3d::Zero(), reported = Eigen::Vector3d::Zero();
   Eigen::Vector3d rpy_std = Eigen::Vector3d::Zero();
   int gimbal_warned = 0;
-  CalibrateOptions o = Fast();
+  solve::CalibrateOptions o = Fast();
   o.method = "epnp";
   for (int t = 0; t < trials; ++t) {
-    const Calibration c = Calibrate(Noisy(exact, s, rng), &s.scan, s.camera, o);
+    const solve::Calibration c = solve::Calibrate(Noisy(exact, s, rng), &s.scan, s.camera, o);
     ASSERT_TRUE(c.has_covariance);
     const Eigen::Vector3d e = RotVecErr(c.T_cam_scan, T) / kDeg;
     mc += e.cwiseAbs2() / trials;
@@ -211,16 +211,16 @@ TEST(CalibrateUncertainty, FewPairsNoiseEstimateIsBoundedBelowByThePrior) {
   const auto s = Scene(55.0, {3.0, 2.4, 1.1});
   auto exact = ExactPairs(s);
   exact.resize(5);
-  CalibrateOptions model = Fast();
+  solve::CalibrateOptions model = Fast();
   model.method = "epnp";
   model.refine_options.scale_covariance = false;  // the noise model's own covariance
-  const Calibration m = Calibrate(exact, &s.scan, s.camera, model);
-  CalibrateOptions chi = Fast();
+  const solve::Calibration m = solve::Calibrate(exact, &s.scan, s.camera, model);
+  solve::CalibrateOptions chi = Fast();
   chi.method = "epnp";
   chi.noise_prior_pairs = 0;
-  const Calibration c0 = Calibrate(exact, &s.scan, s.camera, chi);
-  const Calibration c = Calibrate(exact, &s.scan, s.camera, [] {
-    CalibrateOptions o = Fast();
+  const solve::Calibration c0 = solve::Calibrate(exact, &s.scan, s.camera, chi);
+  const solve::Calibration c = solve::Calibrate(exact, &s.scan, s.camera, [] {
+    solve::CalibrateOptions o = Fast();
     o.method = "epnp";
     return o;
   }());
@@ -243,9 +243,10 @@ TEST(CalibrateUncertainty, WeakGeometryWarningForANarrowBandOnly) {
   const auto exact = ExactPairs(s);
   std::mt19937 rng(41);
   const auto pairs = Noisy(exact, s, rng);
-  const Calibration spread = Calibrate(pairs, &s.scan, s.camera, Fast());
+  const solve::Calibration spread = solve::Calibrate(pairs, &s.scan, s.camera, Fast());
   EXPECT_GT(spread.geometry.image_rows_fraction, 0.4);
-  EXPECT_FALSE(HasWarning(spread, "of the image height")) << FormatCalibrationSummary(spread);
+  EXPECT_FALSE(HasWarning(spread, "of the image height"))
+      << solve::FormatCalibrationSummary(spread);
   // The same scene, only the picks within a band of 15 % of the rows around its middle ones.
   std::vector<double> v;
   for (const auto& p : pairs) v.push_back(p.image_v);
@@ -255,7 +256,7 @@ TEST(CalibrateUncertainty, WeakGeometryWarningForANarrowBandOnly) {
   for (const auto& p : pairs)
     if (std::abs(p.image_v - mid) <= half) band.push_back(p);
   ASSERT_GE(band.size(), 5u) << "too few picks in the band";
-  const Calibration narrow = Calibrate(band, &s.scan, s.camera, Fast());
+  const solve::Calibration narrow = solve::Calibrate(band, &s.scan, s.camera, Fast());
   EXPECT_LE(narrow.geometry.image_rows_fraction, 0.15 + 1e-9);
   bool found = false;
   for (const auto& w : narrow.warnings) {
@@ -263,7 +264,7 @@ TEST(CalibrateUncertainty, WeakGeometryWarningForANarrowBandOnly) {
     found = true;
     EXPECT_NE(w.find("picks span"), std::string::npos) << w;
   }
-  EXPECT_TRUE(found) << FormatCalibrationSummary(narrow);
+  EXPECT_TRUE(found) << solve::FormatCalibrationSummary(narrow);
   // And it shows in the std: weaker than with the spread picks.
   EXPECT_GT(narrow.std_t_m.norm() / std::sqrt(narrow.variance_factor),
             spread.std_t_m.norm() / std::sqrt(spread.variance_factor));
@@ -277,9 +278,9 @@ TEST(PickSuggestions, AvoidClutterAndSayWhy) {
   auto s = Scene(55.0, {3.0, 2.4, 1.1});
   std::mt19937 rng(51);
   const auto pairs = Noisy(ExactPairs(s), s, rng);
-  CalibrateOptions o;
+  solve::CalibrateOptions o;
   o.suggest_picks = 3;
-  const Calibration before = Calibrate(pairs, &s.scan, s.camera, o);
+  const solve::Calibration before = solve::Calibrate(pairs, &s.scan, s.camera, o);
   ASSERT_EQ(before.suggestions.size(), 3u);
   for (const auto& g : before.suggestions) {
     EXPECT_TRUE(g.reason.find("corner") == 0 || g.reason.find("edge") == 0) << g.reason;
@@ -298,7 +299,7 @@ TEST(PickSuggestions, AvoidClutterAndSayWhy) {
       s.scan.point_m[i] *= now / old;
     }
   }
-  const Calibration after = Calibrate(pairs, &s.scan, s.camera, o);
+  const solve::Calibration after = solve::Calibrate(pairs, &s.scan, s.camera, o);
   ASSERT_FALSE(after.suggestions.empty());
   for (const auto& g : after.suggestions) {
     EXPECT_FALSE(std::abs(g.scan_row - r0) <= 8 && std::abs(g.scan_col - c0) <= 8)

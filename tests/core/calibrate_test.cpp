@@ -30,14 +30,14 @@ Eigen::Isometry3d TruePose() {
   return T;
 }
 
-CameraModel Pinhole() {
-  return CameraModel::Pinhole(800, 800, 639.5, 479.5, {-0.1, 0.02, 0.001, -0.0005, 0.0}, 1280, 960,
-                              "test-pinhole");
+camera::CameraModel Pinhole() {
+  return camera::CameraModel::Pinhole(800, 800, 639.5, 479.5, {-0.1, 0.02, 0.001, -0.0005, 0.0},
+                                      1280, 960, "test-pinhole");
 }
 
 // Pairs at random points in front of the camera, pixels from the true projection
 // plus Gaussian picking noise.
-std::vector<PointPair> MakePairs(const CameraModel& cam, const Eigen::Isometry3d& T, int n,
+std::vector<PointPair> MakePairs(const camera::CameraModel& cam, const Eigen::Isometry3d& T, int n,
                                  double sigma_px, std::uint32_t seed, double spread = 1.0) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(-1, 1), depth(2, 8);
@@ -68,9 +68,9 @@ TEST(Calibrate, EveryMethodRecoversTheTruePose) {
   const auto T = TruePose();
   const auto pairs = MakePairs(cam, T, 12, 0.3, 1);
   for (const std::string method : {"ransac", "paper", "epnp", "upnp"}) {
-    CalibrateOptions o;
+    solve::CalibrateOptions o;
     o.method = method;
-    const auto c = Calibrate(pairs, nullptr, cam, o);
+    const auto c = solve::Calibrate(pairs, nullptr, cam, o);
     EXPECT_LT(RotErrDeg(c.T_cam_scan, T), 0.1) << method;
     EXPECT_LT((c.T_cam_scan.translation() - T.translation()).norm(), 0.03) << method;
     EXPECT_EQ(c.inlier_count, 12) << method;
@@ -86,7 +86,7 @@ TEST(Calibrate, RansacFlagsAWrongPairAndKeepsThePose) {
   auto pairs = MakePairs(cam, T, 10, 0.5, 2);
   pairs[6].image_u += 60;  // picked on the wrong corner
   pairs[6].label = "wrong:test";
-  const auto c = Calibrate(pairs, nullptr, cam, {});
+  const auto c = solve::Calibrate(pairs, nullptr, cam, {});
   EXPECT_FALSE(c.pairs[6].inlier);
   EXPECT_EQ(c.inlier_count, 9);
   EXPECT_GT(c.pairs[6].error_px, 40.0);
@@ -99,7 +99,7 @@ TEST(Calibrate, RansacFlagsAWrongPairAndKeepsThePose) {
 TEST(Calibrate, WarnsAboutFewAndClusteredPairs) {
   const auto cam = Pinhole();
   const auto pairs = MakePairs(cam, TruePose(), 5, 0.3, 3, /*spread=*/0.15);
-  const auto c = Calibrate(pairs, nullptr, cam, {});
+  const auto c = solve::Calibrate(pairs, nullptr, cam, {});
   bool few = false, clustered = false;
   for (const auto& w : c.warnings) {
     few |= w.find("only 5 pairs") != std::string::npos;
@@ -112,11 +112,11 @@ TEST(Calibrate, WarnsAboutFewAndClusteredPairs) {
 TEST(Calibrate, RefusesUnusableInput) {
   const auto cam = Pinhole();
   const auto T = TruePose();
-  CalibrateOptions o;
+  solve::CalibrateOptions o;
   o.pairs_source = "picks.csv";
   auto three = MakePairs(cam, T, 3, 0, 4);
   try {
-    Calibrate(three, nullptr, cam, o);
+    solve::Calibrate(three, nullptr, cam, o);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("picks.csv: 3 pairs; at least 4"), std::string::npos);
@@ -125,7 +125,7 @@ TEST(Calibrate, RefusesUnusableInput) {
   dup[4] = dup[1];
   dup[4].line = 6;
   try {
-    Calibrate(dup, nullptr, cam, o);
+    solve::Calibrate(dup, nullptr, cam, o);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("picks.csv:6: duplicate"), std::string::npos) << e.what();
@@ -133,7 +133,7 @@ TEST(Calibrate, RefusesUnusableInput) {
   auto outside = MakePairs(cam, T, 6, 0, 6);
   outside[2].image_u = 5000;
   try {
-    Calibrate(outside, nullptr, cam, o);
+    solve::Calibrate(outside, nullptr, cam, o);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("picks.csv:4: pixel"), std::string::npos) << e.what();
@@ -148,7 +148,7 @@ TEST(Calibrate, RefusesUnusableInput) {
     collinear[i].image_v = px->y();
   }
   try {
-    Calibrate(collinear, nullptr, cam, o);
+    solve::Calibrate(collinear, nullptr, cam, o);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("collinear"), std::string::npos) << e.what();
@@ -157,18 +157,18 @@ TEST(Calibrate, RefusesUnusableInput) {
   no_point[0].point_m.reset();
   no_point[0].scan_row = 3;
   no_point[0].scan_col = 4;
-  EXPECT_THROW(Calibrate(no_point, nullptr, cam, o), Error);
+  EXPECT_THROW(solve::Calibrate(no_point, nullptr, cam, o), Error);
 }
 
 TEST(Calibrate, JsonCarriesThePoseAndTheTable) {
   const auto cam = Pinhole();
   const auto T = TruePose();
-  const auto c = Calibrate(MakePairs(cam, T, 8, 0.2, 9), nullptr, cam, {});
+  const auto c = solve::Calibrate(MakePairs(cam, T, 8, 0.2, 9), nullptr, cam, {});
   const std::string path = test::TempDir() + "/calib.json";
-  WriteJsonFile(path, CalibrationToJson(c, {{"camera", "cam.yaml"}}));
-  const Eigen::Isometry3d back = ReadCalibrationPose(path);
+  io::WriteJsonFile(path, solve::CalibrationToJson(c, {{"camera", "cam.yaml"}}));
+  const Eigen::Isometry3d back = io::ReadCalibrationPose(path);
   EXPECT_TRUE(back.matrix().isApprox(c.T_cam_scan.matrix(), 1e-12));
-  const auto j = ReadJsonFile(path);
+  const auto j = io::ReadJsonFile(path);
   EXPECT_EQ(j["pairs"].size(), 8u);
   EXPECT_EQ(j["inputs"]["camera"], "cam.yaml");
   EXPECT_NEAR(j["rotation_rpy_deg"][2].get<double>(), c.rotation_rpy_deg.z(), 1e-12);
@@ -178,13 +178,13 @@ TEST(Calibrate, JsonCarriesThePoseAndTheTable) {
 TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
   const std::string dir = test::TempDir();
   const auto cam = Pinhole();
-  SaveCamera(cam, dir + "/cam.yaml");
-  WritePairsCsv(dir + "/pairs.csv", MakePairs(cam, TruePose(), 10, 0.3, 10));
+  camera::SaveCamera(cam, dir + "/cam.yaml");
+  io::WritePairsCsv(dir + "/pairs.csv", MakePairs(cam, TruePose(), 10, 0.3, 10));
   const std::string args = "calibrate --camera " + dir + "/cam.yaml --pairs " + dir +
                            "/pairs.csv --out " + dir + "/calib.json";
   std::string text;
   ASSERT_EQ(RunCli(dir, args, &text), 0) << text;
-  EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/calib.json"), TruePose()), 0.1);
+  EXPECT_LT(RotErrDeg(io::ReadCalibrationPose(dir + "/calib.json"), TruePose()), 0.1);
   EXPECT_NE(text.find("reprojection error"), std::string::npos);
 
   // --truth: the error and whether the reported uncertainty covers it; a truth 2 deg away
@@ -192,9 +192,9 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
   for (const double off_deg : {0.0, 2.0}) {
     Eigen::Isometry3d truth = TruePose();
     truth.linear() = RpyDegToRotation({off_deg, 0, 0}) * truth.linear();
-    WriteJsonFile(dir + "/truth.json", {{"T_cam_scan", PoseToJson(truth)}});
+    io::WriteJsonFile(dir + "/truth.json", {{"T_cam_scan", io::PoseToJson(truth)}});
     ASSERT_EQ(RunCli(dir, args + " --truth " + dir + "/truth.json", &text), 0) << text;
-    const auto j = ReadJsonFile(dir + "/calib.json");
+    const auto j = io::ReadJsonFile(dir + "/calib.json");
     const double d = j["error_vs_truth"]["mahalanobis"].get<double>();
     // Per axis: the truth is turned by off_deg about the camera x axis, so the estimate is
     // -off_deg from it about x (and in std: what the per-axis figures say).
@@ -241,9 +241,9 @@ TEST(CalibrateCli, WritesCalibrationAndFailsClearly) {
 TEST(CalibrateCli, SeveralScenesOneRig) {
   const std::string dir = test::TempDir();
   const auto cam = Pinhole();
-  SaveCamera(cam, dir + "/cam.yaml");
-  WritePairsCsv(dir + "/a.csv", MakePairs(cam, TruePose(), 10, 0.5, 21));
-  WritePairsCsv(dir + "/b.csv", MakePairs(cam, TruePose(), 12, 0.5, 22));
+  camera::SaveCamera(cam, dir + "/cam.yaml");
+  io::WritePairsCsv(dir + "/a.csv", MakePairs(cam, TruePose(), 10, 0.5, 21));
+  io::WritePairsCsv(dir + "/b.csv", MakePairs(cam, TruePose(), 12, 0.5, 22));
   cv::imwrite(dir + "/photo.png", cv::Mat(cam.height(), cam.width(), CV_8UC3, cv::Scalar::all(0)));
   const std::string base = "calibrate --camera " + dir + "/cam.yaml";
   std::string text;
@@ -254,9 +254,9 @@ TEST(CalibrateCli, SeveralScenesOneRig) {
                    &text),
             0)
       << text;
-  const auto j = ReadJsonFile(dir + "/joint.json");
+  const auto j = io::ReadJsonFile(dir + "/joint.json");
   EXPECT_EQ(j.at("pair_count"), 22);
-  EXPECT_LT(RotErrDeg(ReadCalibrationPose(dir + "/joint.json"), TruePose()), 0.1);
+  EXPECT_LT(RotErrDeg(io::ReadCalibrationPose(dir + "/joint.json"), TruePose()), 0.1);
   ASSERT_EQ(j.at("scenes").size(), 2u);
   for (const auto& s : j.at("scenes")) {
     EXPECT_TRUE(s.at("solved_alone").get<bool>());
@@ -284,7 +284,7 @@ TEST(CalibrateCli, SeveralScenesOneRig) {
   // One scene: inputs keep plain strings, the new fields are there, no "scenes".
   ASSERT_EQ(RunCli(dir, base + " --pairs " + dir + "/a.csv --out " + dir + "/one.json", &text), 0)
       << text;
-  const auto o = ReadJsonFile(dir + "/one.json");
+  const auto o = io::ReadJsonFile(dir + "/one.json");
   EXPECT_TRUE(o.at("inputs").at("pairs").is_string());
   EXPECT_FALSE(o.contains("scenes"));
   EXPECT_FALSE(o.at("pairs")[0].contains("scene"));

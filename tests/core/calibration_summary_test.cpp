@@ -9,8 +9,8 @@
 namespace scancam {
 namespace {
 
-Calibration MadeUp() {
-  Calibration c;
+solve::Calibration MadeUp() {
+  solve::Calibration c;
   c.method = "ransac";
   c.refined = true;
   c.weighted = true;
@@ -27,14 +27,14 @@ Calibration MadeUp() {
   c.variance_factor = 2.0;
   c.noise_prior_dof = 8;
   for (int i = 0; i < 3; ++i) {
-    PairResult p;
+    solve::PairResult p;
     p.index = i;
     p.image_px = Eigen::Vector2d(100 + i, 200 + i);
     p.inlier = i != 1;
     p.label = "pair " + std::to_string(i);
     c.pairs.push_back(p);
   }
-  PickSuggestion g;
+  solve::PickSuggestion g;
   g.image_px = Eigen::Vector2d(640, 10);
   g.scan_row = 7;
   g.scan_col = 9;
@@ -46,7 +46,7 @@ Calibration MadeUp() {
 }
 
 TEST(CalibrationSummary, DecidesWhatToShow) {
-  const CalibrationSummary s = SummariseCalibration(MadeUp());
+  const solve::CalibrationSummary s = solve::SummariseCalibration(MadeUp());
   EXPECT_EQ(s.method, "ransac");
   EXPECT_EQ(s.refinement, "refinement (eq. 7 weighted by the picking noise)");
   EXPECT_EQ(s.inlier_count, 2);
@@ -69,21 +69,21 @@ TEST(CalibrationSummary, DecidesWhatToShow) {
 }
 
 TEST(CalibrationSummary, NoRefinementNoStdsNoNoiseFit) {
-  Calibration c = MadeUp();
+  solve::Calibration c = MadeUp();
   c.refined = false;
   c.weighted = false;
   c.has_covariance = false;
-  const CalibrationSummary s = SummariseCalibration(c);
+  const solve::CalibrationSummary s = solve::SummariseCalibration(c);
   EXPECT_EQ(s.refinement, "");
   EXPECT_FALSE(s.stds.has_value());
   EXPECT_FALSE(s.noise_fit.has_value());
   c.refined = true;
-  EXPECT_EQ(SummariseCalibration(c).refinement, "refinement (eq. 7)");
-  EXPECT_FALSE(SummariseCalibration(c).noise_fit.has_value());  // unweighted
+  EXPECT_EQ(solve::SummariseCalibration(c).refinement, "refinement (eq. 7)");
+  EXPECT_FALSE(solve::SummariseCalibration(c).noise_fit.has_value());  // unweighted
 }
 
 TEST(CalibrationSummary, TextAsTheCliPrintsIt) {
-  const std::string text = FormatSummaryText(SummariseCalibration(MadeUp()));
+  const std::string text = solve::FormatSummaryText(solve::SummariseCalibration(MadeUp()));
   EXPECT_EQ(text.rfind("method: ransac + refinement (eq. 7 weighted by the picking noise), 2 of 3 "
                        "pairs inliers\n",
                        0),
@@ -107,7 +107,7 @@ TEST(CalibrationSummary, TextAsTheCliPrintsIt) {
   const std::string last = "warning: weak geometry: something\n";
   EXPECT_EQ(text.substr(text.size() - last.size()), last);
   // The calibrate.h entry point prints the same.
-  EXPECT_EQ(FormatCalibrationSummary(MadeUp()), text);
+  EXPECT_EQ(solve::FormatCalibrationSummary(MadeUp()), text);
 }
 
 }  // namespace

@@ -42,7 +42,7 @@ std::string ErrorOf(F&& f) {
           << "message '" << msg_ << "' lacks '" << part_ << "'";           \
   } while (0)
 
-void ExpectSameCamera(const CameraModel& a, const CameraModel& b) {
+void ExpectSameCamera(const camera::CameraModel& a, const camera::CameraModel& b) {
   EXPECT_EQ(a.type(), b.type());
   EXPECT_EQ(a.width(), b.width());
   EXPECT_EQ(a.height(), b.height());
@@ -53,16 +53,16 @@ void ExpectSameCamera(const CameraModel& a, const CameraModel& b) {
 }
 
 // The numbers written in the example files.
-const CameraModel kFront = CameraModel::Pinhole(
+const camera::CameraModel kFront = camera::CameraModel::Pinhole(
     912.35, 910.87, 641.22, 358.91, {-0.3412, 0.1235, 0.00041, -0.00027, 0.0}, 1280, 720, "front");
-const CameraModel kFisheye = CameraModel::Fisheye(285.72, 285.91, 424.6, 400.3,
-                                                  {-0.0082, 0.0413, -0.0392, 0.0069}, 848, 800);
-const CameraModel kOmni = CameraModel::Omni(1.1, 700.4, 699.9, 639.1, 481.7, 0.0,
-                                            {-0.2512, 0.0613, 0.00052, -0.00031}, 1280, 960);
-const CameraModel kWide = CameraModel::Pinhole(
+const camera::CameraModel kFisheye = camera::CameraModel::Fisheye(
+    285.72, 285.91, 424.6, 400.3, {-0.0082, 0.0413, -0.0392, 0.0069}, 848, 800);
+const camera::CameraModel kOmni = camera::CameraModel::Omni(
+    1.1, 700.4, 699.9, 639.1, 481.7, 0.0, {-0.2512, 0.0613, 0.00052, -0.00031}, 1280, 960);
+const camera::CameraModel kWide = camera::CameraModel::Pinhole(
     612.4, 611.8, 639.7, 359.2, {2.1, 0.52, 0.0008, -0.0004, 0.011, 2.45, 1.21, 0.093}, 1280, 720);
-OCamParams OCamExample() {
-  OCamParams o;
+camera::OCamParams OCamExample() {
+  camera::OCamParams o;
   o.center_u = 319.82, o.center_v = 241.37;
   o.c = 1.000412, o.d = 0.000187, o.e = -0.000231;
   o.pol = {-148.3, 0.0, 3.05e-3, -4.1e-6, 1.9e-8};
@@ -74,49 +74,49 @@ OCamParams OCamExample() {
 // ---- the example files -----------------------------------------------------------------------
 
 TEST(CameraIo, PinholeExamplesInEveryFormatLoadToTheSameNumbers) {
-  const std::vector<std::pair<std::string, CameraFileFormat>> files = {
-      {"pinhole_opencv.yaml", CameraFileFormat::kOpenCv},
-      {"pinhole_opencv.json", CameraFileFormat::kOpenCv},
-      {"pinhole_ros_plumb_bob.yaml", CameraFileFormat::kRosCameraInfo},
-      {"pinhole_opencalib.json", CameraFileFormat::kOpenCalib},
-      {"kalibr_camchain.yaml", CameraFileFormat::kKalibr}};
+  const std::vector<std::pair<std::string, camera::CameraFileFormat>> files = {
+      {"pinhole_opencv.yaml", camera::CameraFileFormat::kOpenCv},
+      {"pinhole_opencv.json", camera::CameraFileFormat::kOpenCv},
+      {"pinhole_ros_plumb_bob.yaml", camera::CameraFileFormat::kRosCameraInfo},
+      {"pinhole_opencalib.json", camera::CameraFileFormat::kOpenCalib},
+      {"kalibr_camchain.yaml", camera::CameraFileFormat::kKalibr}};
   for (const auto& [name, fmt] : files) {
     SCOPED_TRACE(name);
-    EXPECT_EQ(DetectCameraFileFormat(CameraExample(name)), fmt);
-    const CameraModel c = LoadCamera(CameraExample(name));
+    EXPECT_EQ(camera::DetectCameraFileFormat(CameraExample(name)), fmt);
+    const camera::CameraModel c = camera::LoadCamera(CameraExample(name));
     ExpectSameCamera(c, kFront);
     EXPECT_EQ(c.source(), CameraExample(name));
   }
-  EXPECT_EQ(LoadCamera(CameraExample("pinhole_opencv.yaml")).name(), "front");
-  EXPECT_EQ(LoadCamera(CameraExample("pinhole_opencalib.json")).name(), "front");
+  EXPECT_EQ(camera::LoadCamera(CameraExample("pinhole_opencv.yaml")).name(), "front");
+  EXPECT_EQ(camera::LoadCamera(CameraExample("pinhole_opencalib.json")).name(), "front");
 }
 
 TEST(CameraIo, FisheyeOmniRationalOCamEquirectExamples) {
-  ExpectSameCamera(LoadCamera(CameraExample("fisheye_opencv.yaml")), kFisheye);
-  ExpectSameCamera(LoadCamera(CameraExample("fisheye_ros_equidistant.yaml")), kFisheye);
-  LoadCameraOptions cam1;
+  ExpectSameCamera(camera::LoadCamera(CameraExample("fisheye_opencv.yaml")), kFisheye);
+  ExpectSameCamera(camera::LoadCamera(CameraExample("fisheye_ros_equidistant.yaml")), kFisheye);
+  camera::LoadCameraOptions cam1;
   cam1.kalibr_camera = "cam1";
-  ExpectSameCamera(LoadCamera(CameraExample("kalibr_camchain.yaml"), cam1), kFisheye);
-  ExpectSameCamera(LoadCamera(CameraExample("omni_opencv.yaml")), kOmni);
-  LoadCameraOptions cam2;
+  ExpectSameCamera(camera::LoadCamera(CameraExample("kalibr_camchain.yaml"), cam1), kFisheye);
+  ExpectSameCamera(camera::LoadCamera(CameraExample("omni_opencv.yaml")), kOmni);
+  camera::LoadCameraOptions cam2;
   cam2.kalibr_camera = "cam2";
-  ExpectSameCamera(LoadCamera(CameraExample("kalibr_camchain.yaml"), cam2), kOmni);
-  ExpectSameCamera(LoadCamera(CameraExample("pinhole_rational_ros.yaml")), kWide);
-  ExpectSameCamera(LoadCamera(CameraExample("pinhole_rational_opencv.yaml")), kWide);
+  ExpectSameCamera(camera::LoadCamera(CameraExample("kalibr_camchain.yaml"), cam2), kOmni);
+  ExpectSameCamera(camera::LoadCamera(CameraExample("pinhole_rational_ros.yaml")), kWide);
+  ExpectSameCamera(camera::LoadCamera(CameraExample("pinhole_rational_opencv.yaml")), kWide);
 
-  const CameraModel ocam_ref = CameraModel::OCam(OCamExample(), 640, 480);
-  EXPECT_EQ(DetectCameraFileFormat(CameraExample("ocam_calib_results.txt")),
-            CameraFileFormat::kOCamCalib);
-  const CameraModel ocam = LoadCamera(CameraExample("ocam_calib_results.txt"));
+  const camera::CameraModel ocam_ref = camera::CameraModel::OCam(OCamExample(), 640, 480);
+  EXPECT_EQ(camera::DetectCameraFileFormat(CameraExample("ocam_calib_results.txt")),
+            camera::CameraFileFormat::kOCamCalib);
+  const camera::CameraModel ocam = camera::LoadCamera(CameraExample("ocam_calib_results.txt"));
   ExpectSameCamera(ocam, ocam_ref);
   // The file's centre is "row column": 241.37 is the row, i.e. v.
   EXPECT_EQ(ocam.ocam_params().center_v, 241.37);
   EXPECT_EQ(ocam.ocam_params().center_u, 319.82);
   EXPECT_EQ(ocam.ocam_params().invpol.size(), 12u);
-  ExpectSameCamera(LoadCamera(CameraExample("ocam_opencv.yaml")), ocam_ref);
+  ExpectSameCamera(camera::LoadCamera(CameraExample("ocam_opencv.yaml")), ocam_ref);
 
-  ExpectSameCamera(LoadCamera(CameraExample("equirect_opencv.yaml")),
-                   CameraModel::Equirect(4000, 2000));
+  ExpectSameCamera(camera::LoadCamera(CameraExample("equirect_opencv.yaml")),
+                   camera::CameraModel::Equirect(4000, 2000));
 }
 
 // Every file in share/cameras is covered above; a new one must be added to the tests.
@@ -126,7 +126,7 @@ TEST(CameraIo, EveryExampleFileLoads) {
     const std::string p = e.path().string();
     if (e.path().extension() == ".md") continue;
     SCOPED_TRACE(p);
-    EXPECT_NO_THROW(LoadCamera(p));
+    EXPECT_NO_THROW(camera::LoadCamera(p));
     ++n;
   }
   EXPECT_EQ(n, 13);
@@ -135,77 +135,83 @@ TEST(CameraIo, EveryExampleFileLoads) {
 TEST(CameraIo, RoadPinholeOpenCalibJson) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("road-pinhole/camera-intrinsic.json");
-  EXPECT_EQ(DetectCameraFileFormat(path), CameraFileFormat::kOpenCalib);
-  const CameraModel c = LoadCamera(path);
-  ExpectSameCamera(c, CameraModel::Pinhole(
+  EXPECT_EQ(camera::DetectCameraFileFormat(path), camera::CameraFileFormat::kOpenCalib);
+  const camera::CameraModel c = camera::LoadCamera(path);
+  ExpectSameCamera(c, camera::CameraModel::Pinhole(
                           2117.31, 2113.29, 924.681, 656.457,
                           {-0.102933, -0.040925, 0.00057951, -0.00419933, 0.429959}, 1920, 1200));
   EXPECT_EQ(c.name(), "center_camera");
-  EXPECT_NO_THROW(CheckImageSize(c, 1920, 1200, "image.png"));
-  EXPECT_ERROR_MENTIONS(CheckImageSize(c, 960, 600, "half.png"), "half.png", "960x600", "1920x1200",
-                        path);
+  EXPECT_NO_THROW(camera::CheckImageSize(c, 1920, 1200, "image.png"));
+  EXPECT_ERROR_MENTIONS(camera::CheckImageSize(c, 960, 600, "half.png"), "half.png", "960x600",
+                        "1920x1200", path);
 }
 
 // ---- write / read round trips ----------------------------------------------------------------
 
 TEST(CameraIo, SaveLoadRoundTripIsExact) {
   const std::string dir = TempDir();
-  OCamParams o = OCamExample();
+  camera::OCamParams o = OCamExample();
   o.invpol.clear();
-  const std::vector<CameraModel> cams = {
+  const std::vector<camera::CameraModel> cams = {
       kFront,
       kFisheye,
       kOmni,
       kWide,
-      CameraModel::Omni(0.9, 500.123456789, 501.5, 320.25, 240.75, 0.3125, {0.1, -0.01, 1e-4, 2e-4},
-                        640, 480),
-      CameraModel::OCam(OCamExample(), 640, 480),
-      CameraModel::OCam(o, 640, 480),
-      CameraModel::Equirect(2048, 1024),
-      CameraModel(CameraType::kEquirect, {300.0, 310.0, 1000.5, 400.25}, 2000, 700)};
+      camera::CameraModel::Omni(0.9, 500.123456789, 501.5, 320.25, 240.75, 0.3125,
+                                {0.1, -0.01, 1e-4, 2e-4}, 640, 480),
+      camera::CameraModel::OCam(OCamExample(), 640, 480),
+      camera::CameraModel::OCam(o, 640, 480),
+      camera::CameraModel::Equirect(2048, 1024),
+      camera::CameraModel(camera::CameraType::kEquirect, {300.0, 310.0, 1000.5, 400.25}, 2000,
+                          700)};
   int i = 0;
-  for (const CameraModel& c : cams) {
+  for (const camera::CameraModel& c : cams) {
     for (const char* ext : {".yaml", ".json"}) {
       const std::string path = dir + "/cam" + std::to_string(i) + ext;
-      SaveCamera(c, path);
+      camera::SaveCamera(c, path);
       SCOPED_TRACE(path + "\n" + ReadFile(path));
-      const CameraModel r = LoadCamera(path);
+      const camera::CameraModel r = camera::LoadCamera(path);
       ExpectSameCamera(r, c);
     }
     ++i;
   }
   // Other formats, for the models they can hold.
   struct Case {
-    CameraModel cam;
-    CameraFileFormat fmt;
+    camera::CameraModel cam;
+    camera::CameraFileFormat fmt;
     const char* file;
   };
   const std::vector<Case> others = {
-      {kFront, CameraFileFormat::kRosCameraInfo, "ros.yaml"},
-      {kWide, CameraFileFormat::kRosCameraInfo, "ros_rational.yaml"},
-      {kFisheye, CameraFileFormat::kRosCameraInfo, "ros_fisheye.yaml"},
-      {kFront, CameraFileFormat::kKalibr, "kalibr.yaml"},
-      {kFisheye, CameraFileFormat::kKalibr, "kalibr_fe.yaml"},
-      {kOmni, CameraFileFormat::kKalibr, "kalibr_omni.yaml"},
-      {kFront, CameraFileFormat::kOpenCalib, "opencalib.json"},
-      {CameraModel::OCam(OCamExample(), 640, 480), CameraFileFormat::kOCamCalib, "calib.txt"},
-      {CameraModel::OCam(o, 640, 480), CameraFileFormat::kOCamCalib, "calib_noinv.txt"},
+      {kFront, camera::CameraFileFormat::kRosCameraInfo, "ros.yaml"},
+      {kWide, camera::CameraFileFormat::kRosCameraInfo, "ros_rational.yaml"},
+      {kFisheye, camera::CameraFileFormat::kRosCameraInfo, "ros_fisheye.yaml"},
+      {kFront, camera::CameraFileFormat::kKalibr, "kalibr.yaml"},
+      {kFisheye, camera::CameraFileFormat::kKalibr, "kalibr_fe.yaml"},
+      {kOmni, camera::CameraFileFormat::kKalibr, "kalibr_omni.yaml"},
+      {kFront, camera::CameraFileFormat::kOpenCalib, "opencalib.json"},
+      {camera::CameraModel::OCam(OCamExample(), 640, 480), camera::CameraFileFormat::kOCamCalib,
+       "calib.txt"},
+      {camera::CameraModel::OCam(o, 640, 480), camera::CameraFileFormat::kOCamCalib,
+       "calib_noinv.txt"},
   };
   for (const Case& c : others) {
     const std::string path = dir + "/" + c.file;
-    SaveCamera(c.cam, path, c.fmt);
+    camera::SaveCamera(c.cam, path, c.fmt);
     SCOPED_TRACE(path + "\n" + ReadFile(path));
-    EXPECT_EQ(DetectCameraFileFormat(path), c.fmt);
-    ExpectSameCamera(LoadCamera(path), c.cam);
+    EXPECT_EQ(camera::DetectCameraFileFormat(path), c.fmt);
+    ExpectSameCamera(camera::LoadCamera(path), c.cam);
   }
   // Models a format cannot hold are refused, naming the file.
-  EXPECT_ERROR_MENTIONS(SaveCamera(kOmni, dir + "/x.yaml", CameraFileFormat::kRosCameraInfo),
-                        "x.yaml", "omni");
-  EXPECT_ERROR_MENTIONS(SaveCamera(kWide, dir + "/y.yaml", CameraFileFormat::kKalibr), "y.yaml");
-  EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/z.txt", CameraFileFormat::kOCamCalib), "z.txt",
-                        "ocam");
-  EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/cam.txt"), "cam.txt", ".yaml");
-  EXPECT_ERROR_MENTIONS(SaveCamera(kFront, dir + "/no/such/dir/cam.yaml"), "cam.yaml");
+  EXPECT_ERROR_MENTIONS(
+      camera::SaveCamera(kOmni, dir + "/x.yaml", camera::CameraFileFormat::kRosCameraInfo),
+      "x.yaml", "omni");
+  EXPECT_ERROR_MENTIONS(
+      camera::SaveCamera(kWide, dir + "/y.yaml", camera::CameraFileFormat::kKalibr), "y.yaml");
+  EXPECT_ERROR_MENTIONS(
+      camera::SaveCamera(kFront, dir + "/z.txt", camera::CameraFileFormat::kOCamCalib), "z.txt",
+      "ocam");
+  EXPECT_ERROR_MENTIONS(camera::SaveCamera(kFront, dir + "/cam.txt"), "cam.txt", ".yaml");
+  EXPECT_ERROR_MENTIONS(camera::SaveCamera(kFront, dir + "/no/such/dir/cam.yaml"), "cam.yaml");
 }
 
 // Camera files are written atomically (output_file.h), the native OpenCV format too: a write
@@ -223,7 +229,7 @@ TEST(CameraIo, AFailedWriteLeavesThePreviousFile) {
   for (const char* name : {"cam.yaml", "cam.json"}) {
     SCOPED_TRACE(name);
     const std::string path = dir + "/" + name;
-    SaveCamera(kFisheye, path);
+    camera::SaveCamera(kFisheye, path);
     const std::string previous = ReadFile(path);
     ASSERT_GT(previous.size(), 200u);
     {
@@ -234,7 +240,7 @@ TEST(CameraIo, AFailedWriteLeavesThePreviousFile) {
       small.rlim_cur = 100;
       const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
       ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &small), 0);
-      const std::string msg = ErrorOf([&] { SaveCamera(kFront, path); });
+      const std::string msg = ErrorOf([&] { camera::SaveCamera(kFront, path); });
       setrlimit(RLIMIT_FSIZE, &old);
       std::signal(SIGXFSZ, old_handler);
       EXPECT_NE(msg.find(name), std::string::npos) << "message: '" << msg << "'";
@@ -242,19 +248,19 @@ TEST(CameraIo, AFailedWriteLeavesThePreviousFile) {
     EXPECT_EQ(ReadFile(path), previous);
     {
       OutputBatch batch;
-      SaveCamera(kFront, path);
+      camera::SaveCamera(kFront, path);
       EXPECT_EQ(ReadFile(path), previous) << "staged, not yet renamed";
     }  // the run failed: nothing committed
     EXPECT_EQ(ReadFile(path), previous);
     EXPECT_EQ(files(), std::vector<std::string>{name}) << "no temporary left";
     // A successful run replaces it.
-    SaveCamera(kFisheye, path);
+    camera::SaveCamera(kFisheye, path);
     {
       OutputBatch batch;
-      SaveCamera(kFront, path);
+      camera::SaveCamera(kFront, path);
       batch.Commit();
     }
-    ExpectSameCamera(LoadCamera(path), kFront);
+    ExpectSameCamera(camera::LoadCamera(path), kFront);
     std::filesystem::remove(path);
   }
 }
@@ -262,15 +268,15 @@ TEST(CameraIo, AFailedWriteLeavesThePreviousFile) {
 // A simulator writes the OCam camera it used; the toolbox-format file keeps every digit.
 TEST(CameraIo, OCamCalibFileKeepsFullPrecisionAndRowColumnOrder) {
   const std::string path = TempDir() + "/calib_results.txt";
-  OCamParams o = OCamExample();
+  camera::OCamParams o = OCamExample();
   o.center_u = 320.123456789012, o.center_v = 240.987654321098;
-  const CameraModel c = CameraModel::OCam(o, 640, 480);
-  SaveCamera(c, path, CameraFileFormat::kOCamCalib);
+  const camera::CameraModel c = camera::CameraModel::OCam(o, 640, 480);
+  camera::SaveCamera(c, path, camera::CameraFileFormat::kOCamCalib);
   const std::string text = ReadFile(path);
   EXPECT_NE(text.find("240.98765432109"), std::string::npos);  // row first
   EXPECT_LT(text.find("240.98765432109"), text.find("320.12345678901"));
   EXPECT_NE(text.find("\n480 640\n"), std::string::npos);  // height width
-  ExpectSameCamera(LoadCamera(path), c);
+  ExpectSameCamera(camera::LoadCamera(path), c);
 }
 
 // ---- bad files -------------------------------------------------------------------------------
@@ -280,17 +286,17 @@ TEST(CameraIo, BadFilesNameTheFileAndTheField) {
   auto write = [&](const std::string& name, const std::string& content) {
     return WriteFileIn(dir, name, content);
   };
-  EXPECT_ERROR_MENTIONS(LoadCamera(dir + "/missing.yaml"), "missing.yaml", "not found");
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(dir + "/missing.yaml"), "missing.yaml", "not found");
   std::string p = write("empty.yaml", "  \n");
-  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "empty");
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(p), p, "empty");
   p = write("binary.bin", std::string("\x89PNG\r\n\x1a\n\0\0\0", 11));
-  EXPECT_ERROR_MENTIONS(LoadCamera(p), p);
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(p), p);
   p = write("garbage.yaml", "this is not a camera\n");
-  EXPECT_ERROR_MENTIONS(LoadCamera(p), p);
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(p), p);
   p = write("garbage.json", "{\"a\": [1, 2,");
-  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "JSON");
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(p), p, "JSON");
   p = write("unknown.yaml", "foo: 1\nbar: [1, 2]\n");
-  EXPECT_ERROR_MENTIONS(LoadCamera(p), p, "unrecognised");
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(p), p, "unrecognised");
 
   // Example files with one defect each: the error names the file and the field.
   struct Bad {
@@ -376,27 +382,27 @@ TEST(CameraIo, BadFilesNameTheFileAndTheField) {
     p = write(b.name, b.content);
     std::vector<std::string> parts = b.parts;
     parts.insert(parts.begin(), p);
-    test::ExpectError([&] { LoadCamera(p); }, parts);
+    test::ExpectError([&] { camera::LoadCamera(p); }, parts);
   }
 
   // Kalibr: a camera the file does not have.
-  LoadCameraOptions cam7;
+  camera::LoadCameraOptions cam7;
   cam7.kalibr_camera = "cam7";
-  EXPECT_ERROR_MENTIONS(LoadCamera(CameraExample("kalibr_camchain.yaml"), cam7),
+  EXPECT_ERROR_MENTIONS(camera::LoadCamera(CameraExample("kalibr_camchain.yaml"), cam7),
                         "kalibr_camchain.yaml", "cam7", "cam0, cam1, cam2");
 }
 
 TEST(CameraIo, ImageSizeMismatchIsAnError) {
-  const CameraModel c = LoadCamera(CameraExample("pinhole_opencv.yaml"));
-  EXPECT_NO_THROW(CheckImageSize(c, 1280, 720, "frame.png"));
-  EXPECT_ERROR_MENTIONS(CheckImageSize(c, 1920, 1080, "frame.png"), "frame.png", "1920x1080",
-                        "1280x720", "pinhole_opencv.yaml", "never rescaled");
-  EXPECT_ERROR_MENTIONS(CheckImageSize(c, 720, 1280, "rotated.png"), "rotated.png");
+  const camera::CameraModel c = camera::LoadCamera(CameraExample("pinhole_opencv.yaml"));
+  EXPECT_NO_THROW(camera::CheckImageSize(c, 1280, 720, "frame.png"));
+  EXPECT_ERROR_MENTIONS(camera::CheckImageSize(c, 1920, 1080, "frame.png"), "frame.png",
+                        "1920x1080", "1280x720", "pinhole_opencv.yaml", "never rescaled");
+  EXPECT_ERROR_MENTIONS(camera::CheckImageSize(c, 720, 1280, "rotated.png"), "rotated.png");
 }
 
 TEST(CameraIo, FormatNames) {
-  EXPECT_STREQ(CameraFileFormatName(CameraFileFormat::kKalibr), "kalibr");
-  EXPECT_STREQ(CameraFileFormatName(CameraFileFormat::kOCamCalib), "ocamcalib");
+  EXPECT_STREQ(camera::CameraFileFormatName(camera::CameraFileFormat::kKalibr), "kalibr");
+  EXPECT_STREQ(camera::CameraFileFormatName(camera::CameraFileFormat::kOCamCalib), "ocamcalib");
 }
 
 }  // namespace

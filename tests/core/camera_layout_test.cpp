@@ -24,10 +24,10 @@ namespace scancam {
 namespace {
 
 TEST(CameraLayout, NamedIndicesMatchTheFactories) {
-  const CameraModel pin = CameraModel::Pinhole(
+  const camera::CameraModel pin = camera::CameraModel::Pinhole(
       500, 510, 320, 240, {-0.1, 0.01, 1e-4, -2e-4, 1e-3, 1e-5, 2e-5, 3e-5}, 640, 480);
   const std::vector<double>& p = pin.params();
-  using P = PinholeModel;
+  using P = camera::PinholeModel;
   EXPECT_EQ(p[P::kIdxFx], 500);
   EXPECT_EQ(p[P::kIdxFy], 510);
   EXPECT_EQ(p[P::kIdxCx], 320);
@@ -37,33 +37,33 @@ TEST(CameraLayout, NamedIndicesMatchTheFactories) {
   EXPECT_EQ(p[P::kIdxDist + P::kNumDist - 1], 3e-5);  // k6
   EXPECT_EQ(static_cast<int>(p.size()), P::kNumParams);
 
-  const CameraModel fe =
-      CameraModel::Fisheye(300, 301, 640, 480, {0.01, -0.02, 0.003, -4e-4}, 1280, 960);
-  EXPECT_EQ(fe.params()[FisheyeModel::kIdxFy], 301);
-  EXPECT_EQ(fe.params()[FisheyeModel::kIdxDist + 3], -4e-4);  // k4
+  const camera::CameraModel fe =
+      camera::CameraModel::Fisheye(300, 301, 640, 480, {0.01, -0.02, 0.003, -4e-4}, 1280, 960);
+  EXPECT_EQ(fe.params()[camera::FisheyeModel::kIdxFy], 301);
+  EXPECT_EQ(fe.params()[camera::FisheyeModel::kIdxDist + 3], -4e-4);  // k4
 
-  const CameraModel om =
-      CameraModel::Omni(1.2, 700, 701, 640, 480, 0.5, {-0.2, 0.05, 1e-4, 2e-4}, 1280, 960);
-  using O = OmniModel;
+  const camera::CameraModel om =
+      camera::CameraModel::Omni(1.2, 700, 701, 640, 480, 0.5, {-0.2, 0.05, 1e-4, 2e-4}, 1280, 960);
+  using O = camera::OmniModel;
   EXPECT_EQ(om.params()[O::kIdxXi], 1.2);
   EXPECT_EQ(om.params()[O::kIdxSkew], 0.5);
   EXPECT_EQ(om.params()[O::kIdxCx], 640);
   EXPECT_EQ(om.params()[O::kIdxDist + 1], 0.05);  // k2
   EXPECT_EQ(static_cast<int>(om.params().size()), O::kNumParams);
 
-  OCamParams oc;
+  camera::OCamParams oc;
   oc.center_u = 650, oc.center_v = 470, oc.c = 1.001, oc.d = 0.002, oc.e = -0.003;
   oc.pol = {-250.0, 0.0, 1e-3};
-  const CameraModel ocam = CameraModel::OCam(oc, 1280, 960);
-  using C = OCamModel;
+  const camera::CameraModel ocam = camera::CameraModel::OCam(oc, 1280, 960);
+  using C = camera::OCamModel;
   EXPECT_EQ(ocam.params()[C::kIdxCu], 650);
   EXPECT_EQ(ocam.params()[C::kIdxCv], 470);
   EXPECT_EQ(ocam.params()[C::kIdxAffine + 2], -0.003);  // e
   EXPECT_EQ(ocam.params()[C::kIdxPol], -250.0);
 
-  const CameraModel eq = CameraModel::Equirect(2000, 1000);
-  EXPECT_DOUBLE_EQ(eq.params()[EquirectModel::kIdxFx], 2000 / (2 * M_PI));
-  EXPECT_DOUBLE_EQ(eq.params()[EquirectModel::kIdxCy], (1000 - 1) / 2.0);
+  const camera::CameraModel eq = camera::CameraModel::Equirect(2000, 1000);
+  EXPECT_DOUBLE_EQ(eq.params()[camera::EquirectModel::kIdxFx], 2000 / (2 * M_PI));
+  EXPECT_DOUBLE_EQ(eq.params()[camera::EquirectModel::kIdxCy], (1000 - 1) / 2.0);
 }
 
 // A locale that writes "1.920,5" (German digit grouping and decimal comma) through iostreams.
@@ -79,33 +79,33 @@ struct CommaDecimal : std::numpunct<char> {
 TEST(CameraLayout, FilesAreLocaleIndependent) {
   const std::string dir = std::string(SCANCAM_TEST_TMP) + "/camera_layout_locale";
   std::filesystem::create_directories(dir);
-  const CameraModel pin =
-      CameraModel::Pinhole(1500.25, 1501.5, 960.5, 600.25, {-0.1, 0.01, 1e-4, -2e-4}, 1920, 1200);
-  const CameraModel fe =
-      CameraModel::Fisheye(300.5, 301.25, 640.5, 480.5, {0.01, -0.02, 0.003, -4e-4}, 1280, 960);
-  OCamParams oc;
+  const camera::CameraModel pin = camera::CameraModel::Pinhole(
+      1500.25, 1501.5, 960.5, 600.25, {-0.1, 0.01, 1e-4, -2e-4}, 1920, 1200);
+  const camera::CameraModel fe = camera::CameraModel::Fisheye(
+      300.5, 301.25, 640.5, 480.5, {0.01, -0.02, 0.003, -4e-4}, 1280, 960);
+  camera::OCamParams oc;
   oc.center_u = 650.5, oc.center_v = 470.25, oc.c = 1.001, oc.d = 0.002, oc.e = -0.003;
   oc.pol = {-250.5, 0.0, 1e-3};
-  const CameraModel ocam = CameraModel::OCam(oc, 1280, 960);
+  const camera::CameraModel ocam = camera::CameraModel::OCam(oc, 1280, 960);
   struct Case {
-    const CameraModel* camera;
-    CameraFileFormat format;
+    const camera::CameraModel* camera;
+    camera::CameraFileFormat format;
     const char* file;
   };
-  const Case cases[] = {{&pin, CameraFileFormat::kKalibr, "kalibr.yaml"},
-                        {&pin, CameraFileFormat::kRosCameraInfo, "ros.yaml"},
-                        {&pin, CameraFileFormat::kOpenCalib, "opencalib.json"},
-                        {&pin, CameraFileFormat::kOpenCv, "opencv.yaml"},
-                        {&fe, CameraFileFormat::kOpenCv, "opencv.json"},
-                        {&ocam, CameraFileFormat::kOCamCalib, "calib_results.txt"}};
+  const Case cases[] = {{&pin, camera::CameraFileFormat::kKalibr, "kalibr.yaml"},
+                        {&pin, camera::CameraFileFormat::kRosCameraInfo, "ros.yaml"},
+                        {&pin, camera::CameraFileFormat::kOpenCalib, "opencalib.json"},
+                        {&pin, camera::CameraFileFormat::kOpenCv, "opencv.yaml"},
+                        {&fe, camera::CameraFileFormat::kOpenCv, "opencv.json"},
+                        {&ocam, camera::CameraFileFormat::kOCamCalib, "calib_results.txt"}};
   const std::locale previous =
       std::locale::global(std::locale(std::locale::classic(), new CommaDecimal));
   for (const Case& c : cases) {
     SCOPED_TRACE(c.file);
     const std::string path = dir + "/" + c.file;
     try {
-      SaveCamera(*c.camera, path, c.format);
-      const CameraModel back = LoadCamera(path);
+      camera::SaveCamera(*c.camera, path, c.format);
+      const camera::CameraModel back = camera::LoadCamera(path);
       EXPECT_EQ(back.width(), c.camera->width());
       EXPECT_EQ(back.height(), c.camera->height());
       EXPECT_EQ(back.params(), c.camera->params());

@@ -19,38 +19,40 @@ namespace {
 
 // ---- cameras used throughout (plausible, hand-made values) ----------------------------------
 
-CameraModel RoadPinhole() {  // the road-pinhole camera's numbers: k1 k2 p1 p2 k3
-  return CameraModel::Pinhole(2117.31, 2113.29, 924.681, 656.457,
-                              {-0.102933, -0.040925, 0.00057951, -0.00419933, 0.429959}, 1920, 1200,
-                              "road");
+camera::CameraModel RoadPinhole() {  // the road-pinhole camera's numbers: k1 k2 p1 p2 k3
+  return camera::CameraModel::Pinhole(2117.31, 2113.29, 924.681, 656.457,
+                                      {-0.102933, -0.040925, 0.00057951, -0.00419933, 0.429959},
+                                      1920, 1200, "road");
 }
-CameraModel RationalPinhole() {  // a wide lens calibrated with CALIB_RATIONAL_MODEL
-  return CameraModel::Pinhole(612.4, 611.8, 639.7, 359.2,
-                              {2.1, 0.52, 0.0008, -0.0004, 0.011, 2.45, 1.21, 0.093}, 1280, 720,
-                              "rational");
+camera::CameraModel RationalPinhole() {  // a wide lens calibrated with CALIB_RATIONAL_MODEL
+  return camera::CameraModel::Pinhole(612.4, 611.8, 639.7, 359.2,
+                                      {2.1, 0.52, 0.0008, -0.0004, 0.011, 2.45, 1.21, 0.093}, 1280,
+                                      720, "rational");
 }
-CameraModel Fisheye() {  // about 200 degrees on the diagonal
-  return CameraModel::Fisheye(285.72, 285.91, 424.6, 400.3, {-0.0082, 0.0413, -0.0392, 0.0069}, 848,
-                              800, "fisheye");
+camera::CameraModel Fisheye() {  // about 200 degrees on the diagonal
+  return camera::CameraModel::Fisheye(285.72, 285.91, 424.6, 400.3,
+                                      {-0.0082, 0.0413, -0.0392, 0.0069}, 848, 800, "fisheye");
 }
-CameraModel Omni() {
-  return CameraModel::Omni(1.1, 700.4, 699.9, 639.1, 481.7, 0.27,
-                           {-0.2512, 0.0613, 0.00052, -0.00031}, 1280, 960, "omni");
+camera::CameraModel Omni() {
+  return camera::CameraModel::Omni(1.1, 700.4, 699.9, 639.1, 481.7, 0.27,
+                                   {-0.2512, 0.0613, 0.00052, -0.00031}, 1280, 960, "omni");
 }
-CameraModel OmniXiBelow1() {
-  return CameraModel::Omni(0.83, 510.2, 509.7, 400.3, 300.8, 0.0, {-0.12, 0.021, 0.0003, 0.0002},
-                           800, 600, "omni-xi<1");
+camera::CameraModel OmniXiBelow1() {
+  return camera::CameraModel::Omni(0.83, 510.2, 509.7, 400.3, 300.8, 0.0,
+                                   {-0.12, 0.021, 0.0003, 0.0002}, 800, 600, "omni-xi<1");
 }
-OCamParams OCamParamsExample() {
-  OCamParams o;
+camera::OCamParams OCamParamsExample() {
+  camera::OCamParams o;
   o.center_u = 511.2;  // column
   o.center_v = 384.7;  // row
   o.c = 1.0003, o.d = 0.0002, o.e = -0.0001;
   o.pol = {-210.5, 0.0, 2.1e-3, -3.6e-6, 1.1e-8};
   return o;
 }
-CameraModel OCam() { return CameraModel::OCam(OCamParamsExample(), 1024, 768, "ocam"); }
-CameraModel Equirect() { return CameraModel::Equirect(2000, 1000, "pano"); }
+camera::CameraModel OCam() {
+  return camera::CameraModel::OCam(OCamParamsExample(), 1024, 768, "ocam");
+}
+camera::CameraModel Equirect() { return camera::CameraModel::Equirect(2000, 1000, "pano"); }
 
 std::string Sci(double v) {
   std::ostringstream s;
@@ -58,7 +60,7 @@ std::string Sci(double v) {
   return s.str();
 }
 
-std::vector<CameraModel> AllCameras() {
+std::vector<camera::CameraModel> AllCameras() {
   return {RoadPinhole(), RationalPinhole(), Fisheye(), Omni(), OmniXiBelow1(), OCam(), Equirect()};
 }
 
@@ -67,7 +69,7 @@ std::vector<CameraModel> AllCameras() {
 // Every pixel of a dense grid over the whole image (including the border half-pixels) unprojects
 // and projects back to itself to 1e-6 px.
 TEST(CameraModel, ProjectUnprojectRoundTripWholeImage) {
-  for (const CameraModel& cam : AllCameras()) {
+  for (const camera::CameraModel& cam : AllCameras()) {
     SCOPED_TRACE(cam.Describe());
     int tested = 0, failed = 0;
     double worst = 0.0;
@@ -108,7 +110,7 @@ TEST(CameraModel, ProjectUnprojectRoundTripWholeImage) {
 TEST(CameraModel, UnprojectProjectReturnsBearing) {
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> U(-1.0, 1.0);
-  for (const CameraModel& cam : AllCameras()) {
+  for (const camera::CameraModel& cam : AllCameras()) {
     SCOPED_TRACE(cam.Describe());
     int visible = 0;
     for (int i = 0; i < 20000; ++i) {
@@ -129,7 +131,7 @@ TEST(CameraModel, UnprojectProjectReturnsBearing) {
 
 // Points in front of the camera within the model's valid field of view, spread over and beyond
 // the image (projections outside the image are compared too, through ProjectT).
-std::vector<Eigen::Vector3d> FrontPoints(const CameraModel& cam, int n, double max_angle,
+std::vector<Eigen::Vector3d> FrontPoints(const camera::CameraModel& cam, int n, double max_angle,
                                          unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> U(0.0, 1.0);
@@ -151,7 +153,7 @@ std::vector<cv::Point3d> ToCv(const std::vector<Eigen::Vector3d>& p) {
   return out;
 }
 
-void ExpectParity(const CameraModel& cam, const std::vector<Eigen::Vector3d>& pts,
+void ExpectParity(const camera::CameraModel& cam, const std::vector<Eigen::Vector3d>& pts,
                   const std::vector<cv::Point2d>& ref) {
   ASSERT_EQ(pts.size(), ref.size());
   double worst = 0.0;
@@ -168,7 +170,7 @@ void ExpectParity(const CameraModel& cam, const std::vector<Eigen::Vector3d>& pt
 }
 
 TEST(CameraModelParity, PinholeMatchesCvProjectPoints) {
-  for (const CameraModel& cam : {RoadPinhole(), RationalPinhole()}) {
+  for (const camera::CameraModel& cam : {RoadPinhole(), RationalPinhole()}) {
     SCOPED_TRACE(cam.Describe());
     const auto& p = cam.params();
     const cv::Mat K = (cv::Mat_<double>(3, 3) << p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1);
@@ -181,7 +183,7 @@ TEST(CameraModelParity, PinholeMatchesCvProjectPoints) {
 }
 
 TEST(CameraModelParity, FisheyeMatchesCvFisheyeProjectPoints) {
-  const CameraModel cam = Fisheye();
+  const camera::CameraModel cam = Fisheye();
   const auto& p = cam.params();
   const cv::Mat K = (cv::Mat_<double>(3, 3) << p[0], 0, p[2], 0, p[1], p[3], 0, 0, 1);
   const cv::Mat D = (cv::Mat_<double>(4, 1) << p[4], p[5], p[6], p[7]);
@@ -193,7 +195,7 @@ TEST(CameraModelParity, FisheyeMatchesCvFisheyeProjectPoints) {
 }
 
 TEST(CameraModelParity, OmniMatchesCvOmnidirProjectPoints) {
-  for (const CameraModel& cam : {Omni(), OmniXiBelow1()}) {
+  for (const camera::CameraModel& cam : {Omni(), OmniXiBelow1()}) {
     SCOPED_TRACE(cam.Describe());
     const auto& p = cam.params();
     const cv::Mat K = (cv::Mat_<double>(3, 3) << p[0], p[4], p[2], 0, p[1], p[3], 0, 0, 1);
@@ -218,8 +220,8 @@ TEST(CameraModelParity, OmniMatchesCvOmnidirProjectPoints) {
 
 // d(uv)/d(point) and d(uv)/d(params) from Jets against central differences.
 template <typename Model>
-void CheckProjectJacobians(const CameraModel& cam, const std::vector<int>& param_idx, unsigned seed,
-                           double min_step = 1e-6) {
+void CheckProjectJacobians(const camera::CameraModel& cam, const std::vector<int>& param_idx,
+                           unsigned seed, double min_step = 1e-6) {
   ASSERT_EQ(cam.type(), Model::kType);
   const std::vector<double>& prm = cam.params();
   // Slightly inside the field of view, so that the numeric steps stay valid.
@@ -283,30 +285,30 @@ std::vector<int> Range(int a, int b) {
 }
 
 TEST(CameraModelJacobian, Pinhole) {
-  CheckProjectJacobians<PinholeModel>(RoadPinhole(), Range(0, 12), 21);
-  CheckProjectJacobians<PinholeModel>(RationalPinhole(), Range(0, 12), 22);
+  CheckProjectJacobians<camera::PinholeModel>(RoadPinhole(), Range(0, 12), 21);
+  CheckProjectJacobians<camera::PinholeModel>(RationalPinhole(), Range(0, 12), 22);
 }
 TEST(CameraModelJacobian, Fisheye) {
-  CheckProjectJacobians<FisheyeModel>(Fisheye(), Range(0, 8), 23);
+  CheckProjectJacobians<camera::FisheyeModel>(Fisheye(), Range(0, 8), 23);
 }
 TEST(CameraModelJacobian, Omni) {
-  CheckProjectJacobians<OmniModel>(Omni(), Range(0, 10), 24);
-  CheckProjectJacobians<OmniModel>(OmniXiBelow1(), Range(0, 10), 25);
+  CheckProjectJacobians<camera::OmniModel>(Omni(), Range(0, 10), 24);
+  CheckProjectJacobians<camera::OmniModel>(OmniXiBelow1(), Range(0, 10), 25);
 }
 TEST(CameraModelJacobian, OCam) {
   // centre, affine, and the 5 polynomial coefficients (a1 = 0 too).
   std::vector<int> idx = {0, 1, 2, 3, 4};
-  for (int i = 0; i < 5; ++i) idx.push_back(OCamModel::kIdxPol + i);
-  CheckProjectJacobians<OCamModel>(OCam(), idx, 26, 0.0);
+  for (int i = 0; i < 5; ++i) idx.push_back(camera::OCamModel::kIdxPol + i);
+  CheckProjectJacobians<camera::OCamModel>(OCam(), idx, 26, 0.0);
 }
 TEST(CameraModelJacobian, Equirect) {
-  CheckProjectJacobians<EquirectModel>(Equirect(), Range(0, 4), 27);
+  CheckProjectJacobians<camera::EquirectModel>(Equirect(), Range(0, 4), 27);
 }
 
 // The unprojection's Jacobian (bearing w.r.t. pixel) through the implicit Newton step.
 TEST(CameraModelJacobian, UnprojectAgainstCentralDifferences) {
   using J2 = ceres::Jet<double, 2>;
-  for (const CameraModel& cam : AllCameras()) {
+  for (const camera::CameraModel& cam : AllCameras()) {
     SCOPED_TRACE(cam.Describe());
     std::vector<J2> pj(cam.params().begin(), cam.params().end());
     for (double fu : {0.1, 0.37, 0.5, 0.81, 0.95}) {
@@ -314,14 +316,14 @@ TEST(CameraModelJacobian, UnprojectAgainstCentralDifferences) {
         const Eigen::Vector2d px(fu * cam.width(), fv * cam.height());
         J2 uvj[2] = {J2(px[0], 0), J2(px[1], 1)};
         J2 bj[3];
-        ASSERT_TRUE(UnprojectT(cam.type(), pj.data(), uvj, bj));
+        ASSERT_TRUE(camera::UnprojectT(cam.type(), pj.data(), uvj, bj));
         for (int k = 0; k < 2; ++k) {
           const double h = 1e-4;
           Eigen::Vector2d a = px, b = px;
           a[k] += h, b[k] -= h;
           Eigen::Vector3d ba, bb;
-          ASSERT_TRUE(UnprojectT(cam.type(), cam.params().data(), a.data(), ba.data()));
-          ASSERT_TRUE(UnprojectT(cam.type(), cam.params().data(), b.data(), bb.data()));
+          ASSERT_TRUE(camera::UnprojectT(cam.type(), cam.params().data(), a.data(), ba.data()));
+          ASSERT_TRUE(camera::UnprojectT(cam.type(), cam.params().data(), b.data(), bb.data()));
           for (int r = 0; r < 3; ++r) {
             const double num = (ba[r] - bb[r]) / (2 * h);
             EXPECT_NEAR(bj[r].v[k], num, 1e-7 + 1e-5 * std::abs(num)) << px.transpose();
@@ -334,7 +336,7 @@ TEST(CameraModelJacobian, UnprojectAgainstCentralDifferences) {
 
 // The runtime model's ProjectT inside a real ceres::AutoDiffCostFunction.
 struct ReprojFunctor {
-  const CameraModel* cam;
+  const camera::CameraModel* cam;
   Eigen::Vector2d observed;
   template <typename T>
   bool operator()(const T* p, T* r) const {
@@ -347,7 +349,7 @@ struct ReprojFunctor {
 };
 
 TEST(CameraModelJacobian, WorksInAutoDiffCostFunction) {
-  for (const CameraModel& cam : AllCameras()) {
+  for (const camera::CameraModel& cam : AllCameras()) {
     SCOPED_TRACE(cam.Describe());
     const Eigen::Vector3d X =
         *cam.Unproject(Eigen::Vector2d(0.3 * cam.width(), 0.6 * cam.height())) * 4.0;
@@ -376,7 +378,7 @@ TEST(CameraModelJacobian, WorksInAutoDiffCostFunction) {
 // ---- validity ------------------------------------------------------------------------------
 
 TEST(CameraModelValidity, BehindCameraAndOutsideImage) {
-  for (const CameraModel& cam : {RoadPinhole(), RationalPinhole()}) {
+  for (const camera::CameraModel& cam : {RoadPinhole(), RationalPinhole()}) {
     EXPECT_FALSE(cam.Project({0.1, 0.1, -1.0}));
     EXPECT_FALSE(cam.Project({0.0, 0.0, 0.0}));
     EXPECT_FALSE(cam.Project({1.0, 0.0, 0.0}));    // 90 degrees
@@ -384,7 +386,7 @@ TEST(CameraModelValidity, BehindCameraAndOutsideImage) {
     EXPECT_TRUE(cam.Project({0.0, 0.0, 1.0}));
   }
   // The road camera: a point just outside the right border.
-  const CameraModel road = RoadPinhole();
+  const camera::CameraModel road = RoadPinhole();
   const auto right = road.Unproject({1919.4, 600});
   ASSERT_TRUE(right);
   const Eigen::Vector3d beyond = (*right + Eigen::Vector3d(0.01, 0, 0)).normalized();
@@ -393,35 +395,35 @@ TEST(CameraModelValidity, BehindCameraAndOutsideImage) {
   EXPECT_GT(road.ProjectUnbounded(beyond)->x(), 1919.5);
 
   // Fisheye: sees beyond 90 degrees, but not straight back.
-  const CameraModel fe = Fisheye();
+  const camera::CameraModel fe = Fisheye();
   EXPECT_GT(fe.model_max_angle_rad(), M_PI / 2);
   EXPECT_TRUE(fe.Project({1.0, 0.0, -0.05}));  // 93 degrees, inside the image horizontally
   EXPECT_FALSE(fe.Project({0.0, 0.0, -1.0}));
   // Omni xi > 1: rays with z/|X| < -1/xi fold back.
-  const CameraModel om = Omni();
+  const camera::CameraModel om = Omni();
   const double xi = om.params()[5];
   EXPECT_NEAR(om.model_max_angle_rad(), std::acos(-1.0 / xi), 0.2);
   EXPECT_FALSE(om.ProjectUnbounded(Eigen::Vector3d(0.1, 0.0, -1.0)));
   EXPECT_FALSE(OmniXiBelow1().ProjectUnbounded(Eigen::Vector3d(0.1, 0.0, -1.0)));
   // Pixels outside the image do not unproject.
-  for (const CameraModel& cam : AllCameras()) {
+  for (const camera::CameraModel& cam : AllCameras()) {
     EXPECT_FALSE(cam.Unproject({-0.51, 10}));
     EXPECT_FALSE(cam.Unproject({10, cam.height() - 0.5}));
     EXPECT_FALSE(cam.Unproject({cam.width() - 0.5, 10}));
-    EXPECT_TRUE(cam.Unproject({-0.5, -0.5}) || cam.type() == CameraType::kFisheye);
+    EXPECT_TRUE(cam.Unproject({-0.5, -0.5}) || cam.type() == camera::CameraType::kFisheye);
     EXPECT_TRUE(cam.InImage({-0.5, -0.5}));
     EXPECT_FALSE(cam.InImage({cam.width() - 0.5, 0}));
     EXPECT_FALSE(cam.Project({std::nan(""), 0.0, 1.0}));
   }
   // An empty camera projects nothing.
-  EXPECT_FALSE(CameraModel().Project({0, 0, 1}));
+  EXPECT_FALSE(camera::CameraModel().Project({0, 0, 1}));
 }
 
 // A pinhole whose radial polynomial folds back inside the field of view: a far-off-axis point
 // would wrap back into the image; Project must refuse it and Unproject must not return it.
 TEST(CameraModelValidity, PinholeFoldBackIsRejected) {
-  const CameraModel cam =
-      CameraModel::Pinhole(500, 500, 320, 240, {-0.6, 0.0, 0.0, 0.0, 0.0}, 640, 480);
+  const camera::CameraModel cam =
+      camera::CameraModel::Pinhole(500, 500, 320, 240, {-0.6, 0.0, 0.0, 0.0, 0.0}, 640, 480);
   // g(r) = r (1 - 0.6 r^2) peaks at r = 1/sqrt(1.8) = 0.745, where g = 0.497 (248 px).
   EXPECT_NEAR(std::tan(cam.model_max_angle_rad()), 1.0 / std::sqrt(1.8), 1e-6);
   // r = 1.2 maps to g = 0.1632 -> 81 px from the centre: inside the image but folded.
@@ -433,28 +435,29 @@ TEST(CameraModelValidity, PinholeFoldBackIsRejected) {
 }
 
 TEST(CameraModelValidity, BadParametersThrow) {
-  EXPECT_THROW(CameraModel::Pinhole(-1, 500, 320, 240, {}, 640, 480), Error);
-  EXPECT_THROW(CameraModel::Pinhole(500, 500, 320, 240, {0.1, 0.2}, 640, 480), Error);
-  EXPECT_THROW(CameraModel::Pinhole(500, 500, 320, 240, {}, 0, 480), Error);
-  EXPECT_THROW(CameraModel(CameraType::kFisheye, {1, 2, 3}, 640, 480), Error);
-  EXPECT_THROW(CameraModel::Omni(-0.5, 500, 500, 320, 240, 0, {0, 0, 0, 0}, 640, 480), Error);
-  OCamParams o = OCamParamsExample();
+  EXPECT_THROW(camera::CameraModel::Pinhole(-1, 500, 320, 240, {}, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::Pinhole(500, 500, 320, 240, {0.1, 0.2}, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::Pinhole(500, 500, 320, 240, {}, 0, 480), Error);
+  EXPECT_THROW(camera::CameraModel(camera::CameraType::kFisheye, {1, 2, 3}, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::Omni(-0.5, 500, 500, 320, 240, 0, {0, 0, 0, 0}, 640, 480),
+               Error);
+  camera::OCamParams o = OCamParamsExample();
   o.pol[0] = 10;
-  EXPECT_THROW(CameraModel::OCam(o, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::OCam(o, 640, 480), Error);
   o = OCamParamsExample();
   o.pol.assign(13, 0.0);
   o.pol[0] = -100;
-  EXPECT_THROW(CameraModel::OCam(o, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::OCam(o, 640, 480), Error);
   o = OCamParamsExample();
   o.c = 0.0, o.d = 1.0, o.e = 0.0;  // det = c - d e = 0
-  EXPECT_THROW(CameraModel::OCam(o, 640, 480), Error);
-  EXPECT_THROW(CameraModel::Pinhole(std::nan(""), 500, 320, 240, {}, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::OCam(o, 640, 480), Error);
+  EXPECT_THROW(camera::CameraModel::Pinhole(std::nan(""), 500, 320, 240, {}, 640, 480), Error);
 }
 
 // ---- OCamCalib frame conversion -------------------------------------------------------------
 
 // The toolbox's cam2world (ocam_functions.c), in its own frame and pixel terms (row, col).
-Eigen::Vector3d ToolboxCam2World(const OCamParams& o, double row, double col) {
+Eigen::Vector3d ToolboxCam2World(const camera::OCamParams& o, double row, double col) {
   const double xc = o.center_v, yc = o.center_u;  // file order: row, column
   const double invdet = 1.0 / (o.c - o.d * o.e);
   const double xp = invdet * ((row - xc) - o.d * (col - yc));
@@ -466,7 +469,7 @@ Eigen::Vector3d ToolboxCam2World(const OCamParams& o, double row, double col) {
 }
 
 // The toolbox's world2cam with an inverse polynomial, returning (row, col).
-Eigen::Vector2d ToolboxWorld2Cam(const OCamParams& o, const Eigen::Vector3d& M) {
+Eigen::Vector2d ToolboxWorld2Cam(const camera::OCamParams& o, const Eigen::Vector3d& M) {
   const double norm = std::sqrt(M[0] * M[0] + M[1] * M[1]);
   const double theta = std::atan(M[2] / norm);
   double rho = o.invpol[0], ti = 1;
@@ -476,8 +479,8 @@ Eigen::Vector2d ToolboxWorld2Cam(const OCamParams& o, const Eigen::Vector3d& M) 
 }
 
 TEST(CameraModelOCam, FrameConversionToOpenCv) {
-  const CameraModel cam = OCam();
-  const OCamParams o = cam.ocam_params();
+  const camera::CameraModel cam = OCam();
+  const camera::OCamParams o = cam.ocam_params();
   // Straight ahead (+z in OpenCV) is the distortion centre.
   const auto c = cam.Project({0, 0, 1});
   ASSERT_TRUE(c);
@@ -512,11 +515,11 @@ TEST(CameraModelOCam, FrameConversionToOpenCv) {
 
 // Project is exact whatever the inverse polynomial: missing, fitted, or deliberately poor.
 TEST(CameraModelOCam, InversePolynomialOnlySeedsNewton) {
-  OCamParams o = OCamParamsExample();
-  const CameraModel none = CameraModel::OCam(o, 1024, 768);
-  o.invpol = FitOCamInvPol(none, 1e-3);
+  camera::OCamParams o = OCamParamsExample();
+  const camera::CameraModel none = camera::CameraModel::OCam(o, 1024, 768);
+  o.invpol = camera::FitOCamInvPol(none, 1e-3);
   ASSERT_GE(o.invpol.size(), 3u);
-  const CameraModel fitted = CameraModel::OCam(o, 1024, 768);
+  const camera::CameraModel fitted = camera::CameraModel::OCam(o, 1024, 768);
   // The fit agrees with the toolbox's world2cam to its tolerance.
   const auto pts = FrontPoints(fitted, 500, fitted.max_angle_rad(), 31);
   for (const auto& X : pts) {
@@ -525,9 +528,9 @@ TEST(CameraModelOCam, InversePolynomialOnlySeedsNewton) {
     ASSERT_TRUE(uv);
     EXPECT_LT((Eigen::Vector2d(rc[1], rc[0]) - *uv).norm(), 2e-3);
   }
-  OCamParams poor = o;
+  camera::OCamParams poor = o;
   poor.invpol = {300.0, 100.0};  // a bad guess
-  const CameraModel bad = CameraModel::OCam(poor, 1024, 768);
+  const camera::CameraModel bad = camera::CameraModel::OCam(poor, 1024, 768);
   for (const auto& X : pts) {
     const auto a = none.ProjectUnbounded(X), b = fitted.ProjectUnbounded(X),
                c = bad.ProjectUnbounded(X);
@@ -540,7 +543,7 @@ TEST(CameraModelOCam, InversePolynomialOnlySeedsNewton) {
 // ---- equirectangular ------------------------------------------------------------------------
 
 TEST(CameraModelEquirect, Convention) {
-  const CameraModel cam = Equirect();  // 2000 x 1000
+  const camera::CameraModel cam = Equirect();  // 2000 x 1000
   const auto f = cam.Project({0, 0, 1});
   ASSERT_TRUE(f);
   EXPECT_NEAR(f->x(), 999.5, 1e-9);  // image centre
@@ -574,7 +577,7 @@ TEST(CameraModelBatch, MatchesSinglePointProjection) {
   std::vector<Eigen::Vector3f> pts(50000);
   for (auto& p : pts) p = Eigen::Vector3f(U(rng), U(rng), U(rng));
   pts[3] = Eigen::Vector3f(std::nanf(""), 0, 0);
-  for (const CameraModel& cam : AllCameras()) {
+  for (const camera::CameraModel& cam : AllCameras()) {
     SCOPED_TRACE(cam.Describe());
     std::vector<Eigen::Vector2f> uv(pts.size());
     std::vector<std::uint8_t> valid(pts.size());
@@ -603,13 +606,14 @@ TEST(CameraModelBatch, MatchesSinglePointProjection) {
 }
 
 TEST(CameraModel, NamesAndDescribe) {
-  for (CameraType t : {CameraType::kPinhole, CameraType::kFisheye, CameraType::kOmni,
-                       CameraType::kOCam, CameraType::kEquirect}) {
-    EXPECT_EQ(CameraTypeFromName(CameraTypeName(t)), t);
+  for (camera::CameraType t :
+       {camera::CameraType::kPinhole, camera::CameraType::kFisheye, camera::CameraType::kOmni,
+        camera::CameraType::kOCam, camera::CameraType::kEquirect}) {
+    EXPECT_EQ(camera::CameraTypeFromName(camera::CameraTypeName(t)), t);
   }
-  EXPECT_FALSE(CameraTypeFromName("kb4"));
+  EXPECT_FALSE(camera::CameraTypeFromName("kb4"));
   EXPECT_NE(RoadPinhole().Describe().find("2117.31"), std::string::npos);
-  EXPECT_EQ(NumCameraParams(CameraType::kOCam), 52);
+  EXPECT_EQ(camera::NumCameraParams(camera::CameraType::kOCam), 52);
   EXPECT_THROW(RoadPinhole().ocam_params(), Error);
 }
 

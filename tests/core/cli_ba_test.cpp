@@ -51,7 +51,7 @@ TEST(CliBa, WritesAllImagesMatchingTheLibrary) {
     scan.point_m[scan.index(r, c)] = Eigen::Vector3f::Constant(OrderedScan::kNaN);
   }
   const std::string ptx = dir + "/room.ptx";
-  WritePtx(ptx, {PtxFromOrderedScan(scan)});
+  io::WritePtx(ptx, {io::PtxFromOrderedScan(scan)});
   const std::string out = dir + "/out";
 
   ASSERT_EQ(RunCli(dir, "ba \"" + ptx + "\" --out \"" + out +
@@ -74,7 +74,7 @@ TEST(CliBa, WritesAllImagesMatchingTheLibrary) {
   }
 
   // The TIFFs are exactly what the library computes from the same file.
-  const OrderedScan loaded = LoadScan(ptx);
+  const OrderedScan loaded = io::LoadScan(ptx);
   ASSERT_EQ(loaded.rows, 12);
   ASSERT_EQ(loaded.cols, 9);
   for (BaTrace t : kAllBaTraces) {
@@ -129,7 +129,7 @@ TEST(CliBa, WritesAllImagesMatchingTheLibrary) {
 // of the ranges and theta alone, whatever d_x, d_z.
 TEST(CliBa, RotatingScannerWithOffsetsFollowsEquation4) {
   const std::string dir = TempDir();
-  RotatingScanData d;
+  io::RotatingScanData d;
   d.planes = 10;
   d.beams = 31;
   for (int i = 0; i < d.planes; ++i) d.phi_rad.push_back((-20.0 + 5.0 * i) * M_PI / 180);
@@ -139,7 +139,7 @@ TEST(CliBa, RotatingScannerWithOffsetsFollowsEquation4) {
       d.range_m.push_back(static_cast<float>(3.0 + 0.5 * std::sin(i + 0.3 * j) + 0.02 * j));
   d.range_m[4 * d.beams + 7] = std::nanf("");
   const std::string log = dir + "/sweep.txt";
-  WriteRotatingLog(log, d);
+  io::WriteRotatingLog(log, d);
   const std::string out = dir + "/out";
   ASSERT_EQ(RunCli(dir, "ba \"" + log + "\" --format rotating --dx-m 0.2 --dz-m -0.1 --out \"" +
                             out + "\" --quiet"),
@@ -180,7 +180,7 @@ TEST(CliBa, BadFileExitsOneNamingTheFile) {
 
   // Bad options: exit 1 with a message naming the option.
   const std::string ptx = dir + "/ok.ptx";
-  WritePtx(ptx, {PtxFromOrderedScan(SmallScan())});
+  io::WritePtx(ptx, {io::PtxFromOrderedScan(SmallScan())});
   EXPECT_EQ(RunCli(dir, "ba \"" + ptx + "\" --out \"" + dir + "/o\" --colormap red"), 1);
   EXPECT_NE(ReadFile(dir + "/stderr.txt").find("--colormap"), std::string::npos);
   EXPECT_EQ(RunCli(dir, "ba \"" + ptx + "\" --out \"" + dir + "/o\" --step 1"), 1);

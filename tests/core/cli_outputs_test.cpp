@@ -43,7 +43,7 @@ struct SimFiles {
     const sim::Simulation s = sim::Simulate(o);
     sim::WriteSimulation(s, dir);
     camera = dir + "/" + sim::CameraFileName(s);
-    WriteOrganisedPcd(dir + "/scan.pcd", LoadScan(dir + "/scan.txt"));
+    io::WriteOrganisedPcd(dir + "/scan.pcd", io::LoadScan(dir + "/scan.txt"));
   }
   ~SimFiles() {
     std::error_code ec;

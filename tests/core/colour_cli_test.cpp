@@ -215,9 +215,10 @@ TEST(CliColorize, InvertedTransformWarns) {
       const Eigen::Vector3d b(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
       scan.set_point(r, c, (6.0 / b.x() * b).cast<float>());  // a wall 6 m ahead
     }
-  WritePtx(dir + "/wall.ptx", {PtxFromOrderedScan(scan)});
-  const CameraModel cam = CameraModel::Pinhole(500, 500, 319.5, 239.5, {}, 640, 480, "cam");
-  SaveCamera(cam, dir + "/cam.yaml");
+  io::WritePtx(dir + "/wall.ptx", {io::PtxFromOrderedScan(scan)});
+  const camera::CameraModel cam =
+      camera::CameraModel::Pinhole(500, 500, 319.5, 239.5, {}, 640, 480, "cam");
+  camera::SaveCamera(cam, dir + "/cam.yaml");
   cv::imwrite(dir + "/img.png", cv::Mat(480, 640, CV_8UC3, cv::Scalar(10, 200, 30)));
   // The right pose: camera 1 m behind the scanner, looking along its x axis.
   Eigen::Matrix3d R;
@@ -225,8 +226,9 @@ TEST(CliColorize, InvertedTransformWarns) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = R;
   T.translation() = -R * Eigen::Vector3d(-1, 0, 0);
-  WriteJsonFile(dir + "/right.json", nlohmann::json{{"T_cam_scan", PoseToJson(T)}});
-  WriteJsonFile(dir + "/inverted.json", nlohmann::json{{"T_cam_scan", PoseToJson(T.inverse())}});
+  io::WriteJsonFile(dir + "/right.json", nlohmann::json{{"T_cam_scan", io::PoseToJson(T)}});
+  io::WriteJsonFile(dir + "/inverted.json",
+                    nlohmann::json{{"T_cam_scan", io::PoseToJson(T.inverse())}});
   const std::string base = "--scan " + dir + "/wall.ptx --camera " + dir + "/cam.yaml --image " +
                            dir + "/img.png --out " + dir + "/x.ply --calib ";
   ASSERT_EQ(RunCli(dir, base + dir + "/right.json"), 0);
@@ -277,9 +279,9 @@ TEST(CliColorize, RoadDataset) {
 TEST(EdgeAlignment, RoadDatasetReferenceBeatsWrongPose) {
   SCANCAM_REQUIRE_SHARED();
   const std::string d = test::SharedDataset("road-pinhole");
-  const OrderedScan scan = LoadScan(d + "/scan.pcd");
+  const OrderedScan scan = io::LoadScan(d + "/scan.pcd");
   ColourView v;
-  v.camera = LoadCamera(d + "/camera-intrinsic.json");
+  v.camera = camera::LoadCamera(d + "/camera-intrinsic.json");
   v.image = cv::imread(d + "/image.png", cv::IMREAD_COLOR);
   v.T_cam_scan = LoadExtrinsic(d + "/reference-extrinsic.json");
   v.name = "image.png";

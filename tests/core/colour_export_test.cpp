@@ -95,7 +95,8 @@ const Scene& GetScene() {
     }
     ColourView v;
     const int w = 640, hgt = 480;
-    v.camera = CameraModel::Pinhole(500, 500, (w - 1) / 2.0, (hgt - 1) / 2.0, {}, w, hgt, "cam");
+    v.camera =
+        camera::CameraModel::Pinhole(500, 500, (w - 1) / 2.0, (hgt - 1) / 2.0, {}, w, hgt, "cam");
     Eigen::Matrix3d R;
     R << 0, -1, 0, 0, 0, -1, 1, 0, 0;
     const Eigen::Vector3d centre(0, -0.6, 0);
@@ -291,12 +292,12 @@ TEST(TexturedMesh, ClosesTheSeamOfAFullTurn) {
       rotating.set_point(c, r, p);
     }
   }
-  const GridWrap wl = DetectGridWrap(lidar), wr = DetectGridWrap(rotating);
+  const scan::GridWrap wl = scan::DetectGridWrap(lidar), wr = scan::DetectGridWrap(rotating);
   EXPECT_TRUE(wl.cols);
   EXPECT_FALSE(wl.rows);
   EXPECT_TRUE(wr.rows);
   EXPECT_FALSE(wr.cols);
-  const GridWrap wall = DetectGridWrap(GetScene().scan);
+  const scan::GridWrap wall = scan::DetectGridWrap(GetScene().scan);
   EXPECT_FALSE(wall.rows || wall.cols);
   MeshOptions open;
   open.close_wrap = false;

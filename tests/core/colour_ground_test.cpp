@@ -103,8 +103,8 @@ TEST(EstimateGround, NoneWhenNothingIsBelowTheSensorOrTheOptionsAreWrong) {
 // what is steeper than the slope limit or out of the band is not joined.
 TEST(ContinuousNeighbours, GroundPriorJoinsFarRingsNotTheBox) {
   const OrderedScan s = LidarOverGround(0.05);
-  ContinuityOptions without;
-  ContinuityOptions with;
+  scan::ContinuityOptions without;
+  scan::ContinuityOptions with;
   with.ground = EstimateGround(s);
   ASSERT_TRUE(with.ground.has_value());
   std::size_t far = 0, joined_without = 0, joined_with = 0;
@@ -114,8 +114,8 @@ TEST(ContinuousNeighbours, GroundPriorJoinsFarRingsNotTheBox) {
       if (!s.valid(i) || !s.valid(j) || s.range_m[j] < 40.f) continue;
       if (GroundHeight(s.point_m[i].cast<double>()) > 0.1) continue;  // the box
       ++far;
-      joined_without += ContinuousNeighbours(s, r, c, 1, 0, without);
-      joined_with += ContinuousNeighbours(s, r, c, 1, 0, with);
+      joined_without += scan::ContinuousNeighbours(s, r, c, 1, 0, without);
+      joined_with += scan::ContinuousNeighbours(s, r, c, 1, 0, with);
     }
   }
   std::printf("far ground ring pairs %zu: continuous without the prior %zu, with %zu\n", far,
@@ -130,19 +130,19 @@ TEST(ContinuousNeighbours, GroundPriorJoinsFarRingsNotTheBox) {
   // steeper than 8 deg and is not joined, though both lie in the band.
   OrderedScan pair = OrderedScan::Empty(2, 1);
   pair.set_point(1, 0, Eigen::Vector3f(40.0f, 0.f, -1.8f));
-  ContinuityOptions flat = with;
-  flat.ground = GroundPlane{};
+  scan::ContinuityOptions flat = with;
+  flat.ground = scan::GroundPlane{};
   flat.ground->offset_m = 1.8;
   pair.set_point(0, 0, Eigen::Vector3f(44.0f, 0.f, -1.76f));
-  EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, without)) << "a jump for tests 1 and 2";
-  EXPECT_TRUE(ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
+  EXPECT_FALSE(scan::ContinuousNeighbours(pair, 0, 0, 1, 0, without)) << "a jump for tests 1 and 2";
+  EXPECT_TRUE(scan::ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
   pair.set_point(0, 0, Eigen::Vector3f(40.45f, 0.f, -1.72f));
-  EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, without));
-  EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
+  EXPECT_FALSE(scan::ContinuousNeighbours(pair, 0, 0, 1, 0, without));
+  EXPECT_FALSE(scan::ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
   // Out of the band (a car's roof edge over the road behind it): never by test 3.
   pair.set_point(0, 0, Eigen::Vector3f(60.0f, 0.f, -0.3f));
-  EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, without));
-  EXPECT_FALSE(ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
+  EXPECT_FALSE(scan::ContinuousNeighbours(pair, 0, 0, 1, 0, without));
+  EXPECT_FALSE(scan::ContinuousNeighbours(pair, 0, 0, 1, 0, flat));
 }
 
 // The mesh joins what the colouring joined: BuildTexturedMesh takes the ground plane from the
@@ -151,7 +151,7 @@ TEST(ContinuousNeighbours, GroundPriorJoinsFarRingsNotTheBox) {
 TEST(GroundPrior, MeshTakesTheGroundOfTheColouring) {
   const OrderedScan s = LidarOverGround(0.05);
   ColourView v;  // a camera 0.3 m below the lidar looking along +x
-  v.camera = CameraModel::Pinhole(300, 300, 319.5, 239.5, {}, 640, 480, "test");
+  v.camera = camera::CameraModel::Pinhole(300, 300, 319.5, 239.5, {}, 640, 480, "test");
   v.image = cv::Mat(480, 640, CV_8UC3, cv::Scalar(90, 120, 150));
   Eigen::Matrix3d R;
   R << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // camera x = -y, y = -z, z = x (scan frame)
@@ -183,10 +183,10 @@ TEST(GroundPrior, MeshTakesTheGroundOfTheColouring) {
 TEST(GroundPrior, RoadScanLessOverOcclusion) {
   SCANCAM_REQUIRE_SHARED();
   const std::string d = test::SharedDataset("road-pinhole");
-  const OrderedScan scan = LoadScan(d + "/scan.pcd");
+  const OrderedScan scan = io::LoadScan(d + "/scan.pcd");
   ColourView v;
   v.name = d + "/image.png";
-  v.camera = LoadCamera(d + "/camera-intrinsic.json");
+  v.camera = camera::LoadCamera(d + "/camera-intrinsic.json");
   v.image = cv::imread(v.name, cv::IMREAD_COLOR);
   v.T_cam_scan = LoadExtrinsic(d + "/reference-extrinsic.json");
   ColourOptions off;

@@ -122,8 +122,8 @@ Eigen::Isometry3d CameraPose(const Eigen::Vector3d& centre) {
 ColourView MakeView(const Eigen::Vector3d& centre, double focal = 500, int w = 640, int h = 480,
                     CastFn cast = Cast) {
   ColourView v;
-  v.camera =
-      CameraModel::Pinhole(focal, focal, (w - 1) / 2.0, (h - 1) / 2.0, {}, w, h, "synthetic");
+  v.camera = camera::CameraModel::Pinhole(focal, focal, (w - 1) / 2.0, (h - 1) / 2.0, {}, w, h,
+                                          "synthetic");
   v.T_cam_scan = CameraPose(centre);
   v.name = "synthetic image";
   v.image.create(h, w, CV_8UC3);
@@ -347,14 +347,14 @@ OrderedScan Line(const std::vector<double>& ranges, double step_deg) {
 }
 
 TEST(ContinuousNeighbours, PlanesStepsAndNoise) {
-  ContinuityOptions o;
+  scan::ContinuityOptions o;
   o.range_noise_m = 0.01;
   // A plane seen head-on at 5 m, 1 deg beams: continuous.
   {
     std::vector<double> r;
     for (int c = 0; c < 5; ++c) r.push_back(5.0 / std::cos((c - 2) * kDeg));
     const OrderedScan s = Line(r, 1.0);
-    for (int c = 0; c + 1 < 5; ++c) EXPECT_TRUE(ContinuousNeighbours(s, 0, c, 0, 1, o)) << c;
+    for (int c = 0; c + 1 < 5; ++c) EXPECT_TRUE(scan::ContinuousNeighbours(s, 0, c, 0, 1, o)) << c;
   }
   // A plane at 85 deg incidence (a road far from a lidar): BA < 15 deg, but the planar
   // extrapolation recovers it. Plane: x cos(85) + y sin(85) = d.
@@ -367,25 +367,25 @@ TEST(ContinuousNeighbours, PlanesStepsAndNoise) {
     }
     // beams at small angles from x: incidence on this plane is ~85 deg
     const OrderedScan s = Line(r, 0.5);
-    ContinuityOptions only_ba = o;
+    scan::ContinuityOptions only_ba = o;
     only_ba.planar_extrapolation = false;
-    EXPECT_FALSE(ContinuousNeighbours(s, 0, 2, 0, 1, only_ba)) << "BA alone calls it a jump";
-    EXPECT_TRUE(ContinuousNeighbours(s, 0, 2, 0, 1, o)) << "the plane continues";
+    EXPECT_FALSE(scan::ContinuousNeighbours(s, 0, 2, 0, 1, only_ba)) << "BA alone calls it a jump";
+    EXPECT_TRUE(scan::ContinuousNeighbours(s, 0, 2, 0, 1, o)) << "the plane continues";
   }
   // A step: pole at 3 m, wall at 6 m (both head-on): not continuous, whatever the side.
   {
     const OrderedScan s = Line({3.0, 3.0, 3.0, 6.0, 6.0, 6.0}, 1.0);
-    EXPECT_TRUE(ContinuousNeighbours(s, 0, 0, 0, 1, o));
-    EXPECT_FALSE(ContinuousNeighbours(s, 0, 2, 0, 1, o));
-    EXPECT_FALSE(ContinuousNeighbours(s, 0, 3, 0, -1, o));
-    EXPECT_TRUE(ContinuousNeighbours(s, 0, 4, 0, 1, o));
+    EXPECT_TRUE(scan::ContinuousNeighbours(s, 0, 0, 0, 1, o));
+    EXPECT_FALSE(scan::ContinuousNeighbours(s, 0, 2, 0, 1, o));
+    EXPECT_FALSE(scan::ContinuousNeighbours(s, 0, 3, 0, -1, o));
+    EXPECT_TRUE(scan::ContinuousNeighbours(s, 0, 4, 0, 1, o));
   }
   // A jump within the range noise is continuous; a missing return never is.
   {
     const OrderedScan s = Line({5.0, 5.008, NAN, 5.0}, 0.01);
-    EXPECT_TRUE(ContinuousNeighbours(s, 0, 0, 0, 1, o));
-    EXPECT_FALSE(ContinuousNeighbours(s, 0, 1, 0, 1, o));
-    EXPECT_FALSE(ContinuousNeighbours(s, 0, 3, 0, 1, o)) << "outside the grid";
+    EXPECT_TRUE(scan::ContinuousNeighbours(s, 0, 0, 0, 1, o));
+    EXPECT_FALSE(scan::ContinuousNeighbours(s, 0, 1, 0, 1, o));
+    EXPECT_FALSE(scan::ContinuousNeighbours(s, 0, 3, 0, 1, o)) << "outside the grid";
   }
 }
 

@@ -93,8 +93,8 @@ Eigen::Isometry3d Pose(double yaw_deg) {
 ColourView PinholeView(double yaw_deg) {
   ColourView v;
   const int w = 645, h = 483;  // odd sizes
-  v.camera =
-      CameraModel::Pinhole(330, 331, 322.3, 240.8, {-0.12, 0.04, 0.001, -0.0007}, w, h, "pinhole");
+  v.camera = camera::CameraModel::Pinhole(330, 331, 322.3, 240.8, {-0.12, 0.04, 0.001, -0.0007}, w,
+                                          h, "pinhole");
   v.T_cam_scan = Pose(yaw_deg);
   v.image = Texture(w, h);
   v.name = "pinhole";
@@ -104,8 +104,8 @@ ColourView PinholeView(double yaw_deg) {
 ColourView FisheyeView() {
   ColourView v;
   const int w = 700, h = 560;
-  v.camera =
-      CameraModel::Fisheye(230, 230, 349.5, 279.5, {0.02, -0.01, 0.003, -0.001}, w, h, "fisheye");
+  v.camera = camera::CameraModel::Fisheye(230, 230, 349.5, 279.5, {0.02, -0.01, 0.003, -0.001}, w,
+                                          h, "fisheye");
   v.T_cam_scan = Pose(8.0);
   v.image = Texture(w, h);
   v.name = "fisheye";

@@ -21,7 +21,8 @@ Files WriteFiles() {
   Files f;
   f.dir = test::TempDir();
   f.camera = f.dir + "/camera.yaml";
-  SaveCamera(CameraModel::Pinhole(60, 60, 39.5, 29.5, {0, 0, 0, 0, 0}, 80, 60, "cam"), f.camera);
+  camera::SaveCamera(
+      camera::CameraModel::Pinhole(60, 60, 39.5, 29.5, {0, 0, 0, 0, 0}, 80, 60, "cam"), f.camera);
   cv::Mat bgr(60, 80, CV_8UC3, cv::Scalar(10, 200, 30));
   f.image = f.dir + "/image.png";
   cv::imwrite(f.image, bgr);
@@ -38,7 +39,7 @@ Files WriteFiles() {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = Eigen::Vector3d(0.1, -0.2, 0.3);
   f.calib = f.dir + "/calib.json";
-  WriteJsonFile(f.calib, nlohmann::json{{"T_cam_scan", PoseToJson(T)}});
+  io::WriteJsonFile(f.calib, nlohmann::json{{"T_cam_scan", io::PoseToJson(T)}});
   return f;
 }
 

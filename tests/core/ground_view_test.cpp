@@ -31,13 +31,13 @@ struct Road {
 Road LoadRoad(const std::string& name) {
   const std::string d = test::SharedDataset(name);
   Road r;
-  r.scan = LoadScan(d + "/scan.pcd");
+  r.scan = io::LoadScan(d + "/scan.pcd");
   r.view.name = d + "/image.png";
-  r.view.camera = LoadCamera(d + "/camera-intrinsic.json");
+  r.view.camera = camera::LoadCamera(d + "/camera-intrinsic.json");
   r.view.image = cv::imread(r.view.name, cv::IMREAD_COLOR);
   if (r.view.image.rows != r.view.camera.height())  // road2: 1080 in the file, 1200 image
-    r.view.camera = CameraModel(r.view.camera.type(), r.view.camera.params(), r.view.image.cols,
-                                r.view.image.rows);
+    r.view.camera = camera::CameraModel(r.view.camera.type(), r.view.camera.params(),
+                                        r.view.image.cols, r.view.image.rows);
   r.view.T_cam_scan = LoadExtrinsic(d + "/reference-extrinsic.json");
   return r;
 }

@@ -82,7 +82,7 @@ TEST(HostileCamera, HugeImageSizeIsRefusedAtOnceNamingTheKey) {
     for (const Case& c : cases) {
       const std::string p = WriteFileIn(dir, c.file, c.content);
       const auto t0 = std::chrono::steady_clock::now();
-      ExpectError([&] { LoadCamera(p); }, {p, c.key, "100000"});
+      ExpectError([&] { camera::LoadCamera(p); }, {p, c.key, "100000"});
       EXPECT_LT(Seconds(t0), 1.0) << c.file;
     }
   }
@@ -145,37 +145,37 @@ TEST(HostileCamera, OutOfRangeValuesNameTheKeyAndTheParameter) {
     const std::string p = WriteFileIn(dir, c.file, c.content);
     std::vector<std::string> parts = c.parts;
     parts.insert(parts.begin(), p);
-    ExpectError([&] { LoadCamera(p); }, parts);
+    ExpectError([&] { camera::LoadCamera(p); }, parts);
   }
   // Mei xi < 0, OCam affine far from identity, OCam polynomial folding back, equirect off-sphere.
   std::string omni = Replaced(ReadFile(CameraExample("omni_opencv.yaml")), "xi: 1.1", "xi: -1.1");
   std::string p = WriteFileIn(dir, "omni.yaml", omni);
-  ExpectError([&] { LoadCamera(p); }, {p, ":xi:", "xi = -1.1", ">= 0"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, ":xi:", "xi = -1.1", ">= 0"});
   const std::string ocam = ReadFile(CameraExample("ocam_calib_results.txt"));
   p = WriteFileIn(dir, "affine.txt", Replaced(ocam, "1.000412 0.000187", "1.000412 7.5"));
-  ExpectError([&] { LoadCamera(p); }, {p, "line 15", "affine"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "line 15", "affine"});
   p = WriteFileIn(dir, "ocam_pol.txt", Replaced(ocam, "3.050000e-03", "-3.050000e-01"));
-  ExpectError([&] { LoadCamera(p); }, {p, "line 3", "polynomial pol", "fold back"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "line 3", "polynomial pol", "fold back"});
   p = WriteFileIn(dir, "centre.txt", Replaced(ocam, "241.370000 319.820000", "241.37 31982.0"));
-  ExpectError([&] { LoadCamera(p); }, {p, "line 11", "outside"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "line 11", "outside"});
   std::string eq = ReadFile(CameraExample("equirect_opencv.yaml"));
   p = WriteFileIn(dir, "equirect.yaml",
                   "%YAML:1.0\n---\nmodel: equirect\nimage_width: 400\nimage_height: 200\n"
                   "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
                   "   data: [ 63.66, 0., 90000., 0., 63.66, 99.5, 0., 0., 1. ]\n");
-  ExpectError([&] { LoadCamera(p); }, {p, "camera_matrix", "cu", "longitudes"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "camera_matrix", "cu", "longitudes"});
   // The examples still load (the bounds are not too tight for real cameras).
   for (const char* f :
        {"pinhole_opencv.yaml", "fisheye_opencv.yaml", "omni_opencv.yaml", "ocam_calib_results.txt",
         "equirect_opencv.yaml", "pinhole_rational_opencv.yaml"}) {
-    EXPECT_NO_THROW(LoadCamera(CameraExample(f))) << f;
+    EXPECT_NO_THROW(camera::LoadCamera(CameraExample(f))) << f;
   }
 }
 
 // A camera with wrong values used to reach the pose solver and be blamed on the pairs; the
 // solver's message now also points at the camera file.
 TEST(HostileCamera, SolverFailureAlsoNamesTheCameraFile) {
-  CameraModel cam = LoadCamera(CameraExample("pinhole_opencv.yaml"));
+  camera::CameraModel cam = camera::LoadCamera(CameraExample("pinhole_opencv.yaml"));
   std::vector<PointPair> pairs;
   cv::RNG rng(7);
   for (int i = 0; i < 8; ++i) {  // pixels and points with no pose in common
@@ -186,13 +186,13 @@ TEST(HostileCamera, SolverFailureAlsoNamesTheCameraFile) {
     p.line = i + 2;
     pairs.push_back(p);
   }
-  CalibrateOptions o;
+  solve::CalibrateOptions o;
   o.pairs_source = "pairs.csv";
   o.refine = false;
   o.threshold_px = 0.01;
   o.threshold_cells = 0.0;
   try {
-    Calibrate(pairs, nullptr, cam, o);
+    solve::Calibrate(pairs, nullptr, cam, o);
     ADD_FAILURE() << "the solver found a pose for random pairs";
   } catch (const Error& e) {
     const std::string m = e.what();
@@ -217,32 +217,32 @@ TEST(HostileCamera, DeletedDistortionKeyIsAnError) {
   std::string p = WriteFileIn(
       dir, "ocv.yaml",
       without_line(ReadFile(CameraExample("pinhole_opencv.yaml")), "distortion_coefficients", 5));
-  ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   p = WriteFileIn(
       dir, "fisheye.yaml",
       without_line(ReadFile(CameraExample("fisheye_opencv.yaml")), "distortion_coefficients", 5));
-  ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   // ROS: distortion_coefficients is required by ROS's own parser too.
   p = WriteFileIn(dir, "ros.yaml",
                   without_line(ReadFile(CameraExample("pinhole_ros_plumb_bob.yaml")),
                                "distortion_coefficients", 4));
-  ExpectError([&] { LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "distortion_coefficients", "missing"});
   // Kalibr: distortion_model and distortion_coeffs are required by Kalibr.
   p = WriteFileIn(
       dir, "kalibr.yaml",
       without_line(ReadFile(CameraExample("kalibr_camchain.yaml")), "distortion_model: radtan", 1));
-  ExpectError([&] { LoadCamera(p); }, {p, "cam0.distortion_model", "missing"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "cam0.distortion_model", "missing"});
   p = WriteFileIn(
       dir, "kalibr2.yaml",
       without_line(ReadFile(CameraExample("kalibr_camchain.yaml")), "distortion_coeffs", 1));
-  ExpectError([&] { LoadCamera(p); }, {p, "cam0.distortion_coeffs", "missing"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "cam0.distortion_coeffs", "missing"});
   // OpenCalib: cam_dist always present in OpenCalib's files.
   std::string oc = ReadFile(CameraExample("pinhole_opencalib.json"));
   const std::size_t a = oc.find(",\n            \"cam_dist\"");
   const std::size_t b = oc.find("}", oc.find("\"cam_dist\"")) + 1;
   oc.erase(a, b - a);
   p = WriteFileIn(dir, "opencalib.json", oc);
-  ExpectError([&] { LoadCamera(p); }, {p, "param.cam_dist", "missing"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p, "param.cam_dist", "missing"});
 }
 
 // ROS camera_info without distortion_model: camera_calibration_parsers reads such (old) files
@@ -254,10 +254,10 @@ TEST(HostileCamera, RosWithoutDistortionModelWarns) {
                   Replaced(ReadFile(CameraExample("fisheye_ros_equidistant.yaml")),
                            "distortion_model: equidistant\n", ""));
   std::vector<std::string> warnings;
-  LoadCameraOptions o;
+  camera::LoadCameraOptions o;
   o.warnings = &warnings;
-  const CameraModel c = LoadCamera(p, o);
-  EXPECT_EQ(c.type(), CameraType::kPinhole);
+  const camera::CameraModel c = camera::LoadCamera(p, o);
+  EXPECT_EQ(c.type(), camera::CameraType::kPinhole);
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_NE(warnings[0].find(p), std::string::npos) << warnings[0];
   EXPECT_NE(warnings[0].find("distortion_model"), std::string::npos) << warnings[0];
@@ -265,7 +265,7 @@ TEST(HostileCamera, RosWithoutDistortionModelWarns) {
   EXPECT_NE(warnings[0].find("equidistant"), std::string::npos) << warnings[0];
   // Without a warnings vector it reaches stderr (the CLI's case).
   testing::internal::CaptureStderr();
-  LoadCamera(p);
+  camera::LoadCamera(p);
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_NE(err.find("warning: " + p), std::string::npos) << err;
 }
@@ -276,21 +276,25 @@ TEST(HostileCamera, RosWithoutDistortionModelWarns) {
 // errors naming the file: no library exception escapes, no library text is the whole message.
 TEST(HostileCamera, FuzzReproducersArePlainErrors) {
   const std::string f = std::string(SCANCAM_SOURCE_DIR) + "/fuzz/findings/";
-  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_json/number-overflow.json"); },
+  ExpectError([&] { camera::LoadCamera(f + "fuzz_camera_opencv_json/number-overflow.json"); },
               {"number-overflow.json", "number overflow"});
-  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_yaml/root-is-a-sequence.yaml"); },
+  ExpectError([&] { camera::LoadCamera(f + "fuzz_camera_opencv_yaml/root-is-a-sequence.yaml"); },
               {"root-is-a-sequence.yaml", "must be a map of keys", "found a sequence"});
-  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_yaml/filestorage-length-error.yaml"); },
-              {"filestorage-length-error.yaml", "line 8", "camera_matrix.data", "missing field"});
+  ExpectError(
+      [&] { camera::LoadCamera(f + "fuzz_camera_opencv_yaml/filestorage-length-error.yaml"); },
+      {"filestorage-length-error.yaml", "line 8", "camera_matrix.data", "missing field"});
   // Finding #13: OpenCV's own YAML parser never returned on this file; ScanCam does not use it.
-  ExpectError([&] { LoadCamera(f + "fuzz_camera_opencv_yaml/opencv-yaml-parser-hangs.yaml"); },
-              {"opencv-yaml-parser-hangs.yaml", "line 3", "unexpected indentation or content"});
+  ExpectError(
+      [&] { camera::LoadCamera(f + "fuzz_camera_opencv_yaml/opencv-yaml-parser-hangs.yaml"); },
+      {"opencv-yaml-parser-hangs.yaml", "line 3", "unexpected indentation or content"});
   // Lines of only vertical tabs and newlines (a blank OCamCalib file): an error, not an
   // out-of-range read of an empty line's numbers.
-  LoadCameraOptions ocam;
-  ocam.format = CameraFileFormat::kOCamCalib;
+  camera::LoadCameraOptions ocam;
+  ocam.format = camera::CameraFileFormat::kOCamCalib;
   ExpectError(
-      [&] { LoadCamera(f + "fuzz_camera_ocamcalib/blank-lines-with-vertical-tabs.txt", ocam); },
+      [&] {
+        camera::LoadCamera(f + "fuzz_camera_ocamcalib/blank-lines-with-vertical-tabs.txt", ocam);
+      },
       {"blank-lines-with-vertical-tabs.txt", "ends early"});
   ExpectError([&] { colour::LoadExtrinsic(f + "fuzz_calibration_json/number-overflow.json"); },
               {"number-overflow.json", "invalid JSON"});
@@ -301,9 +305,9 @@ TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
   // nlohmann's parse_error.101 -> FILE:LINE:COLUMN, no "[json.exception" text, bytes escaped.
   std::string p =
       WriteFileIn(dir, "cam.json", "{\n  \"model\": \"pinhole\",\n  \"image_width\": \xff\n}");
-  ExpectError([&] { LoadCamera(p); }, {p + ":3:", "invalid JSON", "\\xFF"});
+  ExpectError([&] { camera::LoadCamera(p); }, {p + ":3:", "invalid JSON", "\\xFF"});
   try {
-    LoadCamera(p);
+    camera::LoadCamera(p);
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()).find("json.exception"), std::string::npos) << e.what();
     EXPECT_TRUE(PrintableOnly(e.what())) << e.what();
@@ -313,7 +317,7 @@ TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
   y = Replaced(y, "data: [ 912.35, 0.,", "data: [ 912.35, 0., ]]]");
   p = WriteFileIn(dir, "broken.yaml", y);
   try {
-    LoadCamera(p);
+    camera::LoadCamera(p);
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     const std::string m = e.what();
@@ -326,7 +330,7 @@ TEST(HostileCamera, SyntaxErrorsArePlainWithLineAndColumn) {
                   Replaced(ReadFile(CameraExample("pinhole_ros_plumb_bob.yaml")),
                            "image_width: 1280", std::string("image_width: 12\x01\x1b[31m80")));
   try {
-    LoadCamera(p);
+    camera::LoadCamera(p);
     ADD_FAILURE() << "no error";
   } catch (const Error& e) {
     EXPECT_TRUE(PrintableOnly(e.what())) << e.what();
@@ -393,12 +397,12 @@ TEST(HostileImage, HeaderSizeOfEveryFormatWithoutDecoding) {
 TEST(HostileImage, SizeMismatchIsRefusedBeforeDecoding) {
   const std::string dir = TempDir();
   const std::string p = WriteFileIn(dir, "big.png", PngClaiming(20000, 20000));
-  const CameraModel cam = LoadCamera(CameraExample("pinhole_opencv.yaml"));
+  const camera::CameraModel cam = camera::LoadCamera(CameraExample("pinhole_opencv.yaml"));
   const long before = MaxRssKiB();
   ExpectError(
       [&] {
         ReadImage(p, cv::IMREAD_COLOR, "image",
-                  [&](int w, int h) { CheckImageSize(cam, w, h, p); });
+                  [&](int w, int h) { camera::CheckImageSize(cam, w, h, p); });
       },
       {p, "20000x20000", "1280x720"});
   EXPECT_LT(MaxRssKiB() - before, 50 * 1024) << "KiB";
@@ -636,7 +640,7 @@ TEST(HostileJson, CalibrationJsonIsValidatedWithKeyNames) {
       EXPECT_TRUE(PrintableOnly(e.what())) << e.what();
     }
   }
-  ExpectError([&] { ReadCalibrationPose(WriteFileIn(dir, "calib.json", "{\"T\": 1}")); },
+  ExpectError([&] { io::ReadCalibrationPose(WriteFileIn(dir, "calib.json", "{\"T\": 1}")); },
               {"calib.json", "T_cam_scan", "missing"});
 }
 
@@ -646,7 +650,7 @@ TEST(HostileJson, WriterSurvivesInvalidUtf8) {
   const std::string p = TempDir() + "/out.json";
   nlohmann::json j;
   j["label"] = std::string("caf\xe9");
-  EXPECT_NO_THROW(WriteJsonFile(p, j));
+  EXPECT_NO_THROW(io::WriteJsonFile(p, j));
   EXPECT_NE(ReadFile(p).find("caf\xEF\xBF\xBD"), std::string::npos);  // U+FFFD
 }
 
@@ -657,7 +661,7 @@ TEST(HostilePairs, InvalidUtf8LabelNamesFileLineAndColumn) {
   const std::string p = WriteFileIn(dir, "pairs.csv",
                                     "image_u,image_v,x,y,z,label\n1,2,3,4,5,corner\n"
                                     "6,7,8,9,10,caf\xe9 door\n");
-  ExpectError([&] { ReadPairsCsv(p); }, {p + ":3:", "0xE9", "column 15", "UTF-8"});
+  ExpectError([&] { io::ReadPairsCsv(p); }, {p + ":3:", "0xE9", "column 15", "UTF-8"});
   // The CLI: exit 1, one plain line naming the pairs file and line, no raw byte.
   EXPECT_EQ(RunCli(dir, "calibrate --camera \"" + CameraExample("pinhole_opencv.yaml") +
                             "\" --pairs \"" + p + "\" --out \"" + dir + "/o.json\""),
@@ -668,11 +672,11 @@ TEST(HostilePairs, InvalidUtf8LabelNamesFileLineAndColumn) {
   // Control characters (a terminal escape in a label) are refused too.
   const std::string e =
       WriteFileIn(dir, "esc.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,a\x1b[2Jb\n");
-  ExpectError([&] { ReadPairsCsv(e); }, {e + ":2:", "0x1B", "column 12", "control character"});
+  ExpectError([&] { io::ReadPairsCsv(e); }, {e + ":2:", "0x1B", "column 12", "control character"});
   // Valid UTF-8 labels are kept as they are.
   const std::string q = WriteFileIn(
       dir, "ok.csv", "image_u,image_v,x,y,z,label\n1,2,3,4,5,caf\xc3\xa9 \xe2\x82\xac\n");
-  EXPECT_EQ(ReadPairsCsv(q).at(0).label, "caf\xc3\xa9 \xe2\x82\xac");
+  EXPECT_EQ(io::ReadPairsCsv(q).at(0).label, "caf\xc3\xa9 \xe2\x82\xac");
 }
 
 // ---- the CLI's top level

@@ -30,8 +30,8 @@ using test::ReadFile;
 using test::WriteFile;
 
 // A small rotating 2D scan (centred, evenly spread beams, as an MRPT 2D scan needs).
-RotatingScanData SmallSweep() {
-  RotatingScanData d;
+io::RotatingScanData SmallSweep() {
+  io::RotatingScanData d;
   d.planes = 9;
   d.beams = 31;
   d.dx_m = 0.05;
@@ -51,7 +51,7 @@ RotatingScanData SmallSweep() {
 // test (a crash would end the test process).
 std::string LoadOutcome(const std::string& path) {
   try {
-    LoadScan(path);
+    io::LoadScan(path);
     return "ok";
   } catch (const Error& e) {
     return e.what();
@@ -132,9 +132,9 @@ MutationCounts MutateAndLoad(const std::string& original, const std::string& dir
 TEST(HostileRawlog, TwoHundredMutationsOfARawlogEndInSuccessOrFileError) {
   const std::string dir = test::TempDir();
   const std::string sweep = dir + "/sweep.rawlog";
-  WriteMrpt2DScanRawlog(sweep, SmallSweep());
+  io::WriteMrpt2DScanRawlog(sweep, SmallSweep());
   const std::string gz = ReadFile(sweep);
-  const std::string plain = RawlogUncompressedBytes(sweep);
+  const std::string plain = io::RawlogUncompressedBytes(sweep);
   // The gzip file (its 10-byte header kept: mutations land in the compressed stream) and the
   // uncompressed MRPT stream written as a plain rawlog (MRPT decodes every mutation).
   const MutationCounts a = MutateAndLoad(gz, dir, "gz", 100, 13, 10);
@@ -161,7 +161,7 @@ TEST(HostileRawlog, MutationsOfTheRealRawlogsEndInSuccessOrFileError) {
   for (const auto& [name, count] : files) {
     const std::string src = test::SharedDataset(name);
     const std::string before = ReadFile(src);
-    const std::string plain = RawlogUncompressedBytes(src);
+    const std::string plain = io::RawlogUncompressedBytes(src);
     const std::string stem = std::filesystem::path(name).stem().string();
     const MutationCounts a = MutateAndLoad(before, dir, stem + "_gz", count, ++seed, 10);
     const MutationCounts b = MutateAndLoad(plain, dir, stem + "_plain", count, ++seed, 0);
@@ -176,24 +176,24 @@ TEST(HostileRawlog, MutationsOfTheRealRawlogsEndInSuccessOrFileError) {
 TEST(HostileRawlog, BytesInsertedIntoTheGzipStreamAreCaughtBeforeMrpt) {
   const std::string dir = test::TempDir();
   const std::string sweep = dir + "/sweep.rawlog";
-  WriteMrpt2DScanRawlog(sweep, SmallSweep());
+  io::WriteMrpt2DScanRawlog(sweep, SmallSweep());
   std::string gz = ReadFile(sweep);
   gz.insert(gz.size() / 2, std::string(37, '\x5a'));
   WriteFile(dir + "/inserted.rawlog", gz);
-  ExpectError([&] { LoadScan(dir + "/inserted.rawlog"); },
+  ExpectError([&] { io::LoadScan(dir + "/inserted.rawlog"); },
               {dir + "/inserted.rawlog:byte ", "the gzip data is damaged"});
   // Bytes after the gzip stream.
   WriteFile(dir + "/appended.rawlog", ReadFile(sweep) + "trailing bytes");
-  ExpectError([&] { LoadScan(dir + "/appended.rawlog"); },
+  ExpectError([&] { io::LoadScan(dir + "/appended.rawlog"); },
               {dir + "/appended.rawlog:byte ", "14 bytes after the end of the gzip stream"});
 }
 
 TEST(HostileRawlog, PlainRawlogReadsLikeTheGzipOne) {
   const std::string dir = test::TempDir();
   const std::string sweep = dir + "/sweep.rawlog";
-  WriteMrpt2DScanRawlog(sweep, SmallSweep());
-  WriteFile(dir + "/plain.rawlog", RawlogUncompressedBytes(sweep));
-  const OrderedScan a = LoadScan(sweep), b = LoadScan(dir + "/plain.rawlog");
+  io::WriteMrpt2DScanRawlog(sweep, SmallSweep());
+  WriteFile(dir + "/plain.rawlog", io::RawlogUncompressedBytes(sweep));
+  const OrderedScan a = io::LoadScan(sweep), b = io::LoadScan(dir + "/plain.rawlog");
   ASSERT_EQ(a.rows, b.rows);
   ASSERT_EQ(a.cols, b.cols);
   EXPECT_EQ(a.valid_count(), b.valid_count());
@@ -211,16 +211,16 @@ TEST(HostileRawlog, PlainRawlogReadsLikeTheGzipOne) {
 TEST(HostileRawlog, MrptCrashIsAFileErrorAndTheProcessGoesOn) {
   SCANCAM_REQUIRE_SHARED();
   const std::string dir = test::TempDir();
-  std::string plain = RawlogUncompressedBytes(test::SharedDataset("mrpt/tests_rgbd.rawlog"));
+  std::string plain = io::RawlogUncompressedBytes(test::SharedDataset("mrpt/tests_rgbd.rawlog"));
   ASSERT_EQ(plain.size(), 5908231u);
   plain.insert(755237, 1, '\xc4');
   const std::string path = dir + "/crash.rawlog";
   WriteFile(path, plain);
-  ExpectError([&] { LoadScan(path); },
+  ExpectError([&] { io::LoadScan(path); },
               {path + ":object 0 (byte 0 of the uncompressed stream)", "MRPT crashed", "damaged"});
-  ExpectError([&] { ListRawlogScans(path); }, {path + ":object 0", "MRPT crashed"});
+  ExpectError([&] { io::ListRawlogScans(path); }, {path + ":object 0", "MRPT crashed"});
   // This process is fine and reads the real file afterwards.
-  EXPECT_GT(LoadScan(test::SharedDataset("mrpt/tests_rgbd.rawlog")).valid_count(), 1000u);
+  EXPECT_GT(io::LoadScan(test::SharedDataset("mrpt/tests_rgbd.rawlog")).valid_count(), 1000u);
 }
 
 // A 2D scan whose beam count is set to 2^31-1 in the uncompressed stream: MRPT would resize
@@ -229,8 +229,8 @@ TEST(HostileRawlog, MrptCrashIsAFileErrorAndTheProcessGoesOn) {
 TEST(HostileRawlog, HugeDeclaredSizeIsAFileError) {
   const std::string dir = test::TempDir();
   const std::string sweep = dir + "/sweep.rawlog";
-  WriteMrpt2DScanRawlog(sweep, SmallSweep());
-  std::string plain = RawlogUncompressedBytes(sweep);
+  io::WriteMrpt2DScanRawlog(sweep, SmallSweep());
+  std::string plain = io::RawlogUncompressedBytes(sweep);
   // Every little-endian 31 (the beam count) in the first object becomes 0x7fffffff.
   const std::string beams("\x1f\x00\x00\x00", 4);
   int changed = 0;
@@ -241,7 +241,7 @@ TEST(HostileRawlog, HugeDeclaredSizeIsAFileError) {
   }
   ASSERT_GT(changed, 0);
   WriteFile(dir + "/huge.rawlog", plain);
-  ExpectError([&] { LoadScan(dir + "/huge.rawlog"); }, {dir + "/huge.rawlog:object 0"});
+  ExpectError([&] { io::LoadScan(dir + "/huge.rawlog"); }, {dir + "/huge.rawlog:object 0"});
 }
 
 // The fuzzer's rawlogs that made MRPT ask for 2.7 and 3.9 GB (fuzz/FINDINGS.md #10, #11): the
@@ -251,10 +251,10 @@ TEST(HostileRawlog, HugeDeclaredSizeIsAFileError) {
 // address space cannot be limited there), with the same message.
 TEST(HostileRawlog, FuzzReproducersEndInTheMemoryBudgetsMessage) {
   const std::string f = std::string(SCANCAM_SOURCE_DIR) + "/fuzz/findings/fuzz_rawlog/";
-  ExpectError([&] { LoadScan(f + "rotating-scan-string-size-2.7GB.rawlog"); },
+  ExpectError([&] { io::LoadScan(f + "rotating-scan-string-size-2.7GB.rawlog"); },
               {"rotating-scan-string-size-2.7GB.rawlog:object 0 (byte 0",
                "MRPT asked for more memory than this rawlog can hold (over 512 MiB", "damaged"});
-  ExpectError([&] { ListRawlogScans(f + "2d-range-scan-size.rawlog"); },
+  ExpectError([&] { io::ListRawlogScans(f + "2d-range-scan-size.rawlog"); },
               {"2d-range-scan-size.rawlog:object 3 (byte 966",
                "MRPT asked for more memory than this rawlog can hold"});
 }
@@ -262,7 +262,7 @@ TEST(HostileRawlog, FuzzReproducersEndInTheMemoryBudgetsMessage) {
 // ------------------------------------------------------------------------------------ PTX
 
 std::string SmallPtx(const std::string& dir) {
-  OrderedScan s = ToOrderedScan(SmallSweep(), "sweep");
+  OrderedScan s = io::ToOrderedScan(SmallSweep(), "sweep");
   s.point_m.assign(s.size(), Eigen::Vector3f::Zero());
   // A PTX scan's points are in the scanner frame around the origin: a plain sphere grid.
   for (int r = 0; r < s.rows; ++r) {
@@ -277,7 +277,7 @@ std::string SmallPtx(const std::string& dir) {
   }
   s.origin_m.setZero();
   const std::string path = dir + "/scan.ptx";
-  WritePtx(path, {PtxFromOrderedScan(s)});
+  io::WritePtx(path, {io::PtxFromOrderedScan(s)});
   return path;
 }
 
@@ -303,7 +303,7 @@ std::string Join(const std::vector<std::string>& lines) {
 TEST(HostilePtx, HeaderCountingFewerPointsThanTheDataIsAnError) {
   const std::string dir = test::TempDir();
   const std::string good = SmallPtx(dir);
-  ASSERT_NO_THROW(LoadScan(good));
+  ASSERT_NO_THROW(io::LoadScan(good));
   std::vector<std::string> lines = Lines(ReadFile(good));
   const int rows = std::stoi(lines[1]);
   lines[1] = std::to_string(rows - 1);  // one point fewer per scan line
@@ -312,8 +312,8 @@ TEST(HostilePtx, HeaderCountingFewerPointsThanTheDataIsAnError) {
   const std::string before = ReadFile(path);
   const int cols = std::stoi(lines[0]);
   const int first_extra = 10 + cols * (rows - 1) + 1;  // 10 header lines, then the points
-  ExpectError([&] { LoadScan(path); }, {path + ":" + std::to_string(first_extra) + ":",
-                                        "scan 0's header counts", "holds a point"});
+  ExpectError([&] { io::LoadScan(path); }, {path + ":" + std::to_string(first_extra) + ":",
+                                            "scan 0's header counts", "holds a point"});
   EXPECT_EQ(ReadFile(path), before);
 }
 
@@ -323,18 +323,18 @@ TEST(HostilePtx, LinesAppendedAreAnError) {
   const std::string text = ReadFile(good);
   const int n = static_cast<int>(Lines(text).size());
   WriteFile(dir + "/point.ptx", text + "1 2 3 0.5\n");
-  ExpectError([&] { LoadScan(dir + "/point.ptx"); },
+  ExpectError([&] { io::LoadScan(dir + "/point.ptx"); },
               {dir + "/point.ptx:" + std::to_string(n + 1) + ":", "holds a point"});
   WriteFile(dir + "/text.ptx", text + "\nsome notes\n");
-  ExpectError([&] { LoadScan(dir + "/text.ptx"); },
+  ExpectError([&] { io::LoadScan(dir + "/text.ptx"); },
               {dir + "/text.ptx:" + std::to_string(n + 2) + ":", "after the",
                "expected the number of columns", "'some'"});
   WriteFile(dir + "/number.ptx", text + "12\n");
-  ExpectError([&] { LoadScan(dir + "/number.ptx"); },
+  ExpectError([&] { io::LoadScan(dir + "/number.ptx"); },
               {dir + "/number.ptx:" + std::to_string(n + 2) + ":", "truncated", "scan 1"});
   // Blank lines at the end stay fine.
   WriteFile(dir + "/blank.ptx", text + "\n\n");
-  EXPECT_NO_THROW(LoadScan(dir + "/blank.ptx"));
+  EXPECT_NO_THROW(io::LoadScan(dir + "/blank.ptx"));
 }
 
 TEST(HostilePtx, LaterScanWithTooFewPointsCountedIsAnErrorWhenReadingTheFirst) {
@@ -345,14 +345,14 @@ TEST(HostilePtx, LaterScanWithTooFewPointsCountedIsAnErrorWhenReadingTheFirst) {
   second[0] = std::to_string(std::stoi(second[0]) - 1);  // one scan line fewer
   const std::string path = dir + "/two.ptx";
   WriteFile(path, one + Join(second));
-  ExpectError([&] { LoadScan(path); }, {path + ":", "scan 1's header counts", "holds a point"});
+  ExpectError([&] { io::LoadScan(path); }, {path + ":", "scan 1's header counts", "holds a point"});
 }
 
 // ------------------------------------------------------------------------------------ PCD
 
 std::string SmallPcd(const std::string& dir) {
   const std::string path = dir + "/scan.pcd";
-  WriteOrganisedPcd(path, ToOrderedScan(SmallSweep(), "sweep"));
+  io::WriteOrganisedPcd(path, io::ToOrderedScan(SmallSweep(), "sweep"));
   return path;
 }
 
@@ -364,16 +364,16 @@ std::size_t DataOffset(const std::string& pcd) {
 TEST(HostilePcd, BinaryDataWithBytesInsertedOrAppendedIsAnError) {
   const std::string dir = test::TempDir();
   const std::string good = ReadFile(SmallPcd(dir));
-  ASSERT_NO_THROW(LoadScan(dir + "/scan.pcd"));
+  ASSERT_NO_THROW(io::LoadScan(dir + "/scan.pcd"));
   const std::size_t off = DataOffset(good);
   std::string inserted = good;
   inserted.insert(off + 1000, "abc");
   WriteFile(dir + "/inserted.pcd", inserted);
   const std::size_t end = off + 9 * 31 * 32;  // 279 points x 8 floats
-  ExpectError([&] { LoadScan(dir + "/inserted.pcd"); },
+  ExpectError([&] { io::LoadScan(dir + "/inserted.pcd"); },
               {dir + "/inserted.pcd:byte " + std::to_string(end), "inserted or appended"});
   WriteFile(dir + "/appended.pcd", good + "\n");
-  ExpectError([&] { LoadScan(dir + "/appended.pcd"); },
+  ExpectError([&] { io::LoadScan(dir + "/appended.pcd"); },
               {dir + "/appended.pcd:byte " + std::to_string(end), "not zero padding"});
   // PCL's own zero padding (its writer rounds the file up to a page) is fine.
   EXPECT_GT(good.size(), end);
@@ -392,13 +392,13 @@ TEST(HostilePcd, DataThatCrashedPclIsReadByScanCam) {
     const std::string path = dir + "/" + name;
     WriteFile(path, bytes);
     if (std::string(name) == "pcl-read-segv.pcd") {
-      ExpectError([&] { LoadScan(path); }, {path, "larger than allowed"});
+      ExpectError([&] { io::LoadScan(path); }, {path, "larger than allowed"});
     } else {
       // Garbage coordinates up to 1e19 m and down to 1e-25 m: either a consistent grid or a
       // plain refusal naming the file (it once ended in "cell N has a range but no unit beam
       // direction", an internal check leaking out).
       try {
-        const OrderedScan s = LoadScan(path);
+        const OrderedScan s = io::LoadScan(path);
         EXPECT_NO_THROW(CheckScan(s, path));
       } catch (const Error& e) {
         const std::string what = e.what();
@@ -422,7 +422,7 @@ TEST(HostilePcd, DataThatCrashedPclIsReadByScanCam) {
   cloud.height = 7;
   const std::string path = dir + "/organised.pcd";
   ASSERT_EQ(pcl::io::savePCDFileBinary(path, cloud), 0);
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   ASSERT_EQ(s.rows, 7);
   ASSERT_EQ(s.cols, 100);
   for (int i = 0; i < 700; ++i) {
@@ -445,27 +445,27 @@ TEST(HostilePcd, BinaryCompressedDataIsChecked) {
   }
   const std::string path = dir + "/c.pcd";
   ASSERT_EQ(pcl::io::savePCDFileBinaryCompressed(path, cloud), 0);
-  ASSERT_NO_THROW(LoadScan(path));
+  ASSERT_NO_THROW(io::LoadScan(path));
   const std::string good = ReadFile(path);
   const std::size_t off = DataOffset(good);
   WriteFile(dir + "/appended.pcd", good + "xyz");
-  ExpectError([&] { LoadScan(dir + "/appended.pcd"); },
+  ExpectError([&] { io::LoadScan(dir + "/appended.pcd"); },
               {dir + "/appended.pcd:byte ", "compressed bytes announced", "inserted or appended"});
   std::string damaged = good;
   damaged[off + 8] = '\xff';  // a back-reference before any data: invalid LZF
   WriteFile(dir + "/damaged.pcd", damaged);
   ExpectError(
-      [&] { LoadScan(dir + "/damaged.pcd"); },
+      [&] { io::LoadScan(dir + "/damaged.pcd"); },
       {dir + "/damaged.pcd:byte " + std::to_string(off + 8), "compressed point data is damaged"});
   std::string ratio = good;  // the compressed size word says 1 byte
   ratio.replace(off, 4, std::string("\x01\x00\x00\x00", 4));
   WriteFile(dir + "/ratio.pcd", ratio);
-  ExpectError([&] { LoadScan(dir + "/ratio.pcd"); }, {dir + "/ratio.pcd:byte ", "damaged"});
+  ExpectError([&] { io::LoadScan(dir + "/ratio.pcd"); }, {dir + "/ratio.pcd:byte ", "damaged"});
 }
 
 TEST(HostilePcd, RealBinaryCompressedScanStillLoads) {
   SCANCAM_REQUIRE_SHARED();
-  const OrderedScan s = LoadScan(test::SharedDataset("road-pinhole/scan.pcd"));
+  const OrderedScan s = io::LoadScan(test::SharedDataset("road-pinhole/scan.pcd"));
   EXPECT_GT(s.valid_count(), 80000u);
 }
 
@@ -474,25 +474,26 @@ TEST(HostilePcd, RealBinaryCompressedScanStillLoads) {
 TEST(HostileRotatingLog, AppendedOrDuplicatedLinesAreErrors) {
   const std::string dir = test::TempDir();
   const std::string path = dir + "/scan.txt";
-  WriteRotatingLog(path, SmallSweep());
+  io::WriteRotatingLog(path, SmallSweep());
   const std::string text = ReadFile(path);
-  ASSERT_NO_THROW(LoadScan(path));
+  ASSERT_NO_THROW(io::LoadScan(path));
   std::vector<std::string> lines = Lines(text);
   const int n = static_cast<int>(lines.size());
   WriteFile(dir + "/dup.txt", text + lines.back() + "\n");
-  ExpectError([&] { LoadScan(dir + "/dup.txt"); },
+  ExpectError([&] { io::LoadScan(dir + "/dup.txt"); },
               {dir + "/dup.txt:" + std::to_string(n + 1) + ":", "is not larger"});
   WriteFile(dir + "/extra_plane.txt", text + "9 0.75 -0.75 2.0 1\n");
-  ExpectError([&] { LoadScan(dir + "/extra_plane.txt"); },
+  ExpectError([&] { io::LoadScan(dir + "/extra_plane.txt"); },
               {dir + "/extra_plane.txt:" + std::to_string(n + 1) + ":", "plane 9 has 1 beams"});
   WriteFile(dir + "/garbage.txt", text + "garbage\n");
-  ExpectError([&] { LoadScan(dir + "/garbage.txt"); },
+  ExpectError([&] { io::LoadScan(dir + "/garbage.txt"); },
               {dir + "/garbage.txt:" + std::to_string(n + 1) + ":", "found 1 fields"});
   // A line removed from the middle: that plane has a beam fewer.
   std::vector<std::string> cut = lines;
   cut.erase(cut.begin() + n / 2);
   WriteFile(dir + "/cut.txt", Join(cut));
-  ExpectError([&] { LoadScan(dir + "/cut.txt"); }, {dir + "/cut.txt:", "beams but plane 0 has"});
+  ExpectError([&] { io::LoadScan(dir + "/cut.txt"); },
+              {dir + "/cut.txt:", "beams but plane 0 has"});
   EXPECT_EQ(ReadFile(path), text);
 }
 

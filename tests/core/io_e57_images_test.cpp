@@ -30,17 +30,17 @@ std::string E57(const std::string& name) { return test::SharedDataset("e57/" + n
 TEST(E57Images, TinyFileImagesAsCameras) {
   if (!test::HaveShared()) GTEST_SKIP() << "shared datasets not available";
   const std::string path = E57("tiny_pc_and_images.e57");
-  const E57FileInfo info = ReadE57Info(path);
+  const io::E57FileInfo info = io::ReadE57Info(path);
   ASSERT_EQ(info.images.size(), 4u);
   // 0: visual reference, 3: cylindrical: listed, refused as cameras, saying why.
-  ExpectError([&] { E57ImageCamera(path, info.images[0], 0); },
+  ExpectError([&] { camera::E57ImageCamera(path, info.images[0], 0); },
               {path, "image 0", "visual-reference"});
-  ExpectError([&] { E57ImageCamera(path, info.images[3], 3); },
+  ExpectError([&] { camera::E57ImageCamera(path, info.images[3], 3); },
               {path, "image 3", "cylindrical", "not supported"});
 
   // 2: pinhole, focal 123 m, pixels 0.044 x 0.033 m, principal point (23, 42) px.
-  const CameraModel pin = E57ImageCamera(path, info.images[2], 2);
-  EXPECT_EQ(pin.type(), CameraType::kPinhole);
+  const camera::CameraModel pin = camera::E57ImageCamera(path, info.images[2], 2);
+  EXPECT_EQ(pin.type(), camera::CameraType::kPinhole);
   EXPECT_EQ(pin.width(), 100);
   EXPECT_NEAR(pin.params()[0], 123 / 0.044, 1e-9);
   EXPECT_NEAR(pin.params()[1], 123 / 0.033, 1e-9);
@@ -48,13 +48,13 @@ TEST(E57Images, TinyFileImagesAsCameras) {
   EXPECT_DOUBLE_EQ(pin.params()[3], 42.0);
 
   // 1: spherical, 0.0314 rad per pixel, pose (w 0.5, x 1 normalised; t = 1 2 3), scan 0's.
-  const E57ImageInfo& sph = info.images[1];
+  const io::E57ImageInfo& sph = info.images[1];
   EXPECT_EQ(sph.associated_scan, 0);
-  const CameraModel cam = E57ImageCamera(path, sph, 1);
-  EXPECT_EQ(cam.type(), CameraType::kEquirect);
+  const camera::CameraModel cam = camera::E57ImageCamera(path, sph, 1);
+  EXPECT_EQ(cam.type(), camera::CameraType::kEquirect);
   EXPECT_NEAR(cam.params()[0], 1 / 0.0314, 1e-9);
   EXPECT_DOUBLE_EQ(cam.params()[2], 49.5);
-  const Eigen::Isometry3d T = E57ImageTCamScan(sph, info.scans[0].pose, false);
+  const Eigen::Isometry3d T = camera::E57ImageTCamScan(sph, info.scans[0].pose, false);
   // The camera centre in the scan frame is the image pose's translation (identity scan pose).
   EXPECT_LT((T.inverse().translation() - Eigen::Vector3d(1, 2, 3)).norm(), 1e-12);
   // E57's forward (+x) is the panorama's centre column, its up (+z) the image's top.
@@ -75,9 +75,9 @@ TEST(E57Images, TinyFileImagesAsCameras) {
   // deg, a pixel's fraction beyond the image's right edge (u = 99.53 > 99.5). Each projects where
   // E57's spherical coordinates of its direction say (u = 49.5 - azimuth / 0.0314, v = 49.5 -
   // elevation / ...).
-  const E57Cloud cloud = ReadE57Cloud(path, 0);
+  const io::E57Cloud cloud = io::ReadE57Cloud(path, 0);
   ASSERT_EQ(cloud.points.size(), 2u);
-  for (const E57Point& p : cloud.points) {
+  for (const io::E57Point& p : cloud.points) {
     const Eigen::Vector3d x(p.xyz[0], p.xyz[1], p.xyz[2]);
     const Eigen::Vector3d d = R_file_cam.transpose() * (x - Eigen::Vector3d(1, 2, 3));
     const double az = std::atan2(d.y(), d.x()), el = std::atan2(d.z(), d.head<2>().norm());
@@ -107,10 +107,10 @@ TEST(E57Images, TinyFileImagesAsCameras) {
 TEST(E57Images, LeicaDistortionParametersAsInTheXml) {
   if (!test::HaveShared()) GTEST_SKIP() << "shared datasets not available";
   const std::string path = E57("PinholeImageWithDistortionParameters.e57");
-  const E57FileInfo info = ReadE57Info(path);
+  const io::E57FileInfo info = io::ReadE57Info(path);
   ASSERT_EQ(info.images.size(), 3u);
-  for (const E57ImageInfo& im : info.images) {
-    const E57LeicaDistortion& d = im.leica;
+  for (const io::E57ImageInfo& im : info.images) {
+    const io::E57LeicaDistortion& d = im.leica;
     std::cout << im.name << ": leica " << im.has_leica_distortion << " type '" << d.type
               << "' camera " << d.camera_number << " k " << d.k[0] << " " << d.k[1] << " " << d.k[2]
               << " " << d.k[3] << " " << d.k[4] << " " << d.k[5] << " p " << d.p[0] << " " << d.p[1]
@@ -118,7 +118,7 @@ TEST(E57Images, LeicaDistortionParametersAsInTheXml) {
               << " size " << d.width_px << " x " << d.height_px << "\n";
   }
   // Image 1: "distortion with all parameters specified" (the XML's numbers, verbatim).
-  const E57LeicaDistortion& a = info.images[0].leica;
+  const io::E57LeicaDistortion& a = info.images[0].leica;
   ASSERT_TRUE(info.images[0].has_leica_distortion);
   EXPECT_EQ(a.type, "Testing type");
   EXPECT_EQ(a.camera_number, 1);
@@ -135,7 +135,7 @@ TEST(E57Images, LeicaDistortionParametersAsInTheXml) {
   EXPECT_EQ(a.height_px, 1);
   EXPECT_TRUE(a.unknown.empty());
   // Image 2: "some parameters omitted" (empty elements read as 0).
-  const E57LeicaDistortion& b = info.images[1].leica;
+  const io::E57LeicaDistortion& b = info.images[1].leica;
   ASSERT_TRUE(info.images[1].has_leica_distortion);
   EXPECT_EQ(b.type, "");
   EXPECT_EQ(b.camera_number, 2);
@@ -147,9 +147,10 @@ TEST(E57Images, LeicaDistortionParametersAsInTheXml) {
   EXPECT_FALSE(info.images[2].has_leica_distortion);
   // As cameras: a distortion type other than OpenCV's is refused by name; the others have no
   // focal length (pixel sizes 0): refused, saying so.
-  ExpectError([&] { E57ImageCamera(path, info.images[0], 0); },
+  ExpectError([&] { camera::E57ImageCamera(path, info.images[0], 0); },
               {path, "image 0", "'Testing type'", "not supported"});
-  ExpectError([&] { E57ImageCamera(path, info.images[1], 1); }, {path, "image 1", "pixelWidth"});
+  ExpectError([&] { camera::E57ImageCamera(path, info.images[1], 1); },
+              {path, "image 1", "pixelWidth"});
 }
 
 // An image blob that is not what the XML says fails with the E57 file and the image named.
@@ -158,7 +159,7 @@ TEST(E57Images, BadImageBlobsFailClearly) {
   OrderedScan scan = OrderedScan::Empty(2, 2);
   for (int r = 0; r < 2; ++r)
     for (int c = 0; c < 2; ++c) scan.set_point(r, c, Eigen::Vector3f(1.f + r, 0.1f * c, 2.f), 0.5f);
-  E57ImageToWrite im;
+  io::E57ImageToWrite im;
   im.info.name = "bad";
   im.info.representation = "pinhole";
   im.info.blob_type = "png";
@@ -170,21 +171,21 @@ TEST(E57Images, BadImageBlobsFailClearly) {
   const std::string garbage = "this is not a PNG file at all, only text";
   im.bytes.assign(garbage.begin(), garbage.end());
   const std::string a = dir + "/garbage.e57";
-  const std::vector<E57ImageToWrite> one = {im};
-  WriteE57(a, scan, nullptr, nullptr, {}, &one);
+  const std::vector<io::E57ImageToWrite> one = {im};
+  io::WriteE57(a, scan, nullptr, nullptr, {}, &one);
   ExpectError([&] { colour::LoadE57View(a, 0, {}, false); }, {a, "image 0"});
   // A real PNG of another size than the XML's 8 x 8.
   std::vector<std::uint8_t> png;
   ASSERT_TRUE(cv::imencode(".png", cv::Mat(6, 10, CV_8UC3, cv::Scalar(1, 2, 3)), png));
-  std::vector<E57ImageToWrite> other = {im};
+  std::vector<io::E57ImageToWrite> other = {im};
   other[0].bytes = png;
   const std::string b = dir + "/other_size.e57";
-  WriteE57(b, scan, nullptr, nullptr, {}, &other);
+  io::WriteE57(b, scan, nullptr, nullptr, {}, &other);
   ExpectError([&] { colour::LoadE57View(b, 0, {}, false); }, {b, "image 0", "10"});
   // The same PNG at its size reads, and the CLI refuses --e57-image on a scan that is no E57.
   other[0].bytes.clear();
   ASSERT_TRUE(cv::imencode(".png", cv::Mat(8, 8, CV_8UC3, cv::Scalar(1, 2, 3)), other[0].bytes));
-  WriteE57(b, scan, nullptr, nullptr, {}, &other);
+  io::WriteE57(b, scan, nullptr, nullptr, {}, &other);
   EXPECT_EQ(colour::LoadE57View(b, 0, {}, false).image.at<cv::Vec3b>(4, 4), cv::Vec3b(1, 2, 3));
   std::string out;
   EXPECT_EQ(
@@ -206,7 +207,7 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
   const sim::Simulation s = sim::Simulate(o);
   sim::WriteSimulation(s, dir + "/sim");
 
-  E57ImageToWrite im;
+  io::E57ImageToWrite im;
   im.info.name = "simulated pinhole";
   im.info.representation = "pinhole";
   im.info.blob_type = "png";
@@ -220,7 +221,7 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
   im.info.principal_x_px = p[2];
   im.info.principal_y_px = p[3];
   im.info.has_leica_distortion = true;
-  E57LeicaDistortion& d = im.info.leica;
+  io::E57LeicaDistortion& d = im.info.leica;
   d.type = "OpenCV";
   d.camera_number = 1;
   d.fx_px = p[0], d.fy_px = p[1], d.cx_px = p[2], d.cy_px = p[3];
@@ -229,22 +230,22 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
   d.width_px = s.camera.width(), d.height_px = s.camera.height();
   // The image's pose: E57 camera (x right, y up, looking along -z) -> file (= scan) frame.
   Eigen::Isometry3d flip = Eigen::Isometry3d::Identity();
-  flip.linear() = E57CameraToOpenCv("pinhole");
+  flip.linear() = camera::E57CameraToOpenCv("pinhole");
   const Eigen::Isometry3d T_file_e57cam = s.T_cam_scan.inverse() * flip;
   im.info.pose.present = true;
   im.info.pose.rotation = Eigen::Quaterniond(T_file_e57cam.linear());
   im.info.pose.translation = T_file_e57cam.translation();
   const std::string e57 = dir + "/scan_with_photo.e57";
-  const std::vector<E57ImageToWrite> images = {im};
-  WriteE57(e57, s.scan, nullptr, nullptr, {}, &images);
+  const std::vector<io::E57ImageToWrite> images = {im};
+  io::WriteE57(e57, s.scan, nullptr, nullptr, {}, &images);
 
-  const E57FileInfo info = ReadE57Info(e57);
+  const io::E57FileInfo info = io::ReadE57Info(e57);
   ASSERT_EQ(info.images.size(), 1u);
   EXPECT_EQ(info.images[0].associated_scan, 0);
-  EXPECT_EQ(ReadE57ImageBlob(e57, 0), im.bytes);
-  const CameraModel cam = E57ImageCamera(e57, info.images[0], 0);
+  EXPECT_EQ(io::ReadE57ImageBlob(e57, 0), im.bytes);
+  const camera::CameraModel cam = camera::E57ImageCamera(e57, info.images[0], 0);
   for (std::size_t i = 0; i < p.size(); ++i) EXPECT_NEAR(cam.params()[i], p[i], 1e-9) << i;
-  const Eigen::Isometry3d T = E57ImageTCamScan(info.images[0], info.scans[0].pose, false);
+  const Eigen::Isometry3d T = camera::E57ImageTCamScan(info.images[0], info.scans[0].pose, false);
   EXPECT_LT((T.matrix() - s.T_cam_scan.matrix()).cwiseAbs().maxCoeff(), 1e-12);
 
   // Through the CLI: the file's own photo against the separate files, same scan.
@@ -294,11 +295,11 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
 
   // The coloured PTX written by the CLI: the E57's grid, cell by cell, and the colours of the
   // library's colouring (grey where no image saw the point, 0 0 0 where no return).
-  const OrderedScan scan = LoadE57(e57);
+  const OrderedScan scan = io::LoadE57(e57);
   const colour::ColourView view = colour::LoadE57View(e57, 0, info.scans[0].pose, false);
   const colour::ColouredScan coloured = colour::Colourise(scan, {view});
   ASSERT_GT(coloured.coloured, 10000u);
-  const PtxScan ptx = ReadPtxScan(dir + "/from_e57.ptx");
+  const io::PtxScan ptx = io::ReadPtxScan(dir + "/from_e57.ptx");
   ASSERT_EQ(ptx.columns, scan.rows);
   ASSERT_EQ(ptx.rows, scan.cols);
   ASSERT_EQ(ptx.rgb.size(), scan.size());
@@ -320,7 +321,7 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
 
   // The library's PTX writer, read back: same grid, points and colours.
   colour::WriteColouredPtx(dir + "/lib.ptx", scan, coloured);
-  const OrderedScan back = LoadPtx(dir + "/lib.ptx", 0, false);
+  const OrderedScan back = io::LoadPtx(dir + "/lib.ptx", 0, false);
   ASSERT_EQ(back.rows, scan.rows);
   ASSERT_EQ(back.cols, scan.cols);
   std::size_t differ = 0;
@@ -329,7 +330,7 @@ TEST(E57Images, SimulatedScanColouredFromItsOwnPhoto) {
     if (scan.valid(i)) differ += back.point_m[i] != scan.point_m[i];
   }
   EXPECT_EQ(differ, 0u);
-  EXPECT_EQ(ReadPtxScan(dir + "/lib.ptx").rgb, ptx.rgb);
+  EXPECT_EQ(io::ReadPtxScan(dir + "/lib.ptx").rgb, ptx.rgb);
 }
 
 }  // namespace

@@ -192,8 +192,8 @@ GridFile MakeGridFile(const std::string& record_count = "", const std::string& e
 
 TEST(E57, FloatAndBitPackedBunniesAgree) {
   SCANCAM_REQUIRE_SHARED();
-  const E57Cloud f = ReadE57Cloud(E57("bunnyFloat.e57"));
-  const E57Cloud i = ReadE57Cloud(E57("bunnyInt19.e57"));
+  const io::E57Cloud f = io::ReadE57Cloud(E57("bunnyFloat.e57"));
+  const io::E57Cloud i = io::ReadE57Cloud(E57("bunnyInt19.e57"));
   ASSERT_EQ(f.points.size(), 30571u);
   ASSERT_EQ(i.points.size(), 30571u);
   // 19-bit integers with scale 1e-6 m: within half a step (+ the float file's rounding).
@@ -205,38 +205,38 @@ TEST(E57, FloatAndBitPackedBunniesAgree) {
   }
   EXPECT_LT(worst, 0.6e-6);
   // The bunny lies inside its declared cartesianBounds (decoding errors would scatter it).
-  for (const E57Point& p : i.points) {
+  for (const io::E57Point& p : i.points) {
     ASSERT_GE(p.xyz[0], -0.094689 - 1e-6);
     ASSERT_LE(p.xyz[0], 0.061009 + 1e-6);
     ASSERT_GE(p.xyz[1], 0.040011 - 1e-6);
     ASSERT_LE(p.xyz[1], 0.187321 + 1e-6);
   }
   // As a scan: re-gridded (no row/column indices), every point in some cell at most once.
-  const OrderedScan s = LoadScan(E57("bunnyInt19.e57"));
+  const OrderedScan s = io::LoadScan(E57("bunnyInt19.e57"));
   EXPECT_GT(s.valid_count(), 1000u);
   EXPECT_LE(s.valid_count(), 30571u);
 }
 
 TEST(E57, ColouredCubeHasColours) {
   SCANCAM_REQUIRE_SHARED();
-  const E57Cloud c = ReadE57Cloud(E57("ColouredCubeFloat.e57"));
+  const io::E57Cloud c = io::ReadE57Cloud(E57("ColouredCubeFloat.e57"));
   ASSERT_TRUE(c.info.has_colour);
   ASSERT_EQ(c.points.size(), 7680u);
   std::set<int> colours;
-  for (const E57Point& p : c.points) {
+  for (const io::E57Point& p : c.points) {
     ASSERT_TRUE(p.colour_valid);
     colours.insert(p.rgb[0] << 16 | p.rgb[1] << 8 | p.rgb[2]);
     for (int a = 0; a < 3; ++a) ASSERT_LE(std::abs(p.xyz[a]), 0.5 + 1e-6);  // the unit cube
   }
   EXPECT_GE(colours.size(), 3u);  // not one colour everywhere (the faces' colours)
-  const E57Cloud rgb = ReadE57Cloud(E57("tinyCartesianFloatRgb.e57"));
+  const io::E57Cloud rgb = io::ReadE57Cloud(E57("tinyCartesianFloatRgb.e57"));
   EXPECT_EQ(rgb.points.size(), 2090u);
   EXPECT_TRUE(rgb.info.has_colour);
 }
 
 TEST(E57, SphericalCoordinatesGiveCartesianPoints) {
   SCANCAM_REQUIRE_SHARED();
-  const E57Cloud c = ReadE57Cloud(E57("tiny_spherical.e57"));
+  const io::E57Cloud c = io::ReadE57Cloud(E57("tiny_spherical.e57"));
   ASSERT_TRUE(c.info.spherical);
   ASSERT_FALSE(c.info.cartesian);
   ASSERT_EQ(c.points.size(), 360u);
@@ -245,7 +245,7 @@ TEST(E57, SphericalCoordinatesGiveCartesianPoints) {
   // the usual spherical -> cartesian conversion.
   int checked = 0;
   for (std::size_t k = 0; k < c.points.size(); ++k) {
-    const E57Point& p = c.points[k];
+    const io::E57Point& p = c.points[k];
     if (p.state == 2) continue;
     const double a = k * 3.14 / 360.0;
     EXPECT_EQ(p.state, k % 2 ? 1 : 0);
@@ -259,16 +259,16 @@ TEST(E57, SphericalCoordinatesGiveCartesianPoints) {
 
 TEST(E57, InvalidStatesDropPoints) {
   SCANCAM_REQUIRE_SHARED();
-  const E57Cloud c = ReadE57Cloud(E57("cartesian_invalid_state_single.e57"));
+  const io::E57Cloud c = io::ReadE57Cloud(E57("cartesian_invalid_state_single.e57"));
   ASSERT_EQ(c.points.size(), 3u);
   EXPECT_EQ(c.points[0].state, 0);
   EXPECT_EQ(c.points[1].state, 1);  // direction only
   EXPECT_EQ(c.points[2].state, 2);  // no point
   EXPECT_DOUBLE_EQ(c.points[0].xyz[2], -3.0);
   // Loaded as a scan, only the valid point remains (one point: the grid step is given).
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.grid_step_deg = 1.0;
-  const OrderedScan s = LoadScan(E57("cartesian_invalid_state_single.e57"), o);
+  const OrderedScan s = io::LoadScan(E57("cartesian_invalid_state_single.e57"), o);
   ASSERT_EQ(s.valid_count(), 1u);
   for (std::size_t k = 0; k < s.size(); ++k) {
     if (s.valid(k)) {
@@ -279,19 +279,19 @@ TEST(E57, InvalidStatesDropPoints) {
 
 TEST(E57, IntegerAndScaledIntegerIntensity) {
   SCANCAM_REQUIRE_SHARED();
-  const E57Cloud i = ReadE57Cloud(E57("integer_intensity.e57"));
+  const io::E57Cloud i = io::ReadE57Cloud(E57("integer_intensity.e57"));
   ASSERT_EQ(i.points.size(), 2u);
   EXPECT_EQ(i.points[0].intensity, -66.0);
   EXPECT_EQ(i.points[1].intensity, 66.0);
   EXPECT_DOUBLE_EQ(i.points[1].xyz[0], 4.4);
-  const E57Cloud s = ReadE57Cloud(E57("scaled_integer_intensity.e57"));
+  const io::E57Cloud s = io::ReadE57Cloud(E57("scaled_integer_intensity.e57"));
   ASSERT_EQ(s.points.size(), 2u);
   EXPECT_NEAR(s.points[0].intensity, -66.6, 1e-9);
   EXPECT_NEAR(s.points[1].intensity, 66.6, 1e-9);
   EXPECT_TRUE(s.info.has_intensity_limits);
   EXPECT_NEAR(s.info.intensity_min, -66.6, 1e-9);
   // The OrderedScan's intensity is scaled to [0, 1] by intensityLimits.
-  const OrderedScan o = LoadScan(E57("scaled_integer_intensity.e57"));
+  const OrderedScan o = io::LoadScan(E57("scaled_integer_intensity.e57"));
   std::vector<float> seen;
   for (std::size_t k = 0; k < o.size(); ++k)
     if (o.valid(k)) seen.push_back(o.intensity[k]);
@@ -304,29 +304,29 @@ TEST(E57, IntegerAndScaledIntegerIntensity) {
 TEST(E57, EmptyScansOpenButLoadNoScan) {
   SCANCAM_REQUIRE_SHARED();
   for (const char* name : {"empty_pc.e57", "ZeroPoints.e57"}) {
-    const E57Cloud c = ReadE57Cloud(E57(name));
+    const io::E57Cloud c = io::ReadE57Cloud(E57(name));
     EXPECT_EQ(c.info.record_count, 0u) << name;
     EXPECT_TRUE(c.points.empty()) << name;
-    ExpectError([&] { LoadScan(E57(name)); }, {name, "no points", "recordCount 0"});
+    ExpectError([&] { io::LoadScan(E57(name)); }, {name, "no points", "recordCount 0"});
   }
 }
 
 TEST(E57, BrokenFilesFailClearly) {
   SCANCAM_REQUIRE_SHARED();
-  ExpectError([] { ReadE57Info(E57("bad-crc.e57")); },
+  ExpectError([] { io::ReadE57Info(E57("bad-crc.e57")); },
               {"bad-crc.e57:byte 0", "CRC mismatch", "page 0"});
   // corrupt_crc's damage is in its last page (the XML): found while reading the structure.
-  ExpectError([] { ReadE57Info(E57("corrupt_crc.e57")); },
+  ExpectError([] { io::ReadE57Info(E57("corrupt_crc.e57")); },
               {"corrupt_crc.e57:byte 33792", "CRC mismatch", "page 33"});
-  ExpectError([] { LoadScan(E57("corrupt_crc.e57")); }, {"corrupt_crc.e57", "CRC mismatch"});
+  ExpectError([] { io::LoadScan(E57("corrupt_crc.e57")); }, {"corrupt_crc.e57", "CRC mismatch"});
   // read_error's points are all zeros (every coordinate 0): nothing to load.
-  ExpectError([] { LoadScan(E57("read_error.e57")); },
+  ExpectError([] { io::LoadScan(E57("read_error.e57")); },
               {"read_error.e57", "no point with a valid return", "2651 points lie at"});
 }
 
 TEST(E57, ImagesListedAndExtracted) {
   SCANCAM_REQUIRE_SHARED();
-  const E57FileInfo info = ReadE57Info(E57("tiny_pc_and_images.e57"));
+  const io::E57FileInfo info = io::ReadE57Info(E57("tiny_pc_and_images.e57"));
   ASSERT_EQ(info.scans.size(), 1u);
   ASSERT_EQ(info.images.size(), 4u);
   EXPECT_EQ(info.images[0].representation, "visualReference");
@@ -343,20 +343,20 @@ TEST(E57, ImagesListedAndExtracted) {
   EXPECT_DOUBLE_EQ(info.images[3].radius_m, 666.0);
 
   const std::string dir = test::TempDir();
-  EXPECT_EQ(ExtractE57Image(E57("tiny_pc_and_images.e57"), 0, dir + "/a.jpg"), "jpeg");
+  EXPECT_EQ(io::ExtractE57Image(E57("tiny_pc_and_images.e57"), 0, dir + "/a.jpg"), "jpeg");
   const std::string jpg = test::ReadFile(dir + "/a.jpg");
   ASSERT_EQ(jpg.size(), 7722u);
   EXPECT_EQ(jpg.substr(0, 3), "\xff\xd8\xff");
   EXPECT_EQ(jpg.substr(jpg.size() - 2), "\xff\xd9");
-  EXPECT_EQ(ExtractE57Image(E57("tiny_pc_and_images.e57"), 1, dir + "/b.png"), "png");
+  EXPECT_EQ(io::ExtractE57Image(E57("tiny_pc_and_images.e57"), 1, dir + "/b.png"), "png");
   const std::string png = test::ReadFile(dir + "/b.png");
   ASSERT_EQ(png.size(), 1073u);
   EXPECT_EQ(png.substr(0, 8), "\x89PNG\r\n\x1a\n");
   EXPECT_EQ(png.substr(png.size() - 8, 4), "IEND");
-  ExpectError([&] { ExtractE57Image(E57("tiny_pc_and_images.e57"), 4, dir + "/c.png"); },
+  ExpectError([&] { io::ExtractE57Image(E57("tiny_pc_and_images.e57"), 4, dir + "/c.png"); },
               {"tiny_pc_and_images.e57", "image 4 asked for", "the file has 4 images"});
 
-  const E57FileInfo leica = ReadE57Info(E57("PinholeImageWithDistortionParameters.e57"));
+  const io::E57FileInfo leica = io::ReadE57Info(E57("PinholeImageWithDistortionParameters.e57"));
   ASSERT_EQ(leica.images.size(), 3u);
   EXPECT_TRUE(leica.images[0].has_leica_distortion);
   EXPECT_TRUE(leica.images[1].has_leica_distortion);
@@ -377,10 +377,10 @@ TEST(E57, CliInfoAndScanIndex) {
   EXPECT_EQ(test::ReadFile(dir + "/s.png").size(), 1073u);
   EXPECT_EQ(test::RunCli(dir, "e57-info \"" + E57("bad-crc.e57") + "\""), 1);
   EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("CRC mismatch"), std::string::npos);
-  EXPECT_EQ(DetectScanFormat("dir/Scan.E57"), "e57");
-  ScanLoadOptions o;
+  EXPECT_EQ(io::DetectScanFormat("dir/Scan.E57"), "e57");
+  io::ScanLoadOptions o;
   o.e57_scan_index = 1;
-  ExpectError([&] { LoadScan(E57("bunnyFloat.e57"), o); },
+  ExpectError([&] { io::LoadScan(E57("bunnyFloat.e57"), o); },
               {"bunnyFloat.e57", "scan 1 asked for", "has 1 scan (0..0)"});
 }
 
@@ -390,7 +390,7 @@ TEST(E57, RowColumnIndicesGiveTheGrid) {
   const std::string dir = test::TempDir();
   const GridFile g = MakeGridFile();
   test::WriteFile(dir + "/grid.e57", g.bytes);
-  const OrderedScan s = LoadScan(dir + "/grid.e57");
+  const OrderedScan s = io::LoadScan(dir + "/grid.e57");
   ASSERT_EQ(s.rows, 3);
   ASSERT_EQ(s.cols, 4);
   EXPECT_FALSE(s.valid(1, 2));  // no record
@@ -405,9 +405,9 @@ TEST(E57, RowColumnIndicesGiveTheGrid) {
     EXPECT_NEAR(s.intensity[i], g.inten[k] / 200.f, 1e-6f);  // intensityLimits 0..200
   }
   // The pose applied: 90 deg about z, then (1, 2, 3).
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.e57_apply_pose = true;
-  const OrderedScan p = LoadScan(dir + "/grid.e57", o);
+  const OrderedScan p = io::LoadScan(dir + "/grid.e57", o);
   const std::size_t i = p.index(0, 0);
   EXPECT_NEAR(p.point_m[i].x(), 1.0 - g.y[0], 1e-5);
   EXPECT_NEAR(p.point_m[i].y(), 2.0 + g.x[0], 1e-5);
@@ -437,21 +437,21 @@ TEST(E57, SeveralScansPerFile) {
   test::WriteFile(dir + "/two.e57", b.Finish(std::string(kXmlHead) + "<data3D type=\"Vector\">" +
                                              scan(a, 2, " precision=\"single\"") + scan(c, 3, "") +
                                              "</data3D></e57Root>"));
-  const E57FileInfo info = ReadE57Info(dir + "/two.e57");
+  const io::E57FileInfo info = io::ReadE57Info(dir + "/two.e57");
   ASSERT_EQ(info.scans.size(), 2u);
   EXPECT_EQ(info.scans[1].record_count, 3u);
-  EXPECT_EQ(ReadE57Cloud(dir + "/two.e57", 0).points.size(), 2u);
-  const E57Cloud one = ReadE57Cloud(dir + "/two.e57", 1);
+  EXPECT_EQ(io::ReadE57Cloud(dir + "/two.e57", 0).points.size(), 2u);
+  const io::E57Cloud one = io::ReadE57Cloud(dir + "/two.e57", 1);
   ASSERT_EQ(one.points.size(), 3u);
   EXPECT_EQ(one.points[2].xyz[0], 7.0);
   EXPECT_EQ(one.points[0].xyz[1], -3.0);
   EXPECT_EQ(one.points[0].xyz[2], 0.125);
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.e57_scan_index = 1;
   o.grid_step_deg = 5.0;
-  EXPECT_EQ(LoadScan(dir + "/two.e57", o).valid_count(), 3u);
+  EXPECT_EQ(io::LoadScan(dir + "/two.e57", o).valid_count(), 3u);
   o.e57_scan_index = 2;
-  ExpectError([&] { LoadScan(dir + "/two.e57", o); },
+  ExpectError([&] { io::LoadScan(dir + "/two.e57", o); },
               {"two.e57", "E57 scan 2 asked for", "has 2 scans (0..1)"});
 }
 
@@ -465,37 +465,39 @@ TEST(E57, HostileFilesEndInClearErrorsQuickly) {
   };
   // Truncated: the last page cut off.
   const std::string cut = write("cut.e57", g.bytes.substr(0, g.bytes.size() - 1024));
-  ExpectError([&] { LoadScan(cut); }, {"cut.e57", "truncated", "header gives the file's length"});
+  ExpectError([&] { io::LoadScan(cut); },
+              {"cut.e57", "truncated", "header gives the file's length"});
   // Half a page.
   const std::string half = write("half.e57", g.bytes.substr(0, g.bytes.size() - 500));
-  ExpectError([&] { LoadScan(half); }, {"half.e57", "truncated"});
+  ExpectError([&] { io::LoadScan(half); }, {"half.e57", "truncated"});
   // Wrong signature.
   std::string sig = g.bytes;
   sig[4] = 'X';
-  ExpectError([&] { LoadScan(write("sig.e57", sig)); }, {"sig.e57", "not an E57 file"});
+  ExpectError([&] { io::LoadScan(write("sig.e57", sig)); }, {"sig.e57", "not an E57 file"});
   // An unknown version.
   std::string ver = g.bytes;
   ver[8] = 2;
-  ExpectError([&] { LoadScan(write("ver.e57", ver)); }, {"ver.e57", "unsupported E57 version 2.0"});
+  ExpectError([&] { io::LoadScan(write("ver.e57", ver)); },
+              {"ver.e57", "unsupported E57 version 2.0"});
   // One flipped bit in the data: the page's CRC.
   std::string flip = g.bytes;
   flip[100] = static_cast<char>(flip[100] ^ 0x10);
-  ExpectError([&] { LoadScan(write("flip.e57", flip)); }, {"flip.e57:byte 0", "CRC mismatch"});
+  ExpectError([&] { io::LoadScan(write("flip.e57", flip)); }, {"flip.e57:byte 0", "CRC mismatch"});
   // A huge record count in a small section.
-  ExpectError([&] { LoadScan(write("huge.e57", MakeGridFile("1000000000000").bytes)); },
+  ExpectError([&] { io::LoadScan(write("huge.e57", MakeGridFile("1000000000000").bytes)); },
               {"huge.e57", "recordCount 1000000000000", "more than the section"});
   // More records than the data holds (but within what the section could hold).
-  ExpectError([&] { LoadScan(write("more.e57", MakeGridFile("13").bytes)); },
+  ExpectError([&] { io::LoadScan(write("more.e57", MakeGridFile("13").bytes)); },
               {"more.e57", "truncated", "12 of 13 records"});
   // Index bounds far too wide for the points: refused before a 20 M-cell grid is allocated.
-  ExpectError([&] { LoadScan(write("wide.e57", MakeGridFile("", "", "5000009").bytes)); },
+  ExpectError([&] { io::LoadScan(write("wide.e57", MakeGridFile("", "", "5000009").bytes)); },
               {"wide.e57", "a grid of 5000000 x 4 cells for 12 points", "far too wide"});
   // Bad XML.
-  ExpectError([&] { LoadScan(write("xml.e57", MakeGridFile("", "<unclosed>").bytes)); },
+  ExpectError([&] { io::LoadScan(write("xml.e57", MakeGridFile("", "<unclosed>").bytes)); },
               {"xml.e57:XML byte", "not well-formed"});
   // Not an E57 at all / empty.
-  ExpectError([&] { LoadScan(write("text.e57", "hello\n")); }, {"text.e57", "not an E57 file"});
-  ExpectError([&] { LoadScan(write("empty.e57", "")); }, {"empty.e57", "not an E57 file"});
+  ExpectError([&] { io::LoadScan(write("text.e57", "hello\n")); }, {"text.e57", "not an E57 file"});
+  ExpectError([&] { io::LoadScan(write("empty.e57", "")); }, {"empty.e57", "not an E57 file"});
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_LT(s, 2.0);
 }
@@ -525,7 +527,7 @@ TEST(E57, WriterRoundTrip) {
   }
   const std::string dir = test::TempDir();
   const std::string path = dir + "/out.e57";
-  WriteE57(path, s, &rgb, &coloured);
+  io::WriteE57(path, s, &rgb, &coloured);
   const std::string bytes = test::ReadFile(path);
   ASSERT_EQ(bytes.size() % 1024, 0u);
   for (std::size_t p = 0; p < bytes.size(); p += 1024) {  // every page's CRC, checked here
@@ -533,7 +535,7 @@ TEST(E57, WriterRoundTrip) {
     for (int i = 0; i < 4; ++i)
       ASSERT_EQ(static_cast<std::uint8_t>(bytes[p + 1020 + i]), (crc >> (24 - 8 * i)) & 0xff);
   }
-  const OrderedScan back = LoadScan(path);
+  const OrderedScan back = io::LoadScan(path);
   ASSERT_EQ(back.rows, 5);
   ASSERT_EQ(back.cols, 7);
   ASSERT_EQ(back.valid_count(), s.valid_count());
@@ -547,9 +549,9 @@ TEST(E57, WriterRoundTrip) {
       EXPECT_FLOAT_EQ(back.intensity[k], s.intensity[k]) << k;
     }
   }
-  const E57Cloud cloud = ReadE57Cloud(path);
+  const io::E57Cloud cloud = io::ReadE57Cloud(path);
   ASSERT_EQ(cloud.points.size(), s.valid_count());
-  for (const E57Point& p : cloud.points) {
+  for (const io::E57Point& p : cloud.points) {
     const std::size_t k = s.index(int(p.row), int(p.column));
     EXPECT_EQ(p.colour_valid, coloured[k] != 0) << k;
     if (coloured[k]) {
@@ -561,8 +563,8 @@ TEST(E57, WriterRoundTrip) {
   for (int r = 0; r < big.rows; ++r)
     for (int c = 0; c < big.cols; c += 1 + (r % 3))
       big.set_point(r, c, Eigen::Vector3f(1.f + 0.001f * c, 0.01f * r, -0.5f));
-  WriteE57(dir + "/big.e57", big);
-  const OrderedScan big_back = LoadScan(dir + "/big.e57");
+  io::WriteE57(dir + "/big.e57", big);
+  const OrderedScan big_back = io::LoadScan(dir + "/big.e57");
   ASSERT_EQ(big_back.rows, 90);
   ASSERT_EQ(big_back.cols, 5000);
   ASSERT_EQ(big_back.valid_count(), big.valid_count());
@@ -572,7 +574,7 @@ TEST(E57, WriterRoundTrip) {
     }
   }
   // The input is never the output's temporary: a failed write leaves no file.
-  ExpectError([&] { WriteE57(dir + "/none.e57", OrderedScan::Empty(2, 2)); },
+  ExpectError([&] { io::WriteE57(dir + "/none.e57", OrderedScan::Empty(2, 2)); },
               {"none.e57", "no valid point"});
   EXPECT_FALSE(std::filesystem::exists(dir + "/none.e57"));
 }
@@ -593,8 +595,8 @@ TEST(E57, ColorizeWritesE57AndReadsItBack) {
                            "/image.png --calib " + sim + "/ground_truth.json --quiet ";
   ASSERT_EQ(test::RunCli(dir, base + "--scan " + sim + "/scan.txt --e57 " + dir + "/c.e57"), 0)
       << test::ReadFile(dir + "/stderr.txt");
-  const OrderedScan scan = LoadScan(sim + "/scan.txt");
-  const OrderedScan e57 = LoadScan(dir + "/c.e57");
+  const OrderedScan scan = io::LoadScan(sim + "/scan.txt");
+  const OrderedScan e57 = io::LoadScan(dir + "/c.e57");
   ASSERT_EQ(e57.rows, scan.rows);
   ASSERT_EQ(e57.cols, scan.cols);
   ASSERT_EQ(e57.valid_count(), scan.valid_count());
@@ -603,15 +605,15 @@ TEST(E57, ColorizeWritesE57AndReadsItBack) {
       ASSERT_EQ(e57.point_m[k], scan.point_m[k]) << k;
     }
   }
-  const E57Cloud cloud = ReadE57Cloud(dir + "/c.e57");
+  const io::E57Cloud cloud = io::ReadE57Cloud(dir + "/c.e57");
   std::size_t with_colour = 0;
-  for (const E57Point& p : cloud.points) with_colour += p.colour_valid;
+  for (const io::E57Point& p : cloud.points) with_colour += p.colour_valid;
   EXPECT_GT(with_colour, 100u);
   EXPECT_LT(with_colour, cloud.points.size());  // the camera sees only part of the scan
   // The E57 as colorize's input, and an output that is an input is refused.
   ASSERT_EQ(test::RunCli(dir, base + "--scan " + dir + "/c.e57 --e57 " + dir + "/d.e57"), 0)
       << test::ReadFile(dir + "/stderr.txt");
-  EXPECT_EQ(ReadE57Cloud(dir + "/d.e57").points.size(), cloud.points.size());
+  EXPECT_EQ(io::ReadE57Cloud(dir + "/d.e57").points.size(), cloud.points.size());
   EXPECT_EQ(test::RunCli(dir, base + "--scan " + dir + "/c.e57 --e57 " + dir + "/c.e57"), 1);
   EXPECT_EQ(test::RunCli(dir, base + "--scan " + dir + "/c.e57 --e57 " + dir + "/c.ply"), 1);
 }

@@ -103,7 +103,7 @@ TEST(RingRecovery, RoadPinholeRingsFromElevationsMatchItsRingField) {
   std::shuffle(perm.begin(), perm.end(), std::mt19937(7));
   std::vector<Eigen::Vector3f> shuffled;
   for (std::size_t i : perm) shuffled.push_back(points[i]);
-  const RecoveredRings rr = RecoverRings(shuffled, Eigen::Vector3d::Zero());
+  const io::RecoveredRings rr = io::RecoverRings(shuffled, Eigen::Vector3d::Zero());
   ASSERT_EQ(rr.count, 64) << rr.summary;
   EXPECT_EQ(rr.method, "elevation clusters");
   // Ring r of this lidar has the r-th lowest elevation: laser 63 - r.
@@ -123,9 +123,9 @@ TEST(RingRecovery, Road2PinholeBecomes64RowsKeepingItsReturns) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("road2-pinhole/scan.pcd");
   std::vector<std::string> notes;
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.notes = &notes;
-  const OrderedScan s = LoadScan(path, o);
+  const OrderedScan s = io::LoadScan(path, o);
   ASSERT_EQ(s.rows, 64);
   EXPECT_EQ(s.cols, 1800);  // 0.2 deg
   EXPECT_TRUE(s.has_intensity());
@@ -144,7 +144,7 @@ TEST(RingRecovery, Road2PinholeBecomes64RowsKeepingItsReturns) {
   // The old spherical re-grid stays available.
   o.pcd_mode = "spherical";
   notes.clear();
-  const OrderedScan sph = LoadScan(path, o);
+  const OrderedScan sph = io::LoadScan(path, o);
   EXPECT_GT(sph.rows, 64);
   ASSERT_EQ(notes.size(), 1u);
   EXPECT_NE(notes[0].find("spherical re-grid"), std::string::npos) << notes[0];
@@ -153,12 +153,12 @@ TEST(RingRecovery, Road2PinholeBecomes64RowsKeepingItsReturns) {
 TEST(Kitti, Frame000000Is64RowsKeepingAtLeast99PercentOfItsReturns) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("kitti-000000/velodyne.bin");
-  const KittiCloud raw = ReadKittiBin(path);
+  const io::KittiCloud raw = io::ReadKittiBin(path);
   ASSERT_EQ(raw.points_m.size(), 115384u);  // 1,846,144 bytes / 16
   std::vector<std::string> notes;
-  ScanLoadOptions o;  // format by the .bin extension
+  io::ScanLoadOptions o;  // format by the .bin extension
   o.notes = &notes;
-  const OrderedScan s = LoadScan(path, o);
+  const OrderedScan s = io::LoadScan(path, o);
   EXPECT_NO_THROW(CheckScan(s, path));
   ASSERT_EQ(s.rows, 64);
   const double kept = double(s.valid_count()) / 115384.0;
@@ -198,14 +198,14 @@ TEST(Kitti, Frame000000Is64RowsKeepingAtLeast99PercentOfItsReturns) {
   // --format kitti on any name, and the spherical re-grid on request (the 161 rows).
   o.pcd_mode = "spherical";
   notes.clear();
-  const OrderedScan sph = LoadScan(path, o);
+  const OrderedScan sph = io::LoadScan(path, o);
   EXPECT_GT(sph.rows, 100);
   EXPECT_LT(sph.valid_count(), s.valid_count());
 }
 
 TEST(RingRecovery, OverlappingElevationsAreSplitByTheFiringOrder) {
   const Lidar l = LaserAfterLaser(32, 600, 11);
-  const RecoveredRings rr = RecoverRings(l.points, Eigen::Vector3d::Zero());
+  const io::RecoveredRings rr = io::RecoverRings(l.points, Eigen::Vector3d::Zero());
   ASSERT_EQ(rr.count, 32) << rr.summary;
   EXPECT_EQ(rr.method, "firing order");
   std::size_t agree = 0;
@@ -214,11 +214,11 @@ TEST(RingRecovery, OverlappingElevationsAreSplitByTheFiringOrder) {
   EXPECT_GE(agree, l.points.size() - 32) << agree << " of " << l.points.size();
 
   // Ordered: 32 rows, every return in a cell although firings come half a step apart at times.
-  RegridOptions o;
+  io::RegridOptions o;
   o.source = "synthetic";
   std::string note;
-  const OrderedScan s = RegridUnordered(l.points, nullptr, Eigen::Vector3d::Zero(),
-                                        UnorderedGrid::kAuto, o, {}, &note);
+  const OrderedScan s = io::RegridUnordered(l.points, nullptr, Eigen::Vector3d::Zero(),
+                                            io::UnorderedGrid::kAuto, o, {}, &note);
   EXPECT_EQ(s.rows, 32);
   EXPECT_GE(double(s.valid_count()), 0.99 * double(l.points.size())) << note;
   EXPECT_NE(note.find("firing order"), std::string::npos) << note;
@@ -226,18 +226,18 @@ TEST(RingRecovery, OverlappingElevationsAreSplitByTheFiringOrder) {
   // Shuffled, neither the elevations nor the order tell the lasers apart: not recognised.
   std::vector<Eigen::Vector3f> shuffled = l.points;
   std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(3));
-  const RecoveredRings none = RecoverRings(shuffled, Eigen::Vector3d::Zero());
+  const io::RecoveredRings none = io::RecoverRings(shuffled, Eigen::Vector3d::Zero());
   EXPECT_EQ(none.count, 0);
   EXPECT_NE(none.summary.find("not recognised as a spinning lidar"), std::string::npos);
   EXPECT_TRUE(std::all_of(none.ring.begin(), none.ring.end(), [](int r) { return r == -1; }));
   note.clear();
-  const OrderedScan sph = RegridUnordered(shuffled, nullptr, Eigen::Vector3d::Zero(),
-                                          UnorderedGrid::kAuto, o, {}, &note);
+  const OrderedScan sph = io::RegridUnordered(shuffled, nullptr, Eigen::Vector3d::Zero(),
+                                              io::UnorderedGrid::kAuto, o, {}, &note);
   EXPECT_NE(note.find("spherical re-grid"), std::string::npos) << note;
   ExpectError(
       [&] {
-        RegridUnordered(shuffled, nullptr, Eigen::Vector3d::Zero(), UnorderedGrid::kRecoverRings,
-                        o);
+        io::RegridUnordered(shuffled, nullptr, Eigen::Vector3d::Zero(),
+                            io::UnorderedGrid::kRecoverRings, o);
       },
       {"synthetic", "not recognised as a spinning lidar"});
 }
@@ -259,7 +259,7 @@ TEST(RingRecovery, CleanElevationsWithNoiseAndAnyOrder) {
     for (int f = 0; f < 500; ++f) add(table[k], k);
   }
   for (double e : {13.0, 5.0, -4.0, -10.0, -14.0}) add(e, -1);
-  const RecoveredRings rr = RecoverRings(pts, Eigen::Vector3d::Zero());
+  const io::RecoveredRings rr = io::RecoverRings(pts, Eigen::Vector3d::Zero());
   ASSERT_EQ(rr.count, 16) << rr.summary;
   for (std::size_t i = 0; i < pts.size(); ++i) ASSERT_EQ(rr.ring[i], truth[i]) << "point " << i;
 }
@@ -272,17 +272,17 @@ TEST(Kitti, HostileFilesNameFileOffsetAndProblem) {
     return path;
   };
   const std::string good = KittiBytes({{1.f, 2.f, 3.f, 0.5f}, {4.f, 5.f, 6.f, 0.25f}});
-  ExpectError([&] { LoadScan(write("empty.bin", "")); }, {"empty.bin", "empty"});
-  ExpectError([&] { LoadScan(write("short.bin", good + "abc")); },
+  ExpectError([&] { io::LoadScan(write("empty.bin", "")); }, {"empty.bin", "empty"});
+  ExpectError([&] { io::LoadScan(write("short.bin", good + "abc")); },
               {"short.bin", "byte 32", "not a whole number of 16-byte records", "3 bytes"});
   std::string nan = good + KittiBytes({{1.f, std::nanf(""), 1.f, 0.f}});
-  ExpectError([&] { LoadScan(write("nan.bin", nan)); },
+  ExpectError([&] { io::LoadScan(write("nan.bin", nan)); },
               {"nan.bin", "byte 36", "record 2", "y is nan", "not a finite number"});
   std::string inf = KittiBytes({{1.f, 1.f, 1.f, INFINITY}});
-  ExpectError([&] { LoadScan(write("inf.bin", inf)); },
+  ExpectError([&] { io::LoadScan(write("inf.bin", inf)); },
               {"inf.bin", "byte 12", "record 0", "reflectance is inf"});
   std::string huge = good + KittiBytes({{3e30f, 1.f, 1.f, 0.f}});
-  ExpectError([&] { LoadScan(write("huge.bin", huge)); },
+  ExpectError([&] { io::LoadScan(write("huge.bin", huge)); },
               {"huge.bin", "byte 32", "record 2", "beyond 100 km"});
   // nuScenes' .pcd.bin (x y z intensity ring, 20 bytes a point) read 16 bytes at a time.
   std::string nuscenes;
@@ -290,23 +290,23 @@ TEST(Kitti, HostileFilesNameFileOffsetAndProblem) {
     const float rec[5] = {-3.f - float(i), 2.f, -1.5f, 17.f, 5.f};
     nuscenes.append(reinterpret_cast<const char*>(rec), sizeof rec);
   }
-  ExpectError([&] { LoadScan(write("nuscenes.pcd.bin", nuscenes)); },
+  ExpectError([&] { io::LoadScan(write("nuscenes.pcd.bin", nuscenes)); },
               {"nuscenes.pcd.bin", "byte 28", "record 1", "reflectance is -1.5", "negative"});
   ExpectError(
       [&] {
-        LoadScan(write("origin.bin", KittiBytes({{0.f, 0.f, 0.f, 1.f}})));
+        io::LoadScan(write("origin.bin", KittiBytes({{0.f, 0.f, 0.f, 1.f}})));
       },
       {"origin.bin"});
-  ScanLoadOptions organised;
+  io::ScanLoadOptions organised;
   organised.pcd_mode = "organised";
-  ExpectError([&] { LoadScan(write("mode.bin", good), organised); },
+  ExpectError([&] { io::LoadScan(write("mode.bin", good), organised); },
               {"mode.bin", "grid mode 'organised' does not apply to a KITTI scan"});
   // A few good records load (too few to be a lidar: the spherical re-grid), intensity kept.
   std::vector<std::string> notes;
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.notes = &notes;
   o.format = "kitti";
-  const OrderedScan s = LoadScan(write("two.dat", good), o);
+  const OrderedScan s = io::LoadScan(write("two.dat", good), o);
   EXPECT_EQ(s.valid_count(), 2u);
   ASSERT_TRUE(s.has_intensity());
   ASSERT_EQ(notes.size(), 1u);

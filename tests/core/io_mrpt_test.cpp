@@ -33,10 +33,10 @@ std::vector<Eigen::Vector3f> ValidPoints(const OrderedScan& s) {
 TEST(MrptReal, RotatingScanFromA2DScan) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("mrpt/rot_scan_2d.rawlog");
-  const std::vector<RawlogScanEntry> entries = ListRawlogScans(path);
+  const std::vector<io::RawlogScanEntry> entries = io::ListRawlogScans(path);
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(entries[0].class_name, "CObservationRotatingScan");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   // The grid MRPT itself reports: rowCount x columnCount.
   EXPECT_EQ(s.rows, entries[0].mrpt_rows);
   EXPECT_EQ(s.cols, entries[0].mrpt_cols);
@@ -62,7 +62,7 @@ TEST(MrptReal, RotatingScanFromA2DScan) {
 TEST(MrptReal, VelodyneScanMatchesMrptsOwnPoints) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("mrpt/test_velodyne_VLP16.rawlog");
-  const std::vector<RawlogScanEntry> entries = ListRawlogScans(path);
+  const std::vector<io::RawlogScanEntry> entries = io::ListRawlogScans(path);
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(entries[0].class_name, "CObservationVelodyneScan");
   EXPECT_EQ(entries[0].lidar_model, "VLP-16");
@@ -70,12 +70,12 @@ TEST(MrptReal, VelodyneScanMatchesMrptsOwnPoints) {
   // first 28800 / 16 (see mrpt_rawlog.h), which the importer drops.
   EXPECT_EQ(entries[0].mrpt_rows, 16);
   EXPECT_EQ(entries[0].mrpt_cols, 28800);
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   ASSERT_EQ(s.rows, 16);
   ASSERT_EQ(s.cols, entries[0].mrpt_cols / entries[0].mrpt_rows / 2);
   // Every valid cell holds one of MRPT's generatePointCloud points, and every one of those
   // points is in the grid.
-  const std::vector<Eigen::Vector3f> mrpt = MrptReferencePoints(path);
+  const std::vector<Eigen::Vector3f> mrpt = io::MrptReferencePoints(path);
   EXPECT_EQ(mrpt.size(), 11305u);
   ASSERT_EQ(s.valid_count(), mrpt.size());
   std::set<std::tuple<float, float, float>> ours;
@@ -97,13 +97,13 @@ TEST(MrptReal, StoredRotatingScanAgreesWithTheVelodyneItWasMadeFrom) {
   SCANCAM_REQUIRE_SHARED();
   // rot_scan_velodyne.rawlog is MRPT's fromVelodyne of the same sweep (same timestamp).
   const std::string rot_path = test::SharedDataset("mrpt/rot_scan_velodyne.rawlog");
-  const std::vector<RawlogScanEntry> entries = ListRawlogScans(rot_path);
+  const std::vector<io::RawlogScanEntry> entries = io::ListRawlogScans(rot_path);
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(entries[0].class_name, "CObservationRotatingScan");
   EXPECT_EQ(entries[0].mrpt_rows, 16);
   EXPECT_EQ(entries[0].mrpt_cols, 28800);
-  const OrderedScan rot = LoadScan(rot_path);
-  const OrderedScan velo = LoadScan(test::SharedDataset("mrpt/test_velodyne_VLP16.rawlog"));
+  const OrderedScan rot = io::LoadScan(rot_path);
+  const OrderedScan velo = io::LoadScan(test::SharedDataset("mrpt/test_velodyne_VLP16.rawlog"));
   ASSERT_EQ(rot.rows, 16);
   ASSERT_EQ(rot.cols, 900);
   EXPECT_EQ(rot.valid_count(), 11305u);
@@ -119,16 +119,16 @@ TEST(MrptReal, StoredRotatingScanAgreesWithTheVelodyneItWasMadeFrom) {
   // Without packets, a RotatingScan's azimuths come from startAzimuth + span * c / N; MRPT's
   // span for this sweep (357.85 deg) makes that drift by up to 0.2 deg from MRPT's own points.
   EXPECT_LT(worst_deg, 0.25);
-  EXPECT_TRUE(MrptReferencePoints(rot_path).empty());
+  EXPECT_TRUE(io::MrptReferencePoints(rot_path).empty());
 }
 
 TEST(MrptReal, DepthCameraScanEqualsMrptsUnprojection) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("mrpt/tests_rgbd.rawlog");
-  const std::vector<RawlogScanEntry> entries = ListRawlogScans(path);
+  const std::vector<io::RawlogScanEntry> entries = io::ListRawlogScans(path);
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(entries[0].class_name, "CObservation3DRangeScan");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   EXPECT_EQ(s.rows, entries[0].mrpt_rows);
   EXPECT_EQ(s.cols, entries[0].mrpt_cols);
   ASSERT_EQ(s.rows, 480);
@@ -138,7 +138,7 @@ TEST(MrptReal, DepthCameraScanEqualsMrptsUnprojection) {
   EXPECT_EQ(entries[0].mrpt_points, 273225);
   EXPECT_EQ(s.valid_count(), 273225u);
   EXPECT_NEAR(s.valid_fraction(), 273225.0 / (480 * 640), 1e-12);
-  const std::vector<Eigen::Vector3f> mrpt = MrptReferencePoints(path);
+  const std::vector<Eigen::Vector3f> mrpt = io::MrptReferencePoints(path);
   const std::vector<Eigen::Vector3f> ours = ValidPoints(s);
   ASSERT_EQ(mrpt.size(), ours.size());
   for (std::size_t i = 0; i < ours.size(); ++i) {
@@ -154,8 +154,8 @@ TEST(MrptReal, DepthCameraScanEqualsMrptsUnprojection) {
   for (std::size_t k = 0; k < s.size(); ++k) ASSERT_NEAR(s.beam_dir[k].norm(), 1.f, 1e-5f);
 }
 
-RotatingScanData MakeSweep(bool with_intensity) {
-  RotatingScanData d;
+io::RotatingScanData MakeSweep(bool with_intensity) {
+  io::RotatingScanData d;
   d.planes = 9;
   d.beams = 21;
   d.dx_m = 0.05;
@@ -171,16 +171,16 @@ RotatingScanData MakeSweep(bool with_intensity) {
 
 TEST(Mrpt2DScans, RotatingSupportGivesEq3Points) {
   const std::string path = test::TempDir() + "/sweep.rawlog";
-  const RotatingScanData d = MakeSweep(true);
-  WriteMrpt2DScanRawlog(path, d, "TILT");
-  const std::vector<RawlogScanEntry> entries = ListRawlogScans(path);
+  const io::RotatingScanData d = MakeSweep(true);
+  io::WriteMrpt2DScanRawlog(path, d, "TILT");
+  const std::vector<io::RawlogScanEntry> entries = io::ListRawlogScans(path);
   ASSERT_EQ(entries.size(), 1u);
   EXPECT_EQ(entries[0].class_name, "CObservation2DRangeScan");
   EXPECT_EQ(entries[0].sensor_label, "TILT");
   EXPECT_EQ(entries[0].mrpt_rows, d.planes);
   EXPECT_EQ(entries[0].mrpt_cols, d.beams);
-  const OrderedScan s = LoadScan(path);
-  const OrderedScan eq3 = ToOrderedScan(d, "eq3");
+  const OrderedScan s = io::LoadScan(path);
+  const OrderedScan eq3 = io::ToOrderedScan(d, "eq3");
   ASSERT_EQ(s.rows, eq3.rows);
   ASSERT_EQ(s.cols, eq3.cols);
   for (std::size_t k = 0; k < s.size(); ++k) {
@@ -192,66 +192,66 @@ TEST(Mrpt2DScans, RotatingSupportGivesEq3Points) {
     EXPECT_NEAR((s.point_m[k] - eq3.point_m[k]).norm(), 0.f, 2e-6f) << k;
   }
   // MRPT's own composition of each beam with its scan's sensorPose gives the same points.
-  const std::vector<Eigen::Vector3f> mrpt = MrptReferencePoints(path);
+  const std::vector<Eigen::Vector3f> mrpt = io::MrptReferencePoints(path);
   const std::vector<Eigen::Vector3f> ours = ValidPoints(s);
   ASSERT_EQ(mrpt.size(), ours.size());
   for (std::size_t i = 0; i < ours.size(); ++i) EXPECT_NEAR((mrpt[i] - ours[i]).norm(), 0.f, 2e-6f);
 }
 
 TEST(Mrpt2DScans, ScansAllInOnePlaneAreNotARotatingScanner) {
-  RotatingScanData d = MakeSweep(false);
+  io::RotatingScanData d = MakeSweep(false);
   for (double& phi : d.phi_rad) phi = 0.2;
   const std::string path = test::TempDir() + "/flat.rawlog";
-  WriteMrpt2DScanRawlog(path, d);
-  ExpectError([&] { LoadScan(path); }, {"flat.rawlog", "same sensorPose"});
+  io::WriteMrpt2DScanRawlog(path, d);
+  ExpectError([&] { io::LoadScan(path); }, {"flat.rawlog", "same sensorPose"});
   // A single 2D scan is a one-row grid.
   d.planes = 1;
   d.phi_rad.resize(1);
   d.range_m.resize(static_cast<std::size_t>(d.beams));
   const std::string one = test::TempDir() + "/one.rawlog";
-  WriteMrpt2DScanRawlog(one, d);
-  EXPECT_EQ(LoadScan(one).rows, 1);
+  io::WriteMrpt2DScanRawlog(one, d);
+  EXPECT_EQ(io::LoadScan(one).rows, 1);
 }
 
 TEST(Mrpt2DScans, WriterNeedsCentredEvenBeams) {
-  RotatingScanData d = MakeSweep(false);
+  io::RotatingScanData d = MakeSweep(false);
   d.theta_rad[3] += 0.01;
-  ExpectError([&] { WriteMrpt2DScanRawlog(test::TempDir() + "/bad.rawlog", d); },
+  ExpectError([&] { io::WriteMrpt2DScanRawlog(test::TempDir() + "/bad.rawlog", d); },
               {"bad.rawlog", "beam 3"});
 }
 
 TEST(MrptBad, ErrorsNameTheFileAndTheObject) {
   const std::string dir = test::TempDir();
-  ExpectError([&] { LoadScan(dir + "/missing.rawlog"); }, {"missing.rawlog", "cannot open"});
+  ExpectError([&] { io::LoadScan(dir + "/missing.rawlog"); }, {"missing.rawlog", "cannot open"});
   test::WriteFile(dir + "/empty.rawlog", "");
-  ExpectError([&] { LoadScan(dir + "/empty.rawlog"); }, {"empty.rawlog", "empty file"});
+  ExpectError([&] { io::LoadScan(dir + "/empty.rawlog"); }, {"empty.rawlog", "empty file"});
   std::string garbage;
   for (int i = 0; i < 3000; ++i) garbage += static_cast<char>((i * 7919 + 13) % 251);
   test::WriteFile(dir + "/garbage.rawlog", garbage);
-  ExpectError([&] { LoadScan(dir + "/garbage.rawlog"); },
+  ExpectError([&] { io::LoadScan(dir + "/garbage.rawlog"); },
               {"garbage.rawlog:object 0 (byte 0", "not a readable MRPT object"});
   // A header naming a class MRPT does not know (refused before a decoder process is forked).
   test::WriteFile(dir + "/unknown.rawlog", std::string("\x89NotAClass") + std::string(40, '\0'));
-  ExpectError([&] { LoadScan(dir + "/unknown.rawlog"); },
+  ExpectError([&] { io::LoadScan(dir + "/unknown.rawlog"); },
               {"unknown.rawlog:object 0 (byte 0", "unknown MRPT class name 'NotAClass'"});
   // A committed fixture: a CObservationOdometry and a CObservationIMU, nothing scan-like.
   const std::string odo = std::string(SCANCAM_SOURCE_DIR) + "/tests/data/odometry_only.rawlog";
-  ExpectError([&] { LoadScan(odo); },
+  ExpectError([&] { io::LoadScan(odo); },
               {"odometry_only.rawlog", "no scan-like observation", "2 objects"});
   // A real rawlog cut short, compressed and not.
   const std::string sweep = dir + "/sweep.rawlog";
-  WriteMrpt2DScanRawlog(sweep, MakeSweep(true));
+  io::WriteMrpt2DScanRawlog(sweep, MakeSweep(true));
   const std::string full = test::ReadFile(sweep);
   test::WriteFile(dir + "/cut.rawlog", full.substr(0, full.size() / 2));
-  ExpectError([&] { LoadScan(dir + "/cut.rawlog"); }, {"cut.rawlog:object", "truncated"});
+  ExpectError([&] { io::LoadScan(dir + "/cut.rawlog"); }, {"cut.rawlog:object", "truncated"});
   // A gzip stream cut exactly after an object (committed fixture, see tests/data/README.md).
   const std::string boundary =
       std::string(SCANCAM_SOURCE_DIR) + "/tests/data/cut_at_object_boundary.rawlog";
-  ExpectError([&] { LoadScan(boundary); },
+  ExpectError([&] { io::LoadScan(boundary); },
               {"cut_at_object_boundary.rawlog:byte 738", "truncated", "5 complete objects"});
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.rawlog_index = 1;
-  ExpectError([&] { LoadScan(sweep, o); }, {"sweep.rawlog", "only 1 scan-like entry"});
+  ExpectError([&] { io::LoadScan(sweep, o); }, {"sweep.rawlog", "only 1 scan-like entry"});
 }
 
 TEST(MrptBad, TruncatedRealRawlog) {
@@ -259,7 +259,7 @@ TEST(MrptBad, TruncatedRealRawlog) {
   const std::string full = test::ReadFile(test::SharedDataset("mrpt/rot_scan_velodyne.rawlog"));
   const std::string path = test::TempDir() + "/half.rawlog";
   test::WriteFile(path, full.substr(0, full.size() / 2));
-  ExpectError([&] { LoadScan(path); }, {"half.rawlog:object 0 (byte 0", "truncated"});
+  ExpectError([&] { io::LoadScan(path); }, {"half.rawlog:object 0 (byte 0", "truncated"});
 }
 
 }  // namespace

@@ -32,7 +32,7 @@ using test::RowElevation;
 TEST(PcdRoad, OrdersInto64RingsBy1800AzimuthColumns) {
   SCANCAM_REQUIRE_SHARED();
   const std::string path = test::SharedDataset("road-pinhole/scan.pcd");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   EXPECT_NO_THROW(CheckScan(s, path));
   ASSERT_EQ(s.rows, 64);
   EXPECT_EQ(s.cols, 1800);  // 0.2 deg azimuth resolution, one 360 deg sweep
@@ -149,8 +149,8 @@ Lidar MakeLidar(int rings, int firings, unsigned seed) {
 
 TEST(Regrid, RingsAreSortedByElevationAndFiringsLandInTheirColumns) {
   const Lidar l = MakeLidar(16, 900, 3);
-  RegridOptions o;
-  const OrderedScan s = RegridRings(l.points, l.ring, &l.intensity, Eigen::Vector3d::Zero(), o);
+  io::RegridOptions o;
+  const OrderedScan s = io::RegridRings(l.points, l.ring, &l.intensity, Eigen::Vector3d::Zero(), o);
   ASSERT_EQ(s.rows, 16);
   ASSERT_EQ(s.cols, 900);
   EXPECT_EQ(s.valid_count(), l.points.size());  // no collision, no loss
@@ -210,8 +210,8 @@ TEST(Regrid, SphericalRegridRecoversATerrestrialGrid) {
     shuffled.push_back(pts[i]);
     shuffled_i.push_back(inten[i]);
   }
-  EXPECT_NEAR(EstimateAngularStepDeg(shuffled, Eigen::Vector3d::Zero()), 0.5, 1e-3);
-  const OrderedScan s = RegridSpherical(shuffled, &shuffled_i, Eigen::Vector3d::Zero());
+  EXPECT_NEAR(io::EstimateAngularStepDeg(shuffled, Eigen::Vector3d::Zero()), 0.5, 1e-3);
+  const OrderedScan s = io::RegridSpherical(shuffled, &shuffled_i, Eigen::Vector3d::Zero());
   ASSERT_EQ(s.rows, 101);
   ASSERT_EQ(s.cols, 201);  // cropped to the occupied arc
   EXPECT_EQ(s.valid_count(), where.size());
@@ -244,14 +244,14 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
     }
   }
   std::shuffle(pts.begin(), pts.end(), rng);
-  const AngularSteps steps = EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
+  const io::AngularSteps steps = io::EstimateAngularStepsDeg(pts, Eigen::Vector3d::Zero());
   EXPECT_NEAR(steps.azimuth_deg, 1.0, 1e-3);
   EXPECT_NEAR(steps.elevation_deg, 0.5, 1e-3);
-  EXPECT_NEAR(EstimateAngularStepDeg(pts, Eigen::Vector3d::Zero()), 0.5, 1e-3);  // the finer
-  RegridOptions o;
+  EXPECT_NEAR(io::EstimateAngularStepDeg(pts, Eigen::Vector3d::Zero()), 0.5, 1e-3);  // the finer
+  io::RegridOptions o;
   o.step_deg = steps.azimuth_deg;
   o.elevation_step_deg = steps.elevation_deg;
-  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  const OrderedScan s = io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
   EXPECT_EQ(s.rows, 61);
   EXPECT_EQ(s.cols, 81);
   EXPECT_EQ(s.valid_count(), pts.size());
@@ -260,7 +260,7 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
   // same points in twice the cells, every other column empty.
   const Eigen::Vector3d o0 = Eigen::Vector3d::Zero();
   const Eigen::Quaterniond q0 = Eigen::Quaterniond::Identity();
-  const AngularSteps chosen = ChooseGridSteps(pts, o0, q0, {});
+  const io::AngularSteps chosen = io::ChooseGridSteps(pts, o0, q0, {});
   EXPECT_NEAR(chosen.azimuth_deg, 1.0, 1e-3);
   EXPECT_NEAR(chosen.elevation_deg, 0.5, 1e-3);
   {
@@ -276,33 +276,33 @@ TEST(Regrid, SeparateAzimuthAndElevationStepsFillAnAnisotropicGrid) {
                            float(rho * std::cos(e) * std::sin(az)), float(rho * std::sin(e)));
       }
     }
-    const AngularSteps one = ChooseGridSteps(lidar, o0, q0, {});
+    const io::AngularSteps one = io::ChooseGridSteps(lidar, o0, q0, {});
     EXPECT_NEAR(one.azimuth_deg, 0.2, 0.01);
     EXPECT_EQ(one.elevation_deg, one.azimuth_deg);
-    RegridOptions lo;
+    io::RegridOptions lo;
     lo.step_deg = one.azimuth_deg;
     lo.elevation_step_deg = one.elevation_deg;
-    EXPECT_EQ(RegridSpherical(lidar, nullptr, o0, lo).valid_count(), lidar.size());
-    const AngularSteps per_axis = EstimateAngularStepsDeg(lidar, o0);
+    EXPECT_EQ(io::RegridSpherical(lidar, nullptr, o0, lo).valid_count(), lidar.size());
+    const io::AngularSteps per_axis = io::EstimateAngularStepsDeg(lidar, o0);
     lo.step_deg = per_axis.azimuth_deg;
     lo.elevation_step_deg = per_axis.elevation_deg;
-    EXPECT_LT(RegridSpherical(lidar, nullptr, o0, lo).valid_count(), lidar.size());
+    EXPECT_LT(io::RegridSpherical(lidar, nullptr, o0, lo).valid_count(), lidar.size());
   }
-  const AngularSteps by_sensor = ChooseGridSteps(pts, o0, q0, {}, {1.0, 0.5});
+  const io::AngularSteps by_sensor = io::ChooseGridSteps(pts, o0, q0, {}, {1.0, 0.5});
   EXPECT_EQ(by_sensor.azimuth_deg, 1.0);
   EXPECT_EQ(by_sensor.elevation_deg, 0.5);
-  const AngularSteps given = ChooseGridSteps(pts, o0, q0, {2.0, 0.0}, {1.0, 0.5});
+  const io::AngularSteps given = io::ChooseGridSteps(pts, o0, q0, {2.0, 0.0}, {1.0, 0.5});
   EXPECT_EQ(given.azimuth_deg, 2.0);
   EXPECT_EQ(given.elevation_deg, 2.0);
-  EXPECT_EQ(ChooseGridSteps(pts, o0, q0, {0.0, 0.25}).elevation_deg, 0.25);
+  EXPECT_EQ(io::ChooseGridSteps(pts, o0, q0, {0.0, 0.25}).elevation_deg, 0.25);
   // One 0.5 deg step for both: twice the columns, half of them empty.
-  RegridOptions single;
+  io::RegridOptions single;
   single.step_deg = 0.5;
-  const OrderedScan t = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), single);
+  const OrderedScan t = io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), single);
   EXPECT_GE(t.cols, 160);
   EXPECT_LE(t.valid_fraction(), 0.51);
   // Too few points: nothing to tell.
-  const AngularSteps none = EstimateAngularStepsDeg({pts[0]}, Eigen::Vector3d::Zero());
+  const io::AngularSteps none = io::EstimateAngularStepsDeg({pts[0]}, Eigen::Vector3d::Zero());
   EXPECT_EQ(none.azimuth_deg, 0.0);
   EXPECT_EQ(none.elevation_deg, 0.0);
 }
@@ -316,20 +316,20 @@ TEST(Regrid, AStepFarTooFineForTheCloudIsRefused) {
     pts.emplace_back(10 * std::cos(el) * std::cos(az), 10 * std::cos(el) * std::sin(az),
                      10 * std::sin(el));
   }
-  RegridOptions o;
+  io::RegridOptions o;
   o.source = "tiny.pcd";
   o.step_deg = 0.05;  // 1100 x 7200 cells for 300 points
   try {
-    RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+    io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
     FAIL() << "a nearly empty grid was built";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("tiny.pcd"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("nearly empty"), std::string::npos) << e.what();
   }
   o.step_deg = 1e-300;  // rows and columns beyond any integer type
-  EXPECT_THROW(RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o), Error);
+  EXPECT_THROW(io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o), Error);
   o.step_deg = 2.0;  // a sane step still grids the cloud
-  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  const OrderedScan s = io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
   EXPECT_GT(s.valid_count(), 100u);
 }
 
@@ -343,18 +343,18 @@ TEST(Regrid, TheLargestGridFollowsTheNumberOfPoints) {
     const double az = 6.283185307179586 * i / 150.0;
     pts.emplace_back(10 * std::cos(az), 10 * std::sin(az), 0.f);
   }
-  RegridOptions o;
+  io::RegridOptions o;
   o.source = "ring150.pcd";
   o.step_deg = 0.01;  // 36,000 cells: more than 100 per point
   try {
-    RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+    io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
     FAIL() << "a grid of 36,000 cells was built for 150 points";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("ring150.pcd"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("nearly empty"), std::string::npos) << e.what();
   }
   o.step_deg = 0.03;  // 12,000 cells: under 100 per point
-  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  const OrderedScan s = io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
   EXPECT_EQ(s.rows, 1);
   EXPECT_EQ(s.cols, 12000);
   EXPECT_EQ(s.valid_count(), 150u);
@@ -365,7 +365,7 @@ TEST(Regrid, TheLargestGridFollowsTheNumberOfPoints) {
     more.emplace_back(10 * std::cos(az), 10 * std::sin(az), 0.f);
   }
   o.step_deg = 0.0012;  // 300,000 cells
-  EXPECT_EQ(RegridSpherical(more, nullptr, Eigen::Vector3d::Zero(), o).size(), 300000u);
+  EXPECT_EQ(io::RegridSpherical(more, nullptr, Eigen::Vector3d::Zero(), o).size(), 300000u);
 }
 
 // Fuzzing found a 301-point PCD with a ring field whose rings (135 values) and two nearly equal
@@ -382,11 +382,11 @@ TEST(Regrid, ARingGridFarTooFineForTheCloudIsRefused) {
   }
   // Two returns 0.0158 deg apart on ring 0: the median gap of the sparse rings is far larger,
   // so give the fine step explicitly, as the mutated file's gaps did.
-  RegridOptions o;
+  io::RegridOptions o;
   o.source = "sparse_rings.pcd";
   o.step_deg = 0.0158;
   try {
-    RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
+    io::RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
     FAIL() << "a nearly empty ring grid was built";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("sparse_rings.pcd"), std::string::npos) << e.what();
@@ -395,7 +395,7 @@ TEST(Regrid, ARingGridFarTooFineForTheCloudIsRefused) {
   // A step the cloud fills better: 135 x 150 cells, 68 per point (1.2 deg, 135 x 300 cells, is
   // refused since the largest grid follows the number of points: more than 100 per point).
   o.step_deg = 2.4;
-  const OrderedScan s = RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
+  const OrderedScan s = io::RegridRings(pts, ring, nullptr, Eigen::Vector3d::Zero(), o);
   EXPECT_EQ(s.rows, 135);
   EXPECT_EQ(s.cols, 150);
   EXPECT_GT(s.valid_count(), 250u);
@@ -425,9 +425,9 @@ TEST(Regrid, FullTurnStartsBehindAndLooksForwardInTheMiddle) {
                        float(5 * std::cos(el) * std::sin(az)), float(5 * std::sin(el)));
     }
   }
-  RegridOptions o;
+  io::RegridOptions o;
   o.step_deg = 1.0;
-  const OrderedScan s = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
+  const OrderedScan s = io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), o);
   ASSERT_EQ(s.rows, 3);
   ASSERT_EQ(s.cols, 360);
   EXPECT_EQ(s.valid_count(), 3u * 360u);
@@ -435,9 +435,9 @@ TEST(Regrid, FullTurnStartsBehindAndLooksForwardInTheMiddle) {
   EXPECT_NEAR(Azimuth(s.beam_dir[s.index(1, 179)]) / kDeg, 0.5, 1e-4);
   EXPECT_NEAR(Azimuth(s.beam_dir[s.index(1, 359)]) / kDeg, -179.5, 1e-4);
   // The sensor orientation is honoured: yawing the sensor by +90 deg turns the image.
-  RegridOptions yawed = o;
+  io::RegridOptions yawed = o;
   yawed.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ()));
-  const OrderedScan t = RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), yawed);
+  const OrderedScan t = io::RegridSpherical(pts, nullptr, Eigen::Vector3d::Zero(), yawed);
   // Cloud azimuth 90.5 deg is sensor azimuth 0.5 deg: middle column.
   EXPECT_NEAR(Azimuth(t.point_m[t.index(1, 179)]) / kDeg, 90.5, 1e-3);
 }
@@ -468,7 +468,7 @@ TEST(Pcd, RingModeThroughAnAsciiFileWithAViewpoint) {
   const std::string path = test::TempDir() + "/lidar.pcd";
   WriteAsciiPcd(path, "x y z intensity ring", "F F F F U", "4 4 4 4 2", lines,
                 static_cast<long long>(lines.size()), 1, "1 -2 0.5 1 0 0 0");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   EXPECT_EQ(s.rows, 8);
   EXPECT_EQ(s.cols, 360);
   EXPECT_EQ(s.valid_count(), l.points.size());
@@ -479,16 +479,16 @@ TEST(Pcd, RingModeThroughAnAsciiFileWithAViewpoint) {
     EXPECT_NEAR(s.range_m[k], (s.point_m[k].cast<double>() - origin).norm(), 1e-4);
   }
   // The same file in spherical mode is a different grid, and organised mode is one row.
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.pcd_mode = "organised";
-  const OrderedScan one = LoadScan(path, o);
+  const OrderedScan one = io::LoadScan(path, o);
   EXPECT_EQ(one.rows, 1);
   EXPECT_EQ(one.cols, static_cast<int>(lines.size()));
   EXPECT_FALSE(one.valid(0, one.cols - 1));  // the NaN point
 }
 
 TEST(Pcd, OrganisedRoundTripIsExact) {
-  RotatingScanData d;
+  io::RotatingScanData d;
   d.dx_m = 0.1;  // offset beams: range and beam are not |point| and its direction
   d.dz_m = 0.2;
   d.planes = 6;
@@ -499,10 +499,10 @@ TEST(Pcd, OrganisedRoundTripIsExact) {
     d.range_m.push_back(k % 5 == 2 ? std::nanf("") : 1.f + 0.37f * k);
     d.intensity.push_back(0.01f * k);
   }
-  const OrderedScan a = ToOrderedScan(d, "mem");
+  const OrderedScan a = io::ToOrderedScan(d, "mem");
   const std::string path = test::TempDir() + "/organised.pcd";
-  WriteOrganisedPcd(path, a);
-  const OrderedScan b = LoadScan(path);
+  io::WriteOrganisedPcd(path, a);
+  const OrderedScan b = io::LoadScan(path);
   ASSERT_EQ(b.rows, a.rows);
   ASSERT_EQ(b.cols, a.cols);
   for (std::size_t k = 0; k < a.size(); ++k) {
@@ -563,9 +563,9 @@ TEST(Pcd, BadInputsNameFileAndPlace) {
     const std::string path = dir + "/" + c.name;
     test::WriteFile(path, c.content);
     SCOPED_TRACE(c.name);
-    ExpectError([&] { LoadScan(path); }, c.parts);
+    ExpectError([&] { io::LoadScan(path); }, c.parts);
   }
-  ExpectError([&] { LoadScan(dir + "/missing.pcd"); }, {"missing.pcd", "cannot open"});
+  ExpectError([&] { io::LoadScan(dir + "/missing.pcd"); }, {"missing.pcd", "cannot open"});
 
   // Binary and binary_compressed files cut short.
   pcl::PCLPointCloud2 cloud;
@@ -590,8 +590,8 @@ TEST(Pcd, BadInputsNameFileAndPlace) {
   const std::string bin = dir + "/bin.pcd", comp = dir + "/comp.pcd";
   ASSERT_EQ(writer.writeBinary(bin, cloud), 0);
   ASSERT_EQ(writer.writeBinaryCompressed(comp, cloud), 0);
-  EXPECT_EQ(LoadScan(bin).valid_count(), 100u);
-  EXPECT_NO_THROW(LoadScan(comp));
+  EXPECT_EQ(io::LoadScan(bin).valid_count(), 100u);
+  EXPECT_NO_THROW(io::LoadScan(comp));
   // PCL pads its binary files to whole pages: cut inside the data itself.
   auto data_start = [](const std::string& path) {
     const std::string text = test::ReadFile(path);
@@ -600,15 +600,15 @@ TEST(Pcd, BadInputsNameFileAndPlace) {
   };
   std::filesystem::resize_file(bin, data_start(bin) + 600);
   std::filesystem::resize_file(comp, data_start(comp) + 20);
-  ExpectError([&] { LoadScan(bin); }, {"bin.pcd:byte", "truncated", "1200 bytes"});
-  ExpectError([&] { LoadScan(comp); }, {"comp.pcd:byte", "truncated", "compressed bytes"});
+  ExpectError([&] { io::LoadScan(bin); }, {"bin.pcd:byte", "truncated", "1200 bytes"});
+  ExpectError([&] { io::LoadScan(comp); }, {"comp.pcd:byte", "truncated", "compressed bytes"});
 }
 
 TEST(Pcd, NanPointsAreNoReturnsNotErrors) {
   const std::string path = test::TempDir() + "/nan.pcd";
   WriteAsciiPcd(path, "x y z", "F F F", "4 4 4", {"1 0 0", "nan nan nan", "0 0 2", "0 1 0"}, 2, 2,
                 "0 0 0 1 0 0 0");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   ASSERT_EQ(s.rows, 2);
   ASSERT_EQ(s.cols, 2);
   EXPECT_TRUE(s.valid(0, 0));

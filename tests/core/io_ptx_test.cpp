@@ -26,10 +26,10 @@ const char* kHeader23 =
     "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n";
 
 // A synthetic terrestrial scan: PTX column r at azimuth az_r, PTX row c at elevation el_c.
-PtxScan MakeScan(int columns, int rows, unsigned seed, bool rgb) {
+io::PtxScan MakeScan(int columns, int rows, unsigned seed, bool rgb) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> range(1.f, 40.f);
-  PtxScan s;
+  io::PtxScan s;
   s.columns = columns;
   s.rows = rows;
   for (int r = 0; r < columns; ++r) {
@@ -58,7 +58,7 @@ TEST(Ptx, GridFollowsCloudComparesOrder) {
   test::WriteFile(path, std::string(kHeader23) +
                             "1 0 0 0.1\n2 0 0 0.2\n0 0 0 0.3\n"
                             "0 4 0 0.4\n0 5 0 0.5\n0 6 1 0.6\n");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   ASSERT_EQ(s.rows, 2);  // first header number: PTX columns
   ASSERT_EQ(s.cols, 3);  // second: PTX rows
   EXPECT_EQ(s.valid_count(), 5u);
@@ -79,8 +79,8 @@ TEST(Ptx, GridFollowsCloudComparesOrder) {
 
 TEST(Ptx, RoundTripSeveralScansIsExact) {
   const std::string path = test::TempDir() + "/multi.ptx";
-  std::vector<PtxScan> scans = {MakeScan(6, 5, 1, false), MakeScan(4, 7, 2, true),
-                                MakeScan(3, 3, 3, false)};
+  std::vector<io::PtxScan> scans = {MakeScan(6, 5, 1, false), MakeScan(4, 7, 2, true),
+                                    MakeScan(3, 3, 3, false)};
   Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
   t.block<3, 3>(0, 0) =
       Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -0.3, 1).normalized()).toRotationMatrix();
@@ -88,10 +88,10 @@ TEST(Ptx, RoundTripSeveralScansIsExact) {
   scans[1].transform = t;
   scans[1].scanner_position = t.block<3, 1>(0, 3);
   scans[1].scanner_axes = t.block<3, 3>(0, 0);
-  WritePtx(path, scans);
-  EXPECT_EQ(CountPtxScans(path), 3);
+  io::WritePtx(path, scans);
+  EXPECT_EQ(io::CountPtxScans(path), 3);
   for (int i = 0; i < 3; ++i) {
-    const PtxScan r = ReadPtxScan(path, i);
+    const io::PtxScan r = io::ReadPtxScan(path, i);
     EXPECT_EQ(r.columns, scans[i].columns);
     EXPECT_EQ(r.rows, scans[i].rows);
     EXPECT_EQ(r.xyz, scans[i].xyz);
@@ -102,15 +102,15 @@ TEST(Ptx, RoundTripSeveralScansIsExact) {
     EXPECT_EQ(r.scanner_axes, scans[i].scanner_axes);
   }
   // Scan selection through LoadScan.
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.ptx_scan_index = 1;
-  const OrderedScan s1 = LoadScan(path, o);
+  const OrderedScan s1 = io::LoadScan(path, o);
   EXPECT_EQ(s1.rows, 4);
   EXPECT_EQ(s1.cols, 7);
   ExpectError(
       [&] {
         o.ptx_scan_index = 3;
-        LoadScan(path, o);
+        io::LoadScan(path, o);
       },
       {"multi.ptx", "has only 3 scans"});
 }
@@ -119,16 +119,16 @@ TEST(Ptx, RoundTripSeveralScansIsExact) {
 // non-finite point are refused and leave no file.
 TEST(Ptx, WriterInPartsWritesTheSameBytes) {
   const std::string dir = test::TempDir();
-  const std::vector<PtxScan> scans = {MakeScan(6, 5, 1, false), MakeScan(4, 7, 2, true)};
-  WritePtx(dir + "/whole.ptx", scans);
+  const std::vector<io::PtxScan> scans = {MakeScan(6, 5, 1, false), MakeScan(4, 7, 2, true)};
+  io::WritePtx(dir + "/whole.ptx", scans);
   for (std::size_t part : {1u, 4u, 100u}) {
     const std::string path = dir + "/parts" + std::to_string(part) + ".ptx";
-    PtxWriter w(path);
-    for (const PtxScan& scan : scans) {
+    io::PtxWriter w(path);
+    for (const io::PtxScan& scan : scans) {
       w.BeginScan(scan);
       for (std::size_t k = 0; k < scan.size(); k += part) {
         const std::size_t e = std::min(scan.size(), k + part);
-        PtxScan p;
+        io::PtxScan p;
         p.xyz.assign(scan.xyz.begin() + k, scan.xyz.begin() + e);
         p.intensity.assign(scan.intensity.begin() + k, scan.intensity.begin() + e);
         if (!scan.rgb.empty()) p.rgb.assign(scan.rgb.begin() + k, scan.rgb.begin() + e);
@@ -142,9 +142,9 @@ TEST(Ptx, WriterInPartsWritesTheSameBytes) {
   const std::string bad = dir + "/bad.ptx";
   ExpectError(
       [&] {
-        PtxWriter w(bad);
+        io::PtxWriter w(bad);
         w.BeginScan(scans[0]);
-        PtxScan p = scans[0];
+        io::PtxScan p = scans[0];
         p.xyz.pop_back();
         p.intensity.pop_back();
         w.AppendPoints(p);
@@ -153,9 +153,9 @@ TEST(Ptx, WriterInPartsWritesTheSameBytes) {
       {"bad.ptx", "29 points given for 30 cells"});
   ExpectError(
       [&] {
-        PtxWriter w(bad);
+        io::PtxWriter w(bad);
         w.BeginScan(scans[0]);
-        PtxScan p = scans[0];
+        io::PtxScan p = scans[0];
         p.xyz.push_back(p.xyz.back());
         p.intensity.push_back(0.f);
         w.AppendPoints(p);
@@ -163,9 +163,9 @@ TEST(Ptx, WriterInPartsWritesTheSameBytes) {
       {"bad.ptx", "do not match"});
   ExpectError(
       [&] {
-        PtxWriter w(bad);
+        io::PtxWriter w(bad);
         w.BeginScan(scans[0]);
-        PtxScan p = scans[0];
+        io::PtxScan p = scans[0];
         p.xyz.resize(10);
         p.intensity.resize(10);
         w.AppendPoints(p);
@@ -178,14 +178,14 @@ TEST(Ptx, WriterInPartsWritesTheSameBytes) {
 
 TEST(Ptx, PoseIsAppliedOnlyWhenAsked) {
   const std::string path = test::TempDir() + "/pose.ptx";
-  PtxScan scan = MakeScan(5, 4, 7, false);
+  io::PtxScan scan = MakeScan(5, 4, 7, false);
   Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
   t.block<3, 3>(0, 0) = Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   t.block<3, 1>(0, 3) = Eigen::Vector3d(10, 20, 1);
   scan.transform = t;
-  WritePtx(path, {scan});
-  const OrderedScan local = LoadPtx(path, 0, false);
-  const OrderedScan world = LoadPtx(path, 0, true);
+  io::WritePtx(path, {scan});
+  const OrderedScan local = io::LoadPtx(path, 0, false);
+  const OrderedScan world = io::LoadPtx(path, 0, true);
   EXPECT_EQ(local.origin_m, Eigen::Vector3d::Zero());
   EXPECT_NEAR((world.origin_m - Eigen::Vector3d(10, 20, 1)).norm(), 0.0, 1e-12);
   int checked = 0;
@@ -211,9 +211,9 @@ TEST(Ptx, PoseIsAppliedOnlyWhenAsked) {
 
 TEST(Ptx, NoReturnCellsGetTheirLineAndRowAngles) {
   const std::string path = test::TempDir() + "/holes.ptx";
-  const PtxScan scan = MakeScan(6, 5, 4, false);
-  WritePtx(path, {scan});
-  const OrderedScan s = LoadScan(path);
+  const io::PtxScan scan = MakeScan(6, 5, 4, false);
+  io::WritePtx(path, {scan});
+  const OrderedScan s = io::LoadScan(path);
   int holes = 0;
   for (int r = 0; r < s.rows; ++r) {
     for (int c = 0; c < s.cols; ++c) {
@@ -234,7 +234,7 @@ TEST(Ptx, NoReturnCellsGetTheirLineAndRowAngles) {
 // no-return cells must still get (nearly) their true beams, or colouring and BA
 // images see false geometry around every dropout.
 TEST(Ptx, NoReturnCellsOfARotatingScannerGetTheirTrueBeams) {
-  RotatingScanData d;
+  io::RotatingScanData d;
   d.planes = 40;
   d.beams = 61;
   // The paper's steps: planes every 1 deg, beams every 0.5 deg.
@@ -244,10 +244,10 @@ TEST(Ptx, NoReturnCellsOfARotatingScannerGetTheirTrueBeams) {
   for (std::size_t k = 7; k < d.range_m.size(); k += 13) d.range_m[k] = std::nanf("");
   d.dx_m = 0.0;
   d.dz_m = 0.0;
-  const OrderedScan truth = ToOrderedScan(d, "mem");
+  const OrderedScan truth = io::ToOrderedScan(d, "mem");
   const std::string path = test::TempDir() + "/rot.ptx";
-  WritePtx(path, {PtxFromOrderedScan(truth)});
-  const OrderedScan s = LoadScan(path);
+  io::WritePtx(path, {io::PtxFromOrderedScan(truth)});
+  const OrderedScan s = io::LoadScan(path);
   ASSERT_EQ(s.rows, truth.rows);
   ASSERT_EQ(s.cols, truth.cols);
   int holes = 0;
@@ -263,10 +263,10 @@ TEST(Ptx, NoReturnCellsOfARotatingScannerGetTheirTrueBeams) {
 
 TEST(Ptx, OrderedScanRoundTripThroughPtx) {
   const std::string path = test::TempDir() + "/os.ptx";
-  const PtxScan scan = MakeScan(4, 6, 5, false);
-  const OrderedScan a = PtxToOrderedScan(scan, false, "mem");
-  WritePtx(path, {PtxFromOrderedScan(a)});
-  const OrderedScan b = LoadScan(path);
+  const io::PtxScan scan = MakeScan(4, 6, 5, false);
+  const OrderedScan a = io::PtxToOrderedScan(scan, false, "mem");
+  io::WritePtx(path, {io::PtxFromOrderedScan(a)});
+  const OrderedScan b = io::LoadScan(path);
   ASSERT_EQ(a.rows, b.rows);
   ASSERT_EQ(a.cols, b.cols);
   for (std::size_t k = 0; k < a.size(); ++k) {
@@ -330,18 +330,18 @@ TEST(Ptx, BadInputsNameFileLineAndProblem) {
     const std::string path = dir + "/" + c.name;
     test::WriteFile(path, c.content);
     SCOPED_TRACE(c.name);
-    ExpectError([&] { LoadScan(path); }, c.parts);
+    ExpectError([&] { io::LoadScan(path); }, c.parts);
   }
-  ExpectError([&] { LoadScan(dir + "/missing.ptx"); }, {"missing.ptx", "cannot open"});
+  ExpectError([&] { io::LoadScan(dir + "/missing.ptx"); }, {"missing.ptx", "cannot open"});
   // A second scan that is broken is found when counting, and when reading past it.
   const std::string two = dir + "/two.ptx";
   test::WriteFile(two, h + "1 0 0 0.1\n2 0 0 0.2\n0 0 0 0.3\n0 4 0 0.4\n0 5 0 0.5\n0 6 1 0.6\n" +
                            "2\n3\n0 0 0\n");
-  ExpectError([&] { CountPtxScans(two); }, {"two.ptx:20", "truncated"});
+  ExpectError([&] { io::CountPtxScans(two); }, {"two.ptx:20", "truncated"});
   // Reading the first scan checks the rest of the file too (issue 13: a header that counts
   // fewer points than its data, or lines appended, must not pass unnoticed).
-  ExpectError([&] { LoadPtx(two, 0, false); }, {"two.ptx:20", "truncated"});
-  ExpectError([&] { LoadPtx(two, 1, false); }, {"two.ptx:20", "truncated"});
+  ExpectError([&] { io::LoadPtx(two, 0, false); }, {"two.ptx:20", "truncated"});
+  ExpectError([&] { io::LoadPtx(two, 1, false); }, {"two.ptx:20", "truncated"});
 }
 
 // LoadPtx reads straight into the grid; ReadPtxScan + PtxToOrderedScan go through PtxScan: the
@@ -349,18 +349,18 @@ TEST(Ptx, BadInputsNameFileLineAndProblem) {
 // the interpolation reach) and with the pose applied. Separators, signs and exponents as
 // files write them are read alike on every line (the fast path and the checked one).
 TEST(Ptx, LoadPtxEqualsReadThenConvert) {
-  PtxScan ptx = MakeScan(40, 30, 5, false);
+  io::PtxScan ptx = MakeScan(40, 30, 5, false);
   for (int r = 10; r < 30; ++r)
     for (int c = 5; c < 25; ++c) ptx.xyz[std::size_t(r) * 30 + c] = Eigen::Vector3f::Zero();
   ptx.transform.block<3, 3>(0, 0) =
       Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.2, 0.3, 0.9).normalized()).toRotationMatrix();
   ptx.transform.block<3, 1>(0, 3) = Eigen::Vector3d(1.5, -2, 0.25);
   const std::string path = test::TempDir() + "/same.ptx";
-  WritePtx(path, {ptx});
+  io::WritePtx(path, {ptx});
   for (bool pose : {false, true}) {
     SCOPED_TRACE(pose);
-    const OrderedScan a = LoadPtx(path, 0, pose);
-    const OrderedScan b = PtxToOrderedScan(ReadPtxScan(path, 0), pose, path);
+    const OrderedScan a = io::LoadPtx(path, 0, pose);
+    const OrderedScan b = io::PtxToOrderedScan(io::ReadPtxScan(path, 0), pose, path);
     ASSERT_EQ(a.size(), b.size());
     ASSERT_EQ(a.intensity.size(), b.intensity.size());
     EXPECT_EQ(std::memcmp(a.range_m.data(), b.range_m.data(), a.size() * 4), 0);
@@ -373,10 +373,10 @@ TEST(Ptx, LoadPtxEqualsReadThenConvert) {
   }
   // A scan followed by another (the block reader stops at the scan's last point), and the second.
   const std::string two = test::TempDir() + "/same_two.ptx";
-  WritePtx(two, {ptx, MakeScan(4, 7, 2, true)});
+  io::WritePtx(two, {ptx, MakeScan(4, 7, 2, true)});
   for (int index : {0, 1}) {
-    const OrderedScan a = LoadPtx(two, index, false);
-    const OrderedScan b = PtxToOrderedScan(ReadPtxScan(two, index), false, two);
+    const OrderedScan a = io::LoadPtx(two, index, false);
+    const OrderedScan b = io::PtxToOrderedScan(io::ReadPtxScan(two, index), false, two);
     ASSERT_EQ(a.size(), b.size());
     EXPECT_EQ(std::memcmp(a.point_m.data(), b.point_m.data(), a.size() * 12), 0);
     EXPECT_EQ(std::memcmp(a.beam_dir.data(), b.beam_dir.data(), a.size() * 12), 0);
@@ -387,7 +387,7 @@ TEST(Ptx, LoadPtxEqualsReadThenConvert) {
   test::WriteFile(text, std::string(kHeader23) +
                             "+1\t0 0 0.1\r\n2e0  0\t0 +0.2\r\n0 0 0 0.3\n"
                             "0 4 0 4E-1\n\t0 +5 0 0.5 \n0 6.0 1 0.6");
-  const OrderedScan t = LoadPtx(text, 0, false);
+  const OrderedScan t = io::LoadPtx(text, 0, false);
   EXPECT_EQ(t.point_m[t.index(0, 0)], Eigen::Vector3f(1, 0, 0));
   EXPECT_EQ(t.point_m[t.index(0, 1)], Eigen::Vector3f(2, 0, 0));
   EXPECT_EQ(t.intensity[t.index(0, 1)], 0.2f);

@@ -20,10 +20,10 @@ using test::ExpectError;
 
 bool SameFloat(float a, float b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
 
-RotatingScanData MakeData(int planes, int beams, bool with_intensity, unsigned seed) {
+io::RotatingScanData MakeData(int planes, int beams, bool with_intensity, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> range(0.5f, 30.f);
-  RotatingScanData d;
+  io::RotatingScanData d;
   d.planes = planes;
   d.beams = beams;
   d.dx_m = 0.0375;
@@ -46,30 +46,30 @@ TEST(RotatingEq3, MatchesHandComputedPoints) {
   // x = cos30 cos45 2 + cos30 0.05 + sin30 0.1 = 1.2247449 + 0.0433013 + 0.05
   // y = sin45 2
   // z = -sin30 cos45 2 - sin30 0.05 + cos30 0.1 = -0.7071068 - 0.025 + 0.0866025
-  const Eigen::Vector3d p = RotatingScanPoint(kPi / 6, kPi / 4, 2.0, 0.05, 0.1);
+  const Eigen::Vector3d p = io::RotatingScanPoint(kPi / 6, kPi / 4, 2.0, 0.05, 0.1);
   EXPECT_NEAR(p.x(), 1.3180461, 1e-6);
   EXPECT_NEAR(p.y(), 1.4142136, 1e-6);
   EXPECT_NEAR(p.z(), -0.6455042, 1e-6);
   // Untilted plane, straight ahead: the offsets add directly.
-  const Eigen::Vector3d q = RotatingScanPoint(0.0, 0.0, 3.0, 0.05, 0.1);
+  const Eigen::Vector3d q = io::RotatingScanPoint(0.0, 0.0, 3.0, 0.05, 0.1);
   EXPECT_NEAR(q.x(), 3.05, 1e-12);
   EXPECT_NEAR(q.y(), 0.0, 1e-12);
   EXPECT_NEAR(q.z(), 0.1, 1e-12);
   // Plane tilted by +90 deg looks straight down (z = -rho).
-  const Eigen::Vector3d down = RotatingScanPoint(kPi / 2, 0.0, 1.5, 0.0, 0.0);
+  const Eigen::Vector3d down = io::RotatingScanPoint(kPi / 2, 0.0, 1.5, 0.0, 0.0);
   EXPECT_NEAR(down.x(), 0.0, 1e-12);
   EXPECT_NEAR(down.z(), -1.5, 1e-12);
   // The beam is the derivative of eq. 3 along rho and is a unit vector.
-  const Eigen::Vector3d b = RotatingScanBeam(0.3, -0.8);
-  const Eigen::Vector3d diff =
-      RotatingScanPoint(0.3, -0.8, 5.0, 0.2, 0.3) - RotatingScanPoint(0.3, -0.8, 4.0, 0.2, 0.3);
+  const Eigen::Vector3d b = io::RotatingScanBeam(0.3, -0.8);
+  const Eigen::Vector3d diff = io::RotatingScanPoint(0.3, -0.8, 5.0, 0.2, 0.3) -
+                               io::RotatingScanPoint(0.3, -0.8, 4.0, 0.2, 0.3);
   EXPECT_NEAR((diff - b).norm(), 0.0, 1e-12);
   EXPECT_NEAR(b.norm(), 1.0, 1e-12);
 }
 
 TEST(RotatingEq3, OrderedScanRowsArePlanesAndEveryCellHasABeam) {
-  const RotatingScanData d = MakeData(5, 9, true, 1);
-  const OrderedScan s = ToOrderedScan(d, "mem");
+  const io::RotatingScanData d = MakeData(5, 9, true, 1);
+  const OrderedScan s = io::ToOrderedScan(d, "mem");
   ASSERT_EQ(s.rows, 5);
   ASSERT_EQ(s.cols, 9);
   EXPECT_NO_THROW(CheckScan(s, "mem"));
@@ -78,13 +78,13 @@ TEST(RotatingEq3, OrderedScanRowsArePlanesAndEveryCellHasABeam) {
     for (int j = 0; j < s.cols; ++j) {
       const std::size_t k = s.index(i, j);
       const float rho = d.range(i, j);
-      const Eigen::Vector3d beam = RotatingScanBeam(d.phi_rad[i], d.theta_rad[j]);
+      const Eigen::Vector3d beam = io::RotatingScanBeam(d.phi_rad[i], d.theta_rad[j]);
       EXPECT_NEAR((s.beam_dir[k].cast<double>() - beam).norm(), 0.0, 1e-6);
       if (std::isfinite(rho) && rho > 0.f) {
         ASSERT_TRUE(s.valid(k));
         EXPECT_EQ(s.range_m[k], rho);
         const Eigen::Vector3d p =
-            RotatingScanPoint(d.phi_rad[i], d.theta_rad[j], rho, d.dx_m, d.dz_m);
+            io::RotatingScanPoint(d.phi_rad[i], d.theta_rad[j], rho, d.dx_m, d.dz_m);
         EXPECT_NEAR((s.point_m[k].cast<double>() - p).norm(), 0.0, 1e-5);
       } else {
         EXPECT_FALSE(s.valid(k)) << "range " << rho << " must be a no-return";
@@ -98,9 +98,9 @@ TEST(RotatingEq3, OrderedScanRowsArePlanesAndEveryCellHasABeam) {
 TEST(RotatingLog, RoundTripIsExact) {
   for (bool with_intensity : {false, true}) {
     const std::string path = test::TempDir() + "/scan.rot";
-    const RotatingScanData d = MakeData(7, 13, with_intensity, 2);
-    WriteRotatingLog(path, d);
-    const RotatingScanData r = ReadRotatingLog(path);
+    const io::RotatingScanData d = MakeData(7, 13, with_intensity, 2);
+    io::WriteRotatingLog(path, d);
+    const io::RotatingScanData r = io::ReadRotatingLog(path);
     ASSERT_EQ(r.planes, d.planes);
     ASSERT_EQ(r.beams, d.beams);
     EXPECT_EQ(r.phi_rad, d.phi_rad);
@@ -114,8 +114,8 @@ TEST(RotatingLog, RoundTripIsExact) {
     EXPECT_EQ(r.intensity, d.intensity);
 
     // Through LoadScan: the same grid as ToOrderedScan of the original data.
-    const OrderedScan a = LoadScan(path);
-    const OrderedScan b = ToOrderedScan(d, path);
+    const OrderedScan a = io::LoadScan(path);
+    const OrderedScan b = io::ToOrderedScan(d, path);
     ASSERT_EQ(a.size(), b.size());
     for (std::size_t k = 0; k < a.size(); ++k) {
       EXPECT_TRUE(SameFloat(a.range_m[k], b.range_m[k]));
@@ -131,25 +131,25 @@ TEST(RotatingLog, HeaderOffsetsAreUsedAndOptionsOverrideThem) {
   test::WriteFile(path,
                   "# scancam-rotating 1\n# dx_m 0.5\n# dz_m 0.25\n# a comment\n\n"
                   "0 0 -0.1 2\n0 0 0.1 nan\n1 0.2 -0.1 0\n1 0.2 0.1 3\n");
-  const OrderedScan s = LoadScan(path);
+  const OrderedScan s = io::LoadScan(path);
   ASSERT_EQ(s.rows, 2);
   ASSERT_EQ(s.cols, 2);
   EXPECT_EQ(s.valid_count(), 2u);
-  const Eigen::Vector3d p = RotatingScanPoint(0.0, -0.1, 2.0, 0.5, 0.25);
+  const Eigen::Vector3d p = io::RotatingScanPoint(0.0, -0.1, 2.0, 0.5, 0.25);
   EXPECT_NEAR((s.point_m[0].cast<double>() - p).norm(), 0.0, 1e-6);
-  ScanLoadOptions o;
+  io::ScanLoadOptions o;
   o.has_offsets = true;
   o.dx_m = 0.0;
   o.dz_m = 0.0;
-  const OrderedScan t = LoadScan(path, o);
-  const Eigen::Vector3d q = RotatingScanPoint(0.2, 0.1, 3.0, 0.0, 0.0);
+  const OrderedScan t = io::LoadScan(path, o);
+  const Eigen::Vector3d q = io::RotatingScanPoint(0.2, 0.1, 3.0, 0.0, 0.0);
   EXPECT_NEAR((t.point_m[t.index(1, 1)].cast<double>() - q).norm(), 0.0, 1e-6);
 }
 
 TEST(RotatingLog, InterleavedPlanesAreAccepted) {
   const std::string path = test::TempDir() + "/inter.rot";
   test::WriteFile(path, "1 0.5 -1 4\n0 0 -1 1\n1 0.5 1 5\n0 0 1 2\n");
-  const RotatingScanData d = ReadRotatingLog(path);
+  const io::RotatingScanData d = io::ReadRotatingLog(path);
   ASSERT_EQ(d.planes, 2);
   ASSERT_EQ(d.beams, 2);
   EXPECT_EQ(d.range_m, (std::vector<float>{1.f, 2.f, 4.f, 5.f}));
@@ -190,20 +190,20 @@ TEST(RotatingLog, BadInputsNameFileLineAndProblem) {
     const std::string path = dir + "/" + c.name;
     test::WriteFile(path, c.content);
     SCOPED_TRACE(c.name);
-    ExpectError([&] { ReadRotatingLog(path); }, c.parts);
+    ExpectError([&] { io::ReadRotatingLog(path); }, c.parts);
   }
-  ExpectError([&] { ReadRotatingLog(dir + "/missing.rot"); }, {"missing.rot", "cannot open"});
-  ExpectError([&] { LoadScan(dir + "/scan.xyz"); }, {"scan.xyz", "unknown scan format"});
+  ExpectError([&] { io::ReadRotatingLog(dir + "/missing.rot"); }, {"missing.rot", "cannot open"});
+  ExpectError([&] { io::LoadScan(dir + "/scan.xyz"); }, {"scan.xyz", "unknown scan format"});
 }
 
 // RotatingLogWriter plane block by plane block writes WriteRotatingLog's bytes; planes out of
 // order or missing are refused and leave no file.
 TEST(RotatingLog, WriterInBlocksWritesTheSameBytes) {
   const std::string dir = test::TempDir();
-  const RotatingScanData d = MakeData(7, 13, true, 2);
-  WriteRotatingLog(dir + "/whole.rot", d);
+  const io::RotatingScanData d = MakeData(7, 13, true, 2);
+  io::WriteRotatingLog(dir + "/whole.rot", d);
   auto block = [&](int first, int count) {
-    RotatingScanData b = d;
+    io::RotatingScanData b = d;
     b.planes = count;
     b.phi_rad.assign(d.phi_rad.begin() + first, d.phi_rad.begin() + first + count);
     const std::size_t k0 = std::size_t(first) * d.beams, k1 = std::size_t(first + count) * d.beams;
@@ -213,7 +213,7 @@ TEST(RotatingLog, WriterInBlocksWritesTheSameBytes) {
   };
   for (int step : {1, 3, 7}) {
     const std::string path = dir + "/blocks" + std::to_string(step) + ".rot";
-    RotatingLogWriter w(path, d);
+    io::RotatingLogWriter w(path, d);
     for (int first = 0; first < d.planes; first += step)
       w.Append(block(first, std::min(step, d.planes - first)), first);
     w.Commit();
@@ -222,13 +222,13 @@ TEST(RotatingLog, WriterInBlocksWritesTheSameBytes) {
   const std::string bad = dir + "/bad.rot";
   ExpectError(
       [&] {
-        RotatingLogWriter w(bad, d);
+        io::RotatingLogWriter w(bad, d);
         w.Append(block(1, 2), 1);
       },
       {"bad.rot", "do not follow plane"});
   ExpectError(
       [&] {
-        RotatingLogWriter w(bad, d);
+        io::RotatingLogWriter w(bad, d);
         w.Append(block(0, 3), 0);
         w.Commit();
       },
@@ -237,13 +237,13 @@ TEST(RotatingLog, WriterInBlocksWritesTheSameBytes) {
 }
 
 TEST(RotatingLog, WriterRejectsInconsistentData) {
-  RotatingScanData d = MakeData(3, 4, false, 3);
+  io::RotatingScanData d = MakeData(3, 4, false, 3);
   d.range_m.pop_back();
   const std::string path = test::TempDir() + "/bad.rot";
-  ExpectError([&] { WriteRotatingLog(path, d); }, {"bad.rot", "do not match"});
+  ExpectError([&] { io::WriteRotatingLog(path, d); }, {"bad.rot", "do not match"});
   d = MakeData(3, 4, false, 3);
   d.theta_rad[2] = d.theta_rad[1];
-  ExpectError([&] { WriteRotatingLog(path, d); }, {"bad.rot", "theta of beam 2"});
+  ExpectError([&] { io::WriteRotatingLog(path, d); }, {"bad.rot", "theta of beam 2"});
 }
 
 }  // namespace

@@ -23,11 +23,11 @@ TEST(KittiCalib, Camera2AndTheVelodyneExtrinsicProjectLikeKittisOwnFormula) {
   SCANCAM_REQUIRE_SHARED();
   const std::string calib_path = test::SharedDataset("kitti-000000/calib.txt");
   const std::string image_path = test::SharedDataset("kitti-000000/image_2.png");
-  EXPECT_EQ(DetectCameraFileFormat(calib_path), CameraFileFormat::kKittiCalib);
-  const CameraModel cam = LoadCameraForImage(calib_path, image_path);
+  EXPECT_EQ(camera::DetectCameraFileFormat(calib_path), camera::CameraFileFormat::kKittiCalib);
+  const camera::CameraModel cam = camera::LoadCameraForImage(calib_path, image_path);
   EXPECT_EQ(cam.width(), 1224);
   EXPECT_EQ(cam.height(), 370);
-  ExpectError([&] { LoadCamera(calib_path); }, {"calib.txt", "holds no image size"});
+  ExpectError([&] { camera::LoadCamera(calib_path); }, {"calib.txt", "holds no image size"});
 
   const Eigen::Isometry3d T = colour::LoadExtrinsic(calib_path);
   // Velodyne forward (x) is the camera's optical axis (z), Velodyne up (z) the camera's -y.
@@ -38,12 +38,12 @@ TEST(KittiCalib, Camera2AndTheVelodyneExtrinsicProjectLikeKittisOwnFormula) {
 
   // Every return in front of the camera lands where KITTI's devkit puts it,
   // x ~ P2 * R0_rect * Tr_velo_to_cam * X, and thousands land inside the image.
-  const KittiCalib k = ReadKittiCalib(calib_path);
+  const camera::KittiCalib k = camera::ReadKittiCalib(calib_path);
   Eigen::Matrix4d R0 = Eigen::Matrix4d::Identity(), Tr = Eigen::Matrix4d::Identity();
   R0.topLeftCorner<3, 3>() = k.R0_rect;
   Tr.topRows<3>() = k.Tr_velo_to_cam;
   const Eigen::Matrix<double, 3, 4> devkit = k.P2 * R0 * Tr;
-  const KittiCloud scan = ReadKittiBin(test::SharedDataset("kitti-000000/velodyne.bin"));
+  const io::KittiCloud scan = io::ReadKittiBin(test::SharedDataset("kitti-000000/velodyne.bin"));
   int inside = 0, ground_low = 0, ground = 0, compared = 0;
   double worst_px = 0.0;
   for (const Eigen::Vector3f& p : scan.points_m) {
@@ -102,13 +102,14 @@ TEST(KittiCalib, BadFilesNameTheFileTheLineAndTheProblem) {
   ExpectError(load("bin.txt", p2 + r0 + tr + std::string("\x01\x02", 2)), {"bin.txt"});
   // As a camera: the image gives the size; a camera file is never written as KITTI.
   test::WriteFile(dir + "/cam.txt", p2 + r0 + tr);
-  LoadCameraOptions o;
+  camera::LoadCameraOptions o;
   o.image_width = 1242;
   o.image_height = 375;
-  const CameraModel cam = LoadCamera(dir + "/cam.txt", o);
+  const camera::CameraModel cam = camera::LoadCamera(dir + "/cam.txt", o);
   EXPECT_EQ(cam.width(), 1242);
-  ExpectError([&] { SaveCamera(cam, dir + "/out.txt", CameraFileFormat::kKittiCalib); },
-              {"out.txt", "read, not written"});
+  ExpectError(
+      [&] { camera::SaveCamera(cam, dir + "/out.txt", camera::CameraFileFormat::kKittiCalib); },
+      {"out.txt", "read, not written"});
 }
 
 }  // namespace

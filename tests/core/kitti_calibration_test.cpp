@@ -40,16 +40,16 @@ std::string PairsPath() {
 
 struct KittiData {
   OrderedScan scan;
-  CameraModel camera;
+  camera::CameraModel camera;
   std::vector<PointPair> pairs;
   Eigen::Isometry3d reference;
 };
 
 KittiData LoadKitti() {
   const std::string calib = test::SharedDataset("kitti-000000/calib.txt");
-  return {LoadScan(test::SharedDataset("kitti-000000/velodyne.bin")),
-          LoadCameraForImage(calib, test::SharedDataset("kitti-000000/image_2.png")),
-          ReadPairsCsv(PairsPath()), colour::LoadExtrinsic(calib)};
+  return {io::LoadScan(test::SharedDataset("kitti-000000/velodyne.bin")),
+          camera::LoadCameraForImage(calib, test::SharedDataset("kitti-000000/image_2.png")),
+          io::ReadPairsCsv(PairsPath()), colour::LoadExtrinsic(calib)};
 }
 
 TEST(KittiCalibration, HandPickedPairsMatchKittisTargetCalibration) {
@@ -65,18 +65,18 @@ TEST(KittiCalibration, HandPickedPairsMatchKittisTargetCalibration) {
   EXPECT_GT(span.width_px, 0.8 * d.camera.width());
   EXPECT_GT(span.height_px, 0.3 * d.camera.height());
 
-  CalibrateOptions options;
+  solve::CalibrateOptions options;
   options.pairs_source = PairsPath();
-  const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, options);
+  const solve::Calibration c = solve::Calibrate(d.pairs, &d.scan, d.camera, options);
   ASSERT_TRUE(c.has_covariance);
 
   const Eigen::Vector3d rot_deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference);
   const Eigen::Vector3d dt = c.T_cam_scan.translation() - d.reference.translation();
-  EXPECT_LT(rot_deg.norm(), kMaxRotationDeg) << FormatCalibrationSummary(c);
-  EXPECT_LT(dt.norm(), kMaxTranslationM) << FormatCalibrationSummary(c);
-  EXPECT_TRUE(std::all_of(c.pairs.begin(), c.pairs.end(), [](const PairResult& p) {
+  EXPECT_LT(rot_deg.norm(), kMaxRotationDeg) << solve::FormatCalibrationSummary(c);
+  EXPECT_LT(dt.norm(), kMaxTranslationM) << solve::FormatCalibrationSummary(c);
+  EXPECT_TRUE(std::all_of(c.pairs.begin(), c.pairs.end(), [](const solve::PairResult& p) {
     return p.inlier;
-  })) << FormatCalibrationSummary(c);
+  })) << solve::FormatCalibrationSummary(c);
   EXPECT_LT(c.mean_px, kMaxMeanPx);
   // The reported uncertainty covers the error on every axis.
   for (int k = 0; k < 3; ++k) {
@@ -104,7 +104,7 @@ TEST(KittiCalibration, NoSinglePairCarriesTheResult) {
   for (std::size_t i = 0; i < d.pairs.size(); ++i) {
     std::vector<PointPair> rest = d.pairs;
     rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
-    const Calibration c = Calibrate(rest, &d.scan, d.camera, {});
+    const solve::Calibration c = solve::Calibrate(rest, &d.scan, d.camera, {});
     const double deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference).norm();
     const double m = (c.T_cam_scan.translation() - d.reference.translation()).norm();
     EXPECT_LT(deg, kMaxLeaveOneOutRotationDeg) << "without " << d.pairs[i].label;

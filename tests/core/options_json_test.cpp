@@ -191,7 +191,7 @@ namespace {
 
 TEST(CalibrateOptionsJson, RoundTripKeepsEveryValue) {
   const std::string dir = test::TempDir();
-  CalibrateOptions o;
+  solve::CalibrateOptions o;
   o.method = "epnp";
   o.refine = false;
   o.threshold_px = 3.25;
@@ -210,11 +210,11 @@ TEST(CalibrateOptionsJson, RoundTripKeepsEveryValue) {
   o.refine_options.compute_covariance = false;
   o.refine_options.scale_covariance = false;
   o.refine_options.prior_dof = 3.0;
-  EXPECT_TRUE(ValidateCalibrateOptions(o).empty());
-  WriteCalibrateOptions(dir + "/c.json", o);
-  const CalibrateOptions b = ReadCalibrateOptions(dir + "/c.json");
-  EXPECT_EQ(CalibrateOptionsJson(b), CalibrateOptionsJson(o));
-  EXPECT_NE(CalibrateOptionsJson(CalibrateOptions{}), CalibrateOptionsJson(o));
+  EXPECT_TRUE(solve::ValidateCalibrateOptions(o).empty());
+  solve::WriteCalibrateOptions(dir + "/c.json", o);
+  const solve::CalibrateOptions b = solve::ReadCalibrateOptions(dir + "/c.json");
+  EXPECT_EQ(solve::CalibrateOptionsJson(b), solve::CalibrateOptionsJson(o));
+  EXPECT_NE(solve::CalibrateOptionsJson(solve::CalibrateOptions{}), solve::CalibrateOptionsJson(o));
   EXPECT_EQ(b.method, "epnp");
   EXPECT_EQ(b.seed, 12345u);
   EXPECT_EQ(b.refine_options.loss_scale_rad, 1.0 / 3.0);
@@ -222,19 +222,20 @@ TEST(CalibrateOptionsJson, RoundTripKeepsEveryValue) {
 }
 
 TEST(CalibrateOptionsJson, BadValuesNameTheFileAndTheKey) {
-  test::ExpectError([] { ParseCalibrateOptions(R"({"method": "lm"})", "c.json"); },
+  test::ExpectError([] { solve::ParseCalibrateOptions(R"({"method": "lm"})", "c.json"); },
                     {"c.json", "'method'", "paper, ransac, epnp or upnp"});
-  test::ExpectError([] { ParseCalibrateOptions(R"({"sigma_px": -1})", "c.json"); },
+  test::ExpectError([] { solve::ParseCalibrateOptions(R"({"sigma_px": -1})", "c.json"); },
                     {"c.json", "'sigma_px'", ">= 0"});
   test::ExpectError(
-      [] { ParseCalibrateOptions(R"({"refine_options": {"loss": "l1"}})", "c.json"); },
+      [] { solve::ParseCalibrateOptions(R"({"refine_options": {"loss": "l1"}})", "c.json"); },
       {"c.json", "'refine_options.loss'", "none, huber or cauchy"});
-  test::ExpectError([] { ParseCalibrateOptions(R"({"suggest_picks": 1000})", "c.json"); },
+  test::ExpectError([] { solve::ParseCalibrateOptions(R"({"suggest_picks": 1000})", "c.json"); },
                     {"c.json", "'suggest_picks'", "[0, 100]"});
-  test::ExpectError([] { ParseCalibrateOptions(R"({"treshold_px": 2})", "c.json"); },
+  test::ExpectError([] { solve::ParseCalibrateOptions(R"({"treshold_px": 2})", "c.json"); },
                     {"c.json", "'treshold_px'", "unknown"});
-  test::ExpectError([] { ParseCalibrateOptions(R"({"scancam": "colour options"})", "c.json"); },
-                    {"c.json", "'scancam'", "calibrate options"});
+  test::ExpectError(
+      [] { solve::ParseCalibrateOptions(R"({"scancam": "colour options"})", "c.json"); },
+      {"c.json", "'scancam'", "calibrate options"});
 }
 
 // `scancam calibrate --params`: the file's method is used unless --method overrides it; a bad
@@ -244,9 +245,9 @@ TEST(CalibrateOptionsJson, CliCalibrateParams) {
   const std::string sim = SmallSim();
   const std::string base = "calibrate --scan " + sim + "/scan.txt --camera " + sim +
                            "/camera.yaml --pairs " + sim + "/pairs.csv --out " + dir + "/c.json";
-  CalibrateOptions o;
+  solve::CalibrateOptions o;
   o.method = "epnp";
-  WriteCalibrateOptions(dir + "/p.json", o);
+  solve::WriteCalibrateOptions(dir + "/p.json", o);
   ASSERT_EQ(test::RunCli(dir, base + " --params " + dir + "/p.json"), 0)
       << test::ReadFile(dir + "/stderr.txt");
   EXPECT_NE(test::ReadFile(dir + "/stdout.txt").find("method: epnp"), std::string::npos)
@@ -379,12 +380,12 @@ TEST(DenseRefineOptionsJson, CliRefineParams) {
   WriteDenseRefineOptions(dir + "/p.json", o);
   ASSERT_EQ(test::RunCli(dir, base + " --params " + dir + "/p.json"), 0)
       << test::ReadFile(dir + "/stderr.txt");
-  nlohmann::json j = ReadJsonFile(dir + "/r.json");
+  nlohmann::json j = io::ReadJsonFile(dir + "/r.json");
   EXPECT_EQ(j["refinement"]["starts"], 3);
   EXPECT_LE(j["refinement"]["evaluations"].get<int>(), 260) << j["refinement"].dump();
   ASSERT_EQ(test::RunCli(dir, base + " --params " + dir + "/p.json --starts 1"), 0)
       << test::ReadFile(dir + "/stderr.txt");
-  j = ReadJsonFile(dir + "/r.json");
+  j = io::ReadJsonFile(dir + "/r.json");
   EXPECT_EQ(j["refinement"]["starts"], 1);
   test::WriteFile(dir + "/bad.json", R"({"scancam": "refine options", "spread_m": 0.1})");
   EXPECT_EQ(test::RunCli(dir, base + " --params " + dir + "/bad.json"), 1);

@@ -21,7 +21,7 @@ using test::WriteFile;
 // Expects ParsePairsCsv(text) to throw an Error whose message contains every part.
 void ExpectError(const std::string& text, std::initializer_list<std::string> parts) {
   try {
-    ParsePairsCsv(text, "p.csv");
+    io::ParsePairsCsv(text, "p.csv");
     FAIL() << "no error for:\n" << text;
   } catch (const Error& e) {
     const std::string msg = e.what();
@@ -52,9 +52,9 @@ TEST(PairsCsv, RoundTripIsExact) {
   pairs[3].label = "wrong: image at A, scan at B";
 
   const std::string path = TempDir() + "/pairs.csv";
-  WritePairsCsv(path, pairs);
+  io::WritePairsCsv(path, pairs);
   EXPECT_EQ(ReadFile(path).rfind("image_u,image_v,scan_row,scan_col,x,y,z,label\n312.25,", 0), 0u);
-  const std::vector<PointPair> back = ReadPairsCsv(path);
+  const std::vector<PointPair> back = io::ReadPairsCsv(path);
   ASSERT_EQ(back.size(), pairs.size());
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     EXPECT_EQ(back[i].image_u, pairs[i].image_u) << i;
@@ -74,7 +74,7 @@ TEST(PairsCsv, RoundTripIsExact) {
   EXPECT_FALSE(back[0].marked_wrong());
   EXPECT_TRUE(back[3].marked_wrong());
   // Writing what was read gives the same bytes.
-  EXPECT_EQ(FormatPairsCsv(back), ReadFile(path));
+  EXPECT_EQ(io::FormatPairsCsv(back), ReadFile(path));
 }
 
 TEST(PairsCsv, MinimalFileHasOnlyTheNeededColumns) {
@@ -83,7 +83,7 @@ TEST(PairsCsv, MinimalFileHasOnlyTheNeededColumns) {
   p.image_v = 2;
   p.scan_row = 3;
   p.scan_col = 4.5;
-  EXPECT_EQ(FormatPairsCsv({p}), "image_u,image_v,scan_row,scan_col\n1,2,3,4.5\n");
+  EXPECT_EQ(io::FormatPairsCsv({p}), "image_u,image_v,scan_row,scan_col\n1,2,3,4.5\n");
 }
 
 TEST(PairsCsv, ColumnsInAnyOrderCommentsBomCrlf) {
@@ -94,7 +94,7 @@ TEST(PairsCsv, ColumnsInAnyOrderCommentsBomCrlf) {
       "\"a, b\",  4.25 , 3 ,2,1, ignored\r\n"
       "# a comment between rows\n"
       "c,8,7,6,5,\n";
-  const auto pairs = ParsePairsCsv(text, "p.csv");
+  const auto pairs = io::ParsePairsCsv(text, "p.csv");
   ASSERT_EQ(pairs.size(), 2u);
   EXPECT_EQ(pairs[0].image_u, 1);
   EXPECT_EQ(pairs[0].image_v, 2);
@@ -108,21 +108,21 @@ TEST(PairsCsv, ColumnsInAnyOrderCommentsBomCrlf) {
 }
 
 TEST(PairsCsv, PointOnlyFileNeedsNoScanColumns) {
-  const auto pairs = ParsePairsCsv("image_u,image_v,x,y,z\n1,2,0.5,-1e-3,+3\n", "p.csv");
+  const auto pairs = io::ParsePairsCsv("image_u,image_v,x,y,z\n1,2,0.5,-1e-3,+3\n", "p.csv");
   ASSERT_EQ(pairs.size(), 1u);
   ASSERT_TRUE(pairs[0].point_m.has_value());
   EXPECT_EQ(*pairs[0].point_m, Eigen::Vector3d(0.5, -1e-3, 3));
   EXPECT_FALSE(pairs[0].has_scan_cell());
   // Mixed file: x,y,z empty on a row falls back to its scan cell.
-  const auto mixed =
-      ParsePairsCsv("image_u,image_v,scan_row,scan_col,x,y,z\n1,2,,,4,5,6\n1,2,3,4,,,\n", "p.csv");
+  const auto mixed = io::ParsePairsCsv(
+      "image_u,image_v,scan_row,scan_col,x,y,z\n1,2,,,4,5,6\n1,2,3,4,,,\n", "p.csv");
   ASSERT_EQ(mixed.size(), 2u);
   EXPECT_TRUE(mixed[0].point_m && !mixed[0].has_scan_cell());
   EXPECT_TRUE(!mixed[1].point_m && mixed[1].has_scan_cell());
 }
 
 TEST(PairsCsv, HeaderOnlyGivesNoPairs) {
-  EXPECT_TRUE(ParsePairsCsv("image_u,image_v,scan_row,scan_col\n", "p.csv").empty());
+  EXPECT_TRUE(io::ParsePairsCsv("image_u,image_v,scan_row,scan_col\n", "p.csv").empty());
 }
 
 TEST(PairsCsv, BadInputNamesFileLineAndProblem) {
@@ -147,9 +147,9 @@ TEST(PairsCsv, BadInputNamesFileLineAndProblem) {
               {"p.csv:2:", "unterminated quoted field"});
   ExpectError("image_u,image_v,scan_row,scan_col,label\n1,2,3,4,\"a\"b\n",
               {"p.csv:2:", "after a closing quote"});
-  EXPECT_THROW(ReadPairsCsv(TempDir() + "/missing.csv"), Error);
+  EXPECT_THROW(io::ReadPairsCsv(TempDir() + "/missing.csv"), Error);
   try {
-    ReadPairsCsv(TempDir() + "/missing.csv");
+    io::ReadPairsCsv(TempDir() + "/missing.csv");
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("missing.csv: cannot open"), std::string::npos);
   }
@@ -158,9 +158,9 @@ TEST(PairsCsv, BadInputNamesFileLineAndProblem) {
 TEST(PairsCsv, WriterRefusesIncompletePairs) {
   PointPair p;
   p.image_u = 1;
-  EXPECT_THROW(FormatPairsCsv({p}), Error);  // no image_v
+  EXPECT_THROW(io::FormatPairsCsv({p}), Error);  // no image_v
   p.image_v = 2;
-  EXPECT_THROW(FormatPairsCsv({p}), Error);  // neither cell nor point
+  EXPECT_THROW(io::FormatPairsCsv({p}), Error);  // neither cell nor point
 }
 
 // A single-origin scan of the plane z = 2 seen from the origin: cell (r, c) has the beam
@@ -275,25 +275,26 @@ TEST(JsonUtil, PoseRoundTripIsExact) {
       Eigen::AngleAxisd(2.9, Eigen::Vector3d(0.3, -0.2, 0.93).normalized()).toRotationMatrix();
   T.translation() = Eigen::Vector3d(0.207, 0.042, 0.139);
   const std::string path = TempDir() + "/pose.json";
-  WriteJsonFile(path, {{"T_cam_scan", PoseToJson(T)}});
-  const nlohmann::json j = ReadJsonFile(path);
+  io::WriteJsonFile(path, {{"T_cam_scan", io::PoseToJson(T)}});
+  const nlohmann::json j = io::ReadJsonFile(path);
   ASSERT_TRUE(j["T_cam_scan"].is_array());
   ASSERT_EQ(j["T_cam_scan"].size(), 4u);  // nested rows, row-major
   EXPECT_EQ(j["T_cam_scan"][0][3].get<double>(), 0.207);
   EXPECT_EQ(j["T_cam_scan"][3], nlohmann::json({0.0, 0.0, 0.0, 1.0}));
-  const Eigen::Isometry3d back = PoseFromJson(JsonField(j, "T_cam_scan", path), path, "T_cam_scan");
+  const Eigen::Isometry3d back =
+      io::PoseFromJson(io::JsonField(j, "T_cam_scan", path), path, "T_cam_scan");
   EXPECT_LT((back.matrix() - T.matrix()).cwiseAbs().maxCoeff(), 1e-15);
   // A flat row-major array of 16 works too.
   nlohmann::json flat = nlohmann::json::array();
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c) flat.push_back(T.matrix()(r, c));
-  EXPECT_LT((PoseFromJson(flat, "f", "T").matrix() - T.matrix()).cwiseAbs().maxCoeff(), 1e-15);
+  EXPECT_LT((io::PoseFromJson(flat, "f", "T").matrix() - T.matrix()).cwiseAbs().maxCoeff(), 1e-15);
 }
 
 TEST(JsonUtil, BadPosesAndFilesAreNamed) {
   auto expect = [](const nlohmann::json& j, const std::string& part) {
     try {
-      PoseFromJson(j, "calib.json", "T_cam_scan");
+      io::PoseFromJson(j, "calib.json", "T_cam_scan");
       FAIL() << j.dump();
     } catch (const Error& e) {
       const std::string msg = e.what();
@@ -308,10 +309,10 @@ TEST(JsonUtil, BadPosesAndFilesAreNamed) {
   expect({{-1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "not a rotation");  // mirror
   expect({{1, 0, 0, 0}, {0, 1, 0, "x"}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "T_cam_scan[1][3]");
   expect({{1, 0, 0, 0}, {0, 1, 0, nullptr}, {0, 0, 1, 0}, {0, 0, 0, 1}}, "must be a number");
-  EXPECT_THROW(Vector3FromJson(nlohmann::json::array({1, 2}), "f", "t"), Error);
-  EXPECT_EQ(Vector3FromJson({1.5, 2, -3}, "f", "t"), Eigen::Vector3d(1.5, 2, -3));
+  EXPECT_THROW(io::Vector3FromJson(nlohmann::json::array({1, 2}), "f", "t"), Error);
+  EXPECT_EQ(io::Vector3FromJson({1.5, 2, -3}, "f", "t"), Eigen::Vector3d(1.5, 2, -3));
   try {
-    JsonField(nlohmann::json{{"a", {{"b", 1}}}}["a"], "c", "calib.json", "a");
+    io::JsonField(nlohmann::json{{"a", {{"b", 1}}}}["a"], "c", "calib.json", "a");
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("calib.json: field 'a.c' is missing"), std::string::npos)
@@ -320,13 +321,13 @@ TEST(JsonUtil, BadPosesAndFilesAreNamed) {
   const std::string bad = TempDir() + "/bad.json";
   WriteFile(bad, "{\n  \"a\": 1,\n  \"b\": [1, 2,,]\n}\n");
   try {
-    ReadJsonFile(bad);
+    io::ReadJsonFile(bad);
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("bad.json:3:14: invalid JSON"), std::string::npos)
         << e.what();
   }
-  EXPECT_THROW(ReadJsonFile(TempDir() + "/none.json"), Error);
+  EXPECT_THROW(io::ReadJsonFile(TempDir() + "/none.json"), Error);
 }
 
 }  // namespace

@@ -61,8 +61,8 @@ refine::DenseRefineOptions FastOptions() {
 TEST(WeightedPairs, ChiSquareIsSmallAtTheTruthAndGrowsWithAPixelError) {
   const Scene& s = Sim();
   ASSERT_GE(s.sim.pairs.size(), 8u);
-  PairNoiseScene ns{s.sim.pairs, &s.sim.scan, &s.sim.camera, "sim pairs"};
-  const WeightedPairs wp({ns}, s.sim.T_cam_scan, CalibrateOptions{});
+  solve::PairNoiseScene ns{s.sim.pairs, &s.sim.scan, &s.sim.camera, "sim pairs"};
+  const solve::WeightedPairs wp({ns}, s.sim.T_cam_scan, solve::CalibrateOptions{});
   const double at_truth = wp.ChiSquare(s.sim.T_cam_scan);
   // 2 dof per pair, the simulator's noise (0.5 px, 0.25 cell) below the model's (1 px, 0.5 cell).
   EXPECT_LT(at_truth, 2.0 * wp.size());
@@ -168,7 +168,7 @@ TEST(RefineCli, PairsOnePerSceneAndTheirFiguresInTheOutput) {
   EXPECT_FALSE(std::filesystem::exists(dir + "/r.json"));
   ASSERT_EQ(test::RunCli(dir, base + " --pairs " + dir + "/pairs.csv"), 0)
       << test::ReadFile(dir + "/stderr.txt");
-  const nlohmann::json j = ReadJsonFile(dir + "/r.json");
+  const nlohmann::json j = io::ReadJsonFile(dir + "/r.json");
   ASSERT_TRUE(j["refinement"].contains("pairs"));
   const nlohmann::json& p = j["refinement"]["pairs"];
   EXPECT_EQ(p["count"].get<int>(), static_cast<int>(s.sim.pairs.size()));

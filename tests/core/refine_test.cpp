@@ -80,11 +80,11 @@ TEST(Alignment, RanksTheTruthAbovePerturbedPosesOnTheSimulator) {
 TEST(Alignment, RanksRoadPinholesReferenceAbovePerturbedPoses) {
   SCANCAM_REQUIRE_SHARED();
   const std::string d = test::SharedDataset("road-pinhole");
-  const OrderedScan scan = LoadScan(d + "/scan.pcd");
+  const OrderedScan scan = io::LoadScan(d + "/scan.pcd");
   colour::ColourView view;
-  view.camera = LoadCamera(d + "/camera-intrinsic.json");
+  view.camera = camera::LoadCamera(d + "/camera-intrinsic.json");
   view.image = ReadImage(d + "/image.png");
-  view.mask = FindValidRegion(view.camera, view.image).mask;
+  view.mask = camera::FindValidRegion(view.camera, view.image).mask;
   const Eigen::Isometry3d ref = colour::LoadExtrinsic(d + "/reference-extrinsic.json");
   const refine::AlignmentData data = refine::PrepareAlignment(scan, view);
   const refine::AlignmentScore at_ref = refine::ScoreAlignment(data, ref);
@@ -155,8 +155,8 @@ TEST(DenseRefine, KittiStartedAtTheReferenceStaysAndItsStdCoversTheSearchsBest) 
   const std::string dir = test::SharedDataset("kitti-000000/");
   colour::ColourView view;
   view.image = ReadImage(dir + "image_2.png");
-  view.camera = LoadCameraForImage(dir + "calib.txt", dir + "image_2.png");
-  const OrderedScan scan = LoadScan(dir + "velodyne.bin");
+  view.camera = camera::LoadCameraForImage(dir + "calib.txt", dir + "image_2.png");
+  const OrderedScan scan = io::LoadScan(dir + "velodyne.bin");
   const Eigen::Isometry3d reference = colour::LoadExtrinsic(dir + "calib.txt");
   const refine::DenseRefineResult r = refine::DenseRefine({{&scan, view}}, reference);
   EXPECT_LT(AngleDeg(r.T_cam_scan, reference), 0.15) << r.reason;
@@ -238,14 +238,14 @@ TEST(RefineCli, WritesTheCalibrationSchemaWithTheVerdictAndRefusesBadInput) {
                 dir, base + " --init " + dir + "/ground_truth.json --out " + dir + "/refined.json"),
             0)
       << test::ReadFile(dir + "/stderr.txt");
-  const nlohmann::json j = ReadJsonFile(dir + "/refined.json");
+  const nlohmann::json j = io::ReadJsonFile(dir + "/refined.json");
   EXPECT_TRUE(j.contains("T_cam_scan"));
   EXPECT_TRUE(j.contains("rotation_rpy_deg"));
   ASSERT_TRUE(j.contains("refinement"));
   const std::string verdict = j["refinement"]["verdict"];
   EXPECT_TRUE(verdict == "converged" || verdict == "ambiguous" || verdict == "diverged");
   EXPECT_EQ(j["refinement"]["rotation_std_deg_cam_xyz"].size(), 3u);
-  EXPECT_LT(AngleDeg(ReadCalibrationPose(dir + "/refined.json"), s.T_cam_scan), 0.15);
+  EXPECT_LT(AngleDeg(io::ReadCalibrationPose(dir + "/refined.json"), s.T_cam_scan), 0.15);
   // The start as angles and a translation; a missing image; --out naming an input.
   EXPECT_EQ(test::RunCli(dir, base + " --init-rpy-deg 1,2,3 --out " + dir + "/x.json"), 1);
   EXPECT_NE(test::ReadFile(dir + "/stderr.txt").find("--init-t-m"), std::string::npos);

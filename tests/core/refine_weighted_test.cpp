@@ -20,7 +20,7 @@ using test::PaperLikePose;
 
 // The tangent basis at b (TangentBasis, refine.h) as two vectors.
 void Tangent(const Eigen::Vector3d& b, Eigen::Vector3d* e1, Eigen::Vector3d* e2) {
-  const Eigen::Matrix<double, 3, 2> E = TangentBasis(b);
+  const Eigen::Matrix<double, 3, 2> E = solve::TangentBasis(b);
   *e1 = E.col(0);
   *e2 = E.col(1);
 }
@@ -81,8 +81,8 @@ TEST(WeightedRefine, IsotropicUnitWeightsGiveTheUnweightedSolution) {
   const auto b = Noisy(p, rng);
   std::vector<Eigen::Matrix3d> iso;
   for (const auto& x : b) iso.push_back(Eigen::Matrix3d::Identity() - x * x.transpose());
-  const auto a = RefinePose(b, p.p_scan, T, {}, {});
-  const auto w = RefinePose(b, p.p_scan, T, {}, {}, iso);
+  const auto a = solve::RefinePose(b, p.p_scan, T, {}, {});
+  const auto w = solve::RefinePose(b, p.p_scan, T, {}, {}, iso);
   EXPECT_LT(RotVecErr(a.T_cam_scan, w.T_cam_scan).norm(), 1e-9);
   EXPECT_LT((a.T_cam_scan.translation() - w.T_cam_scan.translation()).norm(), 1e-9);
   // Scaled by the observed variance, both report the same uncertainty.
@@ -96,13 +96,13 @@ TEST(WeightedRefine, BeatsUnweightedAndItsCovarianceMatchesTheScatter) {
   const int trials = 300;
   Eigen::Matrix3d scatter_w = Eigen::Matrix3d::Zero(), scatter_u = Eigen::Matrix3d::Zero();
   Eigen::Matrix3d predicted = Eigen::Matrix3d::Zero();
-  RefineOptions model;  // covariance from the noise model alone
+  solve::RefineOptions model;  // covariance from the noise model alone
   model.scale_covariance = false;
   double chi2 = 0;
   for (int t = 0; t < trials; ++t) {
     const auto b = Noisy(p, rng);
-    const auto w = RefinePose(b, p.p_scan, T, model, {}, p.cov);
-    const auto u = RefinePose(b, p.p_scan, T, {}, {});
+    const auto w = solve::RefinePose(b, p.p_scan, T, model, {}, p.cov);
+    const auto u = solve::RefinePose(b, p.p_scan, T, {}, {});
     ASSERT_TRUE(w.has_covariance);
     const Eigen::Vector3d ew = RotVecErr(w.T_cam_scan, T), eu = RotVecErr(u.T_cam_scan, T);
     scatter_w += ew * ew.transpose() / trials;
@@ -125,9 +125,9 @@ TEST(WeightedRefine, RefusesACovarianceThatIsNotPositiveDefinite) {
   const Problem p = MakeProblem(T);
   auto cov = p.cov;
   cov[3] = Eigen::Matrix3d::Zero();
-  EXPECT_THROW(RefinePose(p.bearing_true, p.p_scan, T, {}, {}, cov), Error);
+  EXPECT_THROW(solve::RefinePose(p.bearing_true, p.p_scan, T, {}, {}, cov), Error);
   cov.pop_back();
-  EXPECT_THROW(RefinePose(p.bearing_true, p.p_scan, T, {}, {}, cov), Error);
+  EXPECT_THROW(solve::RefinePose(p.bearing_true, p.p_scan, T, {}, {}, cov), Error);
 }
 
 // On the simulated paper rig (rotating scanner 1 x 0.5 deg, omni camera) with picking noise
@@ -148,11 +148,11 @@ TEST(WeightedCalibrate, NoiseModelFitsPickingNoiseOnThePaperRig) {
   int used = 0;
   for (int t = 0; t < 40; ++t) {
     const std::vector<PointPair> pairs = test::NoisySimPairs(exact, s, rng, 1.0, 0.5);
-    CalibrateOptions co;
+    solve::CalibrateOptions co;
     co.method = "epnp";
-    const auto w = Calibrate(pairs, &s.scan, s.camera, co);
+    const auto w = solve::Calibrate(pairs, &s.scan, s.camera, co);
     co.weighted = false;
-    const auto u = Calibrate(pairs, &s.scan, s.camera, co);
+    const auto u = solve::Calibrate(pairs, &s.scan, s.camera, co);
     ASSERT_TRUE(w.weighted);
     chi2 += w.reduced_chi_square;
     err_w += RotVecErr(w.T_cam_scan, s.T_cam_scan).squaredNorm();
@@ -176,12 +176,12 @@ TEST(PickSuggestions, PredictWhatAnExtraPairThereGives) {
   so.seed = 4;
   const auto s = sim::Simulate(so);
   std::vector<PointPair> pairs = test::ExactSimPairs(s);
-  CalibrateOptions co;
+  solve::CalibrateOptions co;
   co.refine_options.scale_covariance = false;
   const cv::Mat mask = sim::MaskImage(s.mask, s.camera.width(), s.camera.height());
   co.image_mask = mask;
   ASSERT_FALSE(co.image_mask.empty());
-  const auto c = Calibrate(pairs, &s.scan, s.camera, co);
+  const auto c = solve::Calibrate(pairs, &s.scan, s.camera, co);
   ASSERT_EQ(c.suggestions.size(), 3u);
   const double diag = std::hypot(s.camera.width(), s.camera.height());
   for (std::size_t k = 0; k < 3; ++k) {
@@ -205,14 +205,14 @@ TEST(PickSuggestions, PredictWhatAnExtraPairThereGives) {
   extra.scan_row = g.scan_row;
   extra.scan_col = g.scan_col;
   pairs.push_back(extra);
-  const auto c2 = Calibrate(pairs, &s.scan, s.camera, co);
+  const auto c2 = solve::Calibrate(pairs, &s.scan, s.camera, co);
   for (int a = 0; a < 3; ++a)
     EXPECT_NEAR(c2.std_rpy_deg(a), g.predicted_std_rpy_deg(a), 0.03 * g.predicted_std_rpy_deg(a));
   for (int a = 0; a < 3; ++a)
     EXPECT_NEAR(c2.std_t_m(a), g.predicted_std_t_m(a), 0.03 * g.predicted_std_t_m(a));
   // A mask of the wrong size is an error, not a silent ignore.
   co.image_mask = cv::Mat(10, 10, CV_8UC1, cv::Scalar(255));
-  EXPECT_THROW(Calibrate(pairs, &s.scan, s.camera, co), Error);
+  EXPECT_THROW(solve::Calibrate(pairs, &s.scan, s.camera, co), Error);
 }
 
 }  // namespace
@@ -227,7 +227,7 @@ TEST(TangentBasis, OrthonormalAndPerpendicularToTheBearing) {
   for (int k = 0; k < 50; ++k)
     bearings.push_back(Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized());
   for (const Eigen::Vector3d& b : bearings) {
-    const Eigen::Matrix<double, 3, 2> E = scancam::TangentBasis(b);
+    const Eigen::Matrix<double, 3, 2> E = scancam::solve::TangentBasis(b);
     EXPECT_NEAR((E.transpose() * E - Eigen::Matrix2d::Identity()).norm(), 0.0, 1e-12)
         << b.transpose();
     EXPECT_NEAR((E.transpose() * b).norm(), 0.0, 1e-12) << b.transpose();

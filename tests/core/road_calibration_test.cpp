@@ -57,21 +57,21 @@ double RotationDiffDeg(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
 
 struct RoadData {
   OrderedScan scan;
-  CameraModel camera;
+  camera::CameraModel camera;
   std::vector<PointPair> pairs;
   Eigen::Isometry3d reference;
 };
 
 RoadData LoadRoad() {
-  return {LoadScan(test::SharedDataset("road-pinhole/scan.pcd")),
-          LoadCamera(test::SharedDataset("road-pinhole/camera-intrinsic.json")),
-          ReadPairsCsv(PairsPath()),
+  return {io::LoadScan(test::SharedDataset("road-pinhole/scan.pcd")),
+          camera::LoadCamera(test::SharedDataset("road-pinhole/camera-intrinsic.json")),
+          io::ReadPairsCsv(PairsPath()),
           ReadReference(test::SharedDataset("road-pinhole/reference-extrinsic.json"))};
 }
 
-int FlaggedCount(const Calibration& c) {
-  return static_cast<int>(
-      std::count_if(c.pairs.begin(), c.pairs.end(), [](const PairResult& p) { return !p.inlier; }));
+int FlaggedCount(const solve::Calibration& c) {
+  return static_cast<int>(std::count_if(c.pairs.begin(), c.pairs.end(),
+                                        [](const solve::PairResult& p) { return !p.inlier; }));
 }
 
 TEST(RoadCalibration, HandPickedPairsMatchTheDatasetsExtrinsic) {
@@ -86,15 +86,15 @@ TEST(RoadCalibration, HandPickedPairsMatchTheDatasetsExtrinsic) {
   EXPECT_GT(span.width_px, 0.8 * d.camera.width());
   EXPECT_GT(span.height_px, 0.2 * d.camera.height());
 
-  CalibrateOptions options;
+  solve::CalibrateOptions options;
   options.pairs_source = PairsPath();
-  const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, options);
+  const solve::Calibration c = solve::Calibrate(d.pairs, &d.scan, d.camera, options);
 
   const double rot_deg = RotationDiffDeg(c.T_cam_scan, d.reference);
   const double trans_m = (c.T_cam_scan.translation() - d.reference.translation()).norm();
   EXPECT_LT(rot_deg, kMaxRotationDeg);
   EXPECT_LT(trans_m, kMaxTranslationM);
-  EXPECT_LE(FlaggedCount(c), 1) << FormatCalibrationSummary(c);
+  EXPECT_LE(FlaggedCount(c), 1) << solve::FormatCalibrationSummary(c);
   EXPECT_LT(c.mean_px, kMaxMeanPx);
   // Every laser point came from its cell, in front of the scanner, 10-70 m away.
   for (const auto& p : c.pairs) {
@@ -119,10 +119,10 @@ TEST(RoadCalibration, OneMisclickedPairIsFlaggedAndIgnored) {
   it->image_v -= 45.0;
   const std::size_t wrong = static_cast<std::size_t>(it - d.pairs.begin());
 
-  const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, {});
+  const solve::Calibration c = solve::Calibrate(d.pairs, &d.scan, d.camera, {});
   EXPECT_FALSE(c.pairs[wrong].inlier);
   EXPECT_GT(c.pairs[wrong].error_px, 30.0);
-  EXPECT_LE(FlaggedCount(c), 2) << FormatCalibrationSummary(c);
+  EXPECT_LE(FlaggedCount(c), 2) << solve::FormatCalibrationSummary(c);
   EXPECT_LT(RotationDiffDeg(c.T_cam_scan, d.reference), kMaxRotationDeg);
   EXPECT_LT((c.T_cam_scan.translation() - d.reference.translation()).norm(), kMaxTranslationM);
 }
@@ -137,7 +137,7 @@ TEST(RoadCalibration, OneMisclickedPairIsFlaggedAndIgnored) {
 TEST(RoadCalibration, ReportedStdCoversTheErrorToTheReference) {
   SCANCAM_REQUIRE_SHARED();
   const RoadData d = LoadRoad();
-  const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, {});
+  const solve::Calibration c = solve::Calibrate(d.pairs, &d.scan, d.camera, {});
   ASSERT_TRUE(c.has_covariance);
   const Eigen::AngleAxisd aa(c.T_cam_scan.linear() * d.reference.linear().transpose());
   const Eigen::Vector3d rot_deg = aa.angle() * aa.axis() * 180.0 / M_PI;
@@ -153,16 +153,16 @@ TEST(RoadCalibration, ReportedStdCoversTheErrorToTheReference) {
     return std::any_of(c.warnings.begin(), c.warnings.end(),
                        [&](const std::string& w) { return w.find(text) != std::string::npos; });
   };
-  EXPECT_TRUE(warned("% of the image height")) << FormatCalibrationSummary(c);
-  EXPECT_TRUE(warned("the nearest pick is")) << FormatCalibrationSummary(c);
-  EXPECT_TRUE(warned("gimbal lock")) << FormatCalibrationSummary(c);
+  EXPECT_TRUE(warned("% of the image height")) << solve::FormatCalibrationSummary(c);
+  EXPECT_TRUE(warned("the nearest pick is")) << solve::FormatCalibrationSummary(c);
+  EXPECT_TRUE(warned("gimbal lock")) << solve::FormatCalibrationSummary(c);
   // The roll/yaw std is meaningless here; the camera-axes std is not.
   EXPECT_GT(c.std_rpy_deg.x(), 20 * c.std_rot_cam_deg.maxCoeff());
 
   std::vector<PointPair> odd, even;
   for (std::size_t i = 0; i < d.pairs.size(); ++i) (i % 2 ? even : odd).push_back(d.pairs[i]);
-  const Calibration j =
-      CalibrateScenes({{odd, &d.scan, "odd"}, {even, &d.scan, "even"}}, d.camera, {});
+  const solve::Calibration j =
+      solve::CalibrateScenes({{odd, &d.scan, "odd"}, {even, &d.scan, "even"}}, d.camera, {});
   EXPECT_TRUE(j.T_cam_scan.isApprox(c.T_cam_scan, 1e-6)) << "same pairs, same solution";
   ASSERT_EQ(j.scenes.size(), 2u);
   for (const auto& s : j.scenes) {
@@ -202,11 +202,12 @@ std::string Road2PairsPath() {
 
 RoadData LoadRoad2() {
   const std::string image = test::SharedDataset("road2-pinhole/image.png");
-  const CameraModel file = LoadCamera(test::SharedDataset("road2-pinhole/camera-intrinsic.json"));
+  const camera::CameraModel file =
+      camera::LoadCamera(test::SharedDataset("road2-pinhole/camera-intrinsic.json"));
   const ImageFileInfo size = ReadImageHeader(image);
-  return {LoadScan(test::SharedDataset("road2-pinhole/scan.pcd")),
-          CameraModel(file.type(), file.params(), size.width, size.height),
-          ReadPairsCsv(Road2PairsPath()),
+  return {io::LoadScan(test::SharedDataset("road2-pinhole/scan.pcd")),
+          camera::CameraModel(file.type(), file.params(), size.width, size.height),
+          io::ReadPairsCsv(Road2PairsPath()),
           ReadReference(test::SharedDataset("road2-pinhole/reference-extrinsic.json"))};
 }
 
@@ -217,11 +218,11 @@ TEST(Road2Calibration, HandPickedPairsOnARingRecoveredCloud) {
   ASSERT_EQ(d.camera.height(), 1200);
   ASSERT_GE(d.pairs.size(), 20u);
 
-  CalibrateOptions options;
+  solve::CalibrateOptions options;
   options.pairs_source = Road2PairsPath();
-  const Calibration c = Calibrate(d.pairs, &d.scan, d.camera, options);
+  const solve::Calibration c = solve::Calibrate(d.pairs, &d.scan, d.camera, options);
   ASSERT_TRUE(c.has_covariance);
-  EXPECT_EQ(FlaggedCount(c), 0) << FormatCalibrationSummary(c);
+  EXPECT_EQ(FlaggedCount(c), 0) << solve::FormatCalibrationSummary(c);
   EXPECT_LT(c.mean_px, kRoad2MaxMeanPx);
 
   const Eigen::Vector3d rot_deg = test::RotationDiffCamDeg(c.T_cam_scan, d.reference);
@@ -238,8 +239,8 @@ TEST(Road2Calibration, HandPickedPairsOnARingRecoveredCloud) {
     return std::any_of(c.warnings.begin(), c.warnings.end(),
                        [&](const std::string& w) { return w.find(text) != std::string::npos; });
   };
-  EXPECT_TRUE(warned("% of the image height")) << FormatCalibrationSummary(c);
-  EXPECT_TRUE(warned("the nearest pick is")) << FormatCalibrationSummary(c);
+  EXPECT_TRUE(warned("% of the image height")) << solve::FormatCalibrationSummary(c);
+  EXPECT_TRUE(warned("the nearest pick is")) << solve::FormatCalibrationSummary(c);
   RecordProperty("rotation_diff_deg", std::to_string(rot_deg.norm()));
   RecordProperty("translation_diff_m", std::to_string(dt.norm()));
   RecordProperty("translation_diff_along_axis_m", std::to_string(dt.z()));
@@ -259,8 +260,8 @@ TEST(RoadCalibration, TwoRecordingsOfTheRigAgreeWithinTheirStd) {
   SCANCAM_REQUIRE_SHARED();
   const RoadData a = LoadRoad();
   const RoadData b = LoadRoad2();
-  const Calibration ca = Calibrate(a.pairs, &a.scan, a.camera, {});
-  const Calibration cb = Calibrate(b.pairs, &b.scan, b.camera, {});
+  const solve::Calibration ca = solve::Calibrate(a.pairs, &a.scan, a.camera, {});
+  const solve::Calibration cb = solve::Calibrate(b.pairs, &b.scan, b.camera, {});
   ASSERT_TRUE(ca.has_covariance && cb.has_covariance);
   EXPECT_LT((a.reference.translation() - b.reference.translation()).norm(), 0.05);
 

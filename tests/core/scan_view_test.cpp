@@ -280,7 +280,7 @@ TEST(CliScanView, IntensityTiffCropsAspectAndCell) {
   const std::string dir = TempDir();
   const OrderedScan s = LidarScan();
   const std::string pcd = dir + "/lidar.pcd";
-  WriteOrganisedPcd(pcd, s);
+  io::WriteOrganisedPcd(pcd, s);
   ASSERT_EQ(RunCli(dir, "ba \"" + pcd + "\" --out \"" + dir + "/all\" --true-aspect --ticks"), 0)
       << ReadFile(dir + "/stderr.txt");
   const cv::Mat in = ReadFloatTiff(dir + "/all/intensity.tiff");
@@ -348,7 +348,7 @@ TEST(CliScanView, RoadPinholeIntensityTiffEqualsTheScan) {
   const std::string scan_path = test::SharedDataset("road-pinhole/scan.pcd");
   ASSERT_EQ(RunCli(dir, "ba \"" + scan_path + "\" --out \"" + dir + "/out\" --quiet"), 0)
       << ReadFile(dir + "/stderr.txt");
-  const OrderedScan s = LoadScan(scan_path);
+  const OrderedScan s = io::LoadScan(scan_path);
   ASSERT_TRUE(s.has_intensity());
   const cv::Mat in = ReadFloatTiff(dir + "/out/intensity.tiff");
   ASSERT_EQ(in.rows, s.rows);

@@ -38,7 +38,7 @@ TEST(CliSimulate, WritesTheSameFilesAsTheLibrary) {
                            "pairs.csv", "truth.csv", "ground_truth.json"}) {
     EXPECT_TRUE(ReadFile(dir + "/cli/" + name) == ReadFile(dir + "/lib/" + name)) << name;
   }
-  EXPECT_EQ(ReadPairsCsv(dir + "/cli/pairs.csv").size(), 7u);
+  EXPECT_EQ(io::ReadPairsCsv(dir + "/cli/pairs.csv").size(), 7u);
   EXPECT_TRUE(ReadFile(dir + "/stdout.txt").empty());  // --quiet
 }
 
@@ -51,8 +51,9 @@ TEST(CliSimulate, RigOptionsSetTheGroundTruth) {
             0)
       << ReadFile(dir + "/stderr.txt");
   const std::string gt = dir + "/o/ground_truth.json";
-  const auto j = ReadJsonFile(gt);
-  const Eigen::Isometry3d T = PoseFromJson(JsonField(j, "T_cam_scan", gt), gt, "T_cam_scan");
+  const auto j = io::ReadJsonFile(gt);
+  const Eigen::Isometry3d T =
+      io::PoseFromJson(io::JsonField(j, "T_cam_scan", gt), gt, "T_cam_scan");
   EXPECT_LT((T.linear() - RpyDegToRotation({10, -80, 30})).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LT((T.translation() - Eigen::Vector3d(0.1, 0.2, -0.3)).norm(), 1e-12);
   EXPECT_TRUE(fs::is_regular_file(dir + "/o/camera.yaml"));

@@ -38,11 +38,11 @@ TEST(SimRotatingScanner, BeamsFollowEquation3) {
       sc.Beam(i, j, &o, &d);
       const double phi = i * kDeg, theta = (-90.0 + 0.5 * j) * kDeg;
       for (double rho : {0.5, 3.0}) {
-        const Vector3d expect = RotatingScanPoint(phi, theta, rho, p.dx_m, p.dz_m);
+        const Vector3d expect = io::RotatingScanPoint(phi, theta, rho, p.dx_m, p.dz_m);
         EXPECT_LT((o + rho * d - expect).norm(), 1e-12) << i << " " << j;
       }
       EXPECT_NEAR(d.norm(), 1.0, 1e-15);
-      EXPECT_LT((d - RotatingScanBeam(phi, theta)).norm(), 1e-15);
+      EXPECT_LT((d - io::RotatingScanBeam(phi, theta)).norm(), 1e-15);
     }
   }
 }
@@ -57,7 +57,7 @@ TEST(SimRotatingScanner, CellOfInvertsEquation3) {
       const double phi = (p.phi0_deg + row * p.phi_step_deg) * kDeg;
       const double theta = (p.theta0_deg + col * p.theta_step_deg) * kDeg;
       for (double rho : {0.7, 4.0}) {
-        const auto cell = sc.CellOf(RotatingScanPoint(phi, theta, rho, p.dx_m, p.dz_m));
+        const auto cell = sc.CellOf(io::RotatingScanPoint(phi, theta, rho, p.dx_m, p.dz_m));
         ASSERT_TRUE(cell.has_value()) << row << " " << col;
         EXPECT_NEAR(cell->x(), row, 1e-9);
         EXPECT_NEAR(cell->y(), col, 1e-9);
@@ -66,17 +66,17 @@ TEST(SimRotatingScanner, CellOfInvertsEquation3) {
   }
   // phi = 359.7 deg is 0.3 deg before plane 0 (at 360 = 0 deg): row -0.3, within half a cell;
   // 359.4 deg is row 359.4.
-  const auto wrap = sc.CellOf(RotatingScanPoint(359.7 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m));
+  const auto wrap = sc.CellOf(io::RotatingScanPoint(359.7 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m));
   ASSERT_TRUE(wrap.has_value());
   EXPECT_NEAR(wrap->x(), -0.3, 1e-9);
-  EXPECT_NEAR(sc.CellOf(RotatingScanPoint(359.4 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m))->x(), 359.4,
+  EXPECT_NEAR(sc.CellOf(io::RotatingScanPoint(359.4 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m))->x(), 359.4,
               1e-9);
   // A scanner sweeping half a turn: phi = 270 deg is far from its planes.
   RotatingScannerParams half = p;
   half.planes = 181;
   const RotatingScanner hs(half);
-  EXPECT_FALSE(hs.CellOf(RotatingScanPoint(270 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m)).has_value());
-  EXPECT_NEAR(hs.CellOf(RotatingScanPoint(180.4 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m))->x(), 180.4,
+  EXPECT_FALSE(hs.CellOf(io::RotatingScanPoint(270 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m)).has_value());
+  EXPECT_NEAR(hs.CellOf(io::RotatingScanPoint(180.4 * kDeg, 0.1, 2.0, p.dx_m, p.dz_m))->x(), 180.4,
               1e-9);
 }
 
@@ -214,7 +214,7 @@ TEST(SimSampleScan, OrderedScanOfARotatingSampleIsEquation3) {
   p.phi_step_deg = 6;
   const RotatingScanner sc(p);
   const ScanSample s = SampleScan(room, sc, Eigen::Isometry3d::Identity(), RangeNoise{}, 3);
-  const OrderedScan via_io = ToOrderedScan(ToRotatingData(sc, s), "io");
+  const OrderedScan via_io = io::ToOrderedScan(ToRotatingData(sc, s), "io");
   const OrderedScan via_sim = SampleToOrderedScan(sc, s, "sim");
   ASSERT_EQ(via_io.rows, via_sim.rows);
   ASSERT_EQ(via_io.cols, via_sim.cols);

@@ -63,7 +63,7 @@ struct EdgeMeasure {
 // For sample points P + d along, d in [d0, d1], the grey profile across the projected edge is
 // read at offsets -2..2 px; the measured edge is where it crosses the mean of its two plateaus
 // (1..2 px on either side). Samples with contrast below 25 grey levels are skipped.
-std::optional<EdgeMeasure> MeasureEdge(const cv::Mat& grey, const CameraModel& cam,
+std::optional<EdgeMeasure> MeasureEdge(const cv::Mat& grey, const camera::CameraModel& cam,
                                        const Eigen::Isometry3d& T_cam_world, const Vector3d& P,
                                        const Vector3d& along, const Vector3d& inside, double d0,
                                        double d1, int n) {
@@ -238,8 +238,8 @@ TEST(SimSimulate, FilesParseWithTheProjectsImporters) {
   const Fixture& f = Default();
   const Simulation& s = f.sim;
   // scan.txt and scan.ptx: the same grid and the same points as the simulation's scan.
-  const OrderedScan txt = LoadScan(f.dir + "/scan.txt");
-  const OrderedScan ptx = LoadScan(f.dir + "/scan.ptx");
+  const OrderedScan txt = io::LoadScan(f.dir + "/scan.txt");
+  const OrderedScan ptx = io::LoadScan(f.dir + "/scan.ptx");
   for (const OrderedScan* o : {&txt, &ptx}) {
     ASSERT_EQ(o->rows, s.scan.rows);
     ASSERT_EQ(o->cols, s.scan.cols);
@@ -256,9 +256,10 @@ TEST(SimSimulate, FilesParseWithTheProjectsImporters) {
     ASSERT_EQ(txt.intensity.empty(), false);
   }
   // camera.txt: an OCamCalib file giving back the same projection.
-  const CameraModel cam = LoadCamera(f.dir + "/camera.txt");
-  EXPECT_EQ(DetectCameraFileFormat(f.dir + "/camera.txt"), CameraFileFormat::kOCamCalib);
-  ASSERT_EQ(cam.type(), CameraType::kOCam);
+  const camera::CameraModel cam = camera::LoadCamera(f.dir + "/camera.txt");
+  EXPECT_EQ(camera::DetectCameraFileFormat(f.dir + "/camera.txt"),
+            camera::CameraFileFormat::kOCamCalib);
+  ASSERT_EQ(cam.type(), camera::CameraType::kOCam);
   ASSERT_EQ(cam.width(), 640);
   ASSERT_EQ(cam.height(), 480);
   for (const auto& t : s.pair_truth) {
@@ -266,7 +267,7 @@ TEST(SimSimulate, FilesParseWithTheProjectsImporters) {
     EXPECT_LT((*cam.Project(p) - *s.camera.Project(p)).norm(), 1e-6);
   }
   // The inverse polynomial written to the file is an accurate world2cam seed (< 0.05 px).
-  const OCamParams op = cam.ocam_params();
+  const camera::OCamParams op = cam.ocam_params();
   for (double rho = 5; rho < 230; rho += 15) {
     double pol = 0, th, inv = 0;
     for (std::size_t k = op.pol.size(); k-- > 0;) pol = pol * rho + op.pol[k];
@@ -275,7 +276,7 @@ TEST(SimSimulate, FilesParseWithTheProjectsImporters) {
     EXPECT_NEAR(inv, rho, 0.05) << rho;
   }
   // pairs.csv: the same pairs.
-  const auto pairs = ReadPairsCsv(f.dir + "/pairs.csv");
+  const auto pairs = io::ReadPairsCsv(f.dir + "/pairs.csv");
   ASSERT_EQ(pairs.size(), s.pairs.size());
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     EXPECT_EQ(pairs[k].image_u, s.pairs[k].image_u);
@@ -284,12 +285,13 @@ TEST(SimSimulate, FilesParseWithTheProjectsImporters) {
   }
   // ground_truth.json: the pose, its angles, the files.
   const std::string gt = f.dir + "/ground_truth.json";
-  const nlohmann::json j = ReadJsonFile(gt);
-  const Eigen::Isometry3d T = PoseFromJson(JsonField(j, "T_cam_scan", gt), gt, "T_cam_scan");
+  const nlohmann::json j = io::ReadJsonFile(gt);
+  const Eigen::Isometry3d T =
+      io::PoseFromJson(io::JsonField(j, "T_cam_scan", gt), gt, "T_cam_scan");
   EXPECT_LT((T.matrix() - s.T_cam_scan.matrix()).cwiseAbs().maxCoeff(), 1e-12);
-  const Vector3d rpy = Vector3FromJson(JsonField(j, "rotation_rpy_deg", gt), gt, "rpy");
+  const Vector3d rpy = io::Vector3FromJson(io::JsonField(j, "rotation_rpy_deg", gt), gt, "rpy");
   EXPECT_LT((RpyDegToRotation(rpy) - s.T_cam_scan.linear()).cwiseAbs().maxCoeff(), 1e-9);
-  EXPECT_LT((Vector3FromJson(j["translation_m"], gt, "t") - s.T_cam_scan.translation()).norm(),
+  EXPECT_LT((io::Vector3FromJson(j["translation_m"], gt, "t") - s.T_cam_scan.translation()).norm(),
             1e-12);
   EXPECT_EQ(j["camera"]["file"], "camera.txt");
   EXPECT_EQ(j["scanner"]["file"], "scan.txt");
@@ -485,8 +487,8 @@ TEST(SimSimulate, LidarWithPinholeParsesAndPairs) {
   EXPECT_TRUE(fs::is_regular_file(dir + "/scan.pcd"));
   EXPECT_FALSE(fs::exists(dir + "/scan.txt"));
   EXPECT_FALSE(fs::exists(dir + "/mask.png"));
-  const OrderedScan pcd = LoadScan(dir + "/scan.pcd");
-  const OrderedScan ptx = LoadScan(dir + "/scan.ptx");
+  const OrderedScan pcd = io::LoadScan(dir + "/scan.pcd");
+  const OrderedScan ptx = io::LoadScan(dir + "/scan.ptx");
   for (const OrderedScan* o2 : {&pcd, &ptx}) {
     ASSERT_EQ(o2->rows, 64);
     ASSERT_EQ(o2->cols, 900);
@@ -497,8 +499,8 @@ TEST(SimSimulate, LidarWithPinholeParsesAndPairs) {
       }
     }
   }
-  const CameraModel cam = LoadCamera(dir + "/camera.yaml");
-  EXPECT_EQ(cam.type(), CameraType::kPinhole);
+  const camera::CameraModel cam = camera::LoadCamera(dir + "/camera.yaml");
+  EXPECT_EQ(cam.type(), camera::CameraType::kPinhole);
   EXPECT_EQ(cam.params(), s.camera.params());
   ASSERT_GE(s.pairs.size(), 4u);
   for (const auto& t : s.pair_truth) {
@@ -530,7 +532,7 @@ TEST(SimSimulate, BadOptionsThrow) {
 
 TEST(SimRender, EveryPresetRendersCornersWhereProjectIsThem) {
   for (const std::string preset : {"omni", "pinhole", "fisheye", "equirect"}) {
-    const CameraModel cam = PresetCamera(preset);
+    const camera::CameraModel cam = PresetCamera(preset);
     const ImageMask mask = PresetMask(preset);
     EXPECT_LT(RenderBearingError(cam), 0.005) << preset;
     // A light room around the camera and dark squares (single quads, no sides) 1 cm in front of
@@ -601,7 +603,7 @@ TEST(SimRender, VisibilityRespectsOcclusionAndTheImage) {
   scene.AddQuad({-1, -1, 3}, {1, 0, 0}, {0, 1, 0}, 2, 2, m, "wall");  // z = 3, faces -z
   scene.AddQuad({-0.2, -0.2, 1}, {1, 0, 0}, {0, 1, 0}, 0.4, 0.4, m, "occluder");
   scene.Build();
-  const CameraModel cam = PresetCamera("pinhole");
+  const camera::CameraModel cam = PresetCamera("pinhole");
   const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
   EXPECT_FALSE(VisibleFromCamera(scene, cam, I, ImageMask{}, {0, 0, 3}));     // behind occluder
   EXPECT_TRUE(VisibleFromCamera(scene, cam, I, ImageMask{}, {0.8, 0.5, 3}));  // beside it

@@ -44,7 +44,7 @@ TEST(SnapImage, FindsASubPixelCornerFromANoisyClick) {
   const Vector2d corner(40.3, 27.65);
   const cv::Mat img = Quadrant(corner.x(), corner.y());
   for (const Vector2d& off : {Vector2d(1.5, -1.0), Vector2d(-2.0, 2.0), Vector2d(0.4, 0.9)}) {
-    const SnapResult r = SnapImagePoint(img, corner + off);
+    const pick::SnapResult r = pick::SnapImagePoint(img, corner + off);
     ASSERT_TRUE(r.accepted) << r.why;
     EXPECT_LT((r.position - corner).norm(), 0.15) << r.position.transpose();
     EXPECT_NEAR(r.shift_px, (r.position - (corner + off)).norm(), 1e-12);
@@ -53,38 +53,38 @@ TEST(SnapImage, FindsASubPixelCornerFromANoisyClick) {
   // Colour input gives the same answer.
   cv::Mat bgr;
   cv::merge(std::vector<cv::Mat>{img, img, img}, bgr);
-  const SnapResult a = SnapImagePoint(img, corner + Vector2d(1, 1));
-  const SnapResult b = SnapImagePoint(bgr, corner + Vector2d(1, 1));
+  const pick::SnapResult a = pick::SnapImagePoint(img, corner + Vector2d(1, 1));
+  const pick::SnapResult b = pick::SnapImagePoint(bgr, corner + Vector2d(1, 1));
   EXPECT_LT((a.position - b.position).norm(), 1e-6);
 }
 
 TEST(SnapImage, KeepsTheClickOnAnEdgeAFlatAreaOrTooFar) {
   const cv::Mat edge = Quadrant(40.3, 0, true);
-  const SnapResult e = SnapImagePoint(edge, Vector2d(41, 30));
+  const pick::SnapResult e = pick::SnapImagePoint(edge, Vector2d(41, 30));
   EXPECT_FALSE(e.accepted);
   EXPECT_EQ(e.position, Vector2d(41, 30));
   EXPECT_NE(e.why.find("edge"), std::string::npos) << e.why;
 
   const cv::Mat flat = Quadrant(1000, 1000);
-  const SnapResult f = SnapImagePoint(flat, Vector2d(30, 30));
+  const pick::SnapResult f = pick::SnapImagePoint(flat, Vector2d(30, 30));
   EXPECT_FALSE(f.accepted);
   EXPECT_NE(f.why.find("no corner"), std::string::npos) << f.why;
 
   const cv::Mat img = Quadrant(40.3, 27.65);
-  SnapOptions o;
+  pick::SnapOptions o;
   o.max_shift_px = 1.0;
-  const SnapResult far = SnapImagePoint(img, Vector2d(42.5, 29.5), o);
+  const pick::SnapResult far = pick::SnapImagePoint(img, Vector2d(42.5, 29.5), o);
   EXPECT_FALSE(far.accepted);
   EXPECT_NE(far.why.find("max_shift_px"), std::string::npos) << far.why;
   EXPECT_EQ(far.position, Vector2d(42.5, 29.5));
   EXPECT_LT((far.refined - Vector2d(40.3, 27.65)).norm(), 0.2);
 
-  EXPECT_FALSE(SnapImagePoint(img, Vector2d(-5, 3)).accepted);  // outside
-  EXPECT_FALSE(SnapImagePoint(img, Vector2d(0, 0)).accepted);   // corner of the image: flat
-  SnapOptions bad;
+  EXPECT_FALSE(pick::SnapImagePoint(img, Vector2d(-5, 3)).accepted);  // outside
+  EXPECT_FALSE(pick::SnapImagePoint(img, Vector2d(0, 0)).accepted);   // corner of the image: flat
+  pick::SnapOptions bad;
   bad.window_px = 0.5;
-  EXPECT_THROW(SnapImagePoint(img, Vector2d(40, 27), bad), Error);
-  EXPECT_THROW(SnapImagePoint(cv::Mat(), Vector2d(40, 27)), Error);
+  EXPECT_THROW(pick::SnapImagePoint(img, Vector2d(40, 27), bad), Error);
+  EXPECT_THROW(pick::SnapImagePoint(cv::Mat(), Vector2d(40, 27)), Error);
 }
 
 // A spherical grid (single origin): rows = elevation (row 0 highest, step 0.3 deg), cols =
@@ -115,7 +115,7 @@ TEST(SnapScan, FindsTheCornerOfANearFaceAndItsPoint) {
   const double az = std::atan2(corner.y(), corner.x());
   const double el = std::atan2(corner.z(), corner.head<2>().norm());
   const Vector2d cell(30 - el / (0.3 * M_PI / 180.0), 40 - az / (0.3 * M_PI / 180.0));
-  const SnapResult r = SnapScanCell(scan, cell + Vector2d(0.8, -0.9));
+  const pick::SnapResult r = pick::SnapScanCell(scan, cell + Vector2d(0.8, -0.9));
   ASSERT_TRUE(r.accepted) << r.why;
   // The board edge lies between the last board cell and the first wall cell: the step in the
   // grid is found half-way between them, i.e. within half a cell of the true corner.
@@ -128,15 +128,15 @@ TEST(SnapScan, FindsTheCornerOfANearFaceAndItsPoint) {
 
   // The pair gets the cell and the point (which wins over the cell on reading).
   PointPair p;
-  ApplyScanSnap(r, p);
+  pick::ApplyScanSnap(r, p);
   EXPECT_DOUBLE_EQ(p.scan_row, r.position.x());
   ASSERT_TRUE(p.point_m.has_value());
   // On the flat wall far from the board: no corner, the click is kept.
-  const SnapResult flat = SnapScanCell(scan, Vector2d(5, 75));
+  const pick::SnapResult flat = pick::SnapScanCell(scan, Vector2d(5, 75));
   EXPECT_FALSE(flat.accepted) << flat.why;
   PointPair q;
   q.scan_row = 5;
-  ApplyScanSnap(flat, q);
+  pick::ApplyScanSnap(flat, q);
   EXPECT_EQ(q.scan_row, 5);
   EXPECT_FALSE(q.point_m.has_value());
 }
@@ -185,17 +185,17 @@ TEST(SnapSimulated, ReducesTheRmsErrorOfNoisyClicks) {
       if (env)
         std::cout << "  " << (c.convex ? "convex " : "concave ") << c.label << ": img "
                   << (c.uv_click - c.uv_true).norm() << " -> " << (c.uv_snapped - c.uv_true).norm()
-                  << " [" << DescribeSnap(c.image_snap) << "] scan "
+                  << " [" << pick::DescribeSnap(c.image_snap) << "] scan "
                   << (c.cell_click - c.cell_true).norm() << " -> "
-                  << (c.cell_snapped - c.cell_true).norm() << " [" << DescribeSnap(c.scan_snap)
-                  << "]\n";
+                  << (c.cell_snapped - c.cell_true).norm() << " ["
+                  << pick::DescribeSnap(c.scan_snap) << "]\n";
     if (env) {
-      CalibrateOptions co;
+      solve::CalibrateOptions co;
       co.sigma_px = 1.5;
       co.sigma_cells = 1.0;
       auto err = [&](const std::vector<PointPair>& pairs) {
         try {
-          const Calibration c = Calibrate(pairs, &s.scan, s.camera, co);
+          const solve::Calibration c = solve::Calibrate(pairs, &s.scan, s.camera, co);
           return Vector2d(RotationErrorDeg(c.T_cam_scan, s.T_cam_scan),
                           (c.T_cam_scan.translation() - s.T_cam_scan.translation()).norm());
         } catch (const Error& e) {
@@ -263,14 +263,14 @@ TEST(SnapCli, CalibrateSnapWritesANewPairsFile) {
   EXPECT_NE(out.find("snap pair 1 (line 2"), std::string::npos) << out;
   EXPECT_NE(out.find("pairs moved"), std::string::npos) << out;
   EXPECT_EQ(test::ReadFile(sim + "pairs.csv"), before);
-  const std::vector<PointPair> a = ReadPairsCsv(sim + "pairs.csv");
-  const std::vector<PointPair> b = ReadPairsCsv(dir + "/snapped.csv");
+  const std::vector<PointPair> a = io::ReadPairsCsv(sim + "pairs.csv");
+  const std::vector<PointPair> b = io::ReadPairsCsv(dir + "/snapped.csv");
   ASSERT_EQ(a.size(), b.size());
   int moved = 0;
   for (std::size_t k = 0; k < a.size(); ++k) {
     EXPECT_EQ(a[k].label, b[k].label);
     const double d = std::hypot(a[k].image_u - b[k].image_u, a[k].image_v - b[k].image_v);
-    EXPECT_LE(d, SnapOptions().max_shift_px + 1e-9);
+    EXPECT_LE(d, pick::SnapOptions().max_shift_px + 1e-9);
     moved += d > 0 ? 1 : 0;
   }
   EXPECT_GT(moved, 0);

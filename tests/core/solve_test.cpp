@@ -39,7 +39,7 @@ Scene MakeScene(int n, const Eigen::Isometry3d& T, std::uint32_t seed) {
 // Rotates a bearing by a random small angle with the given standard deviation.
 Eigen::Vector3d Perturb(const Eigen::Vector3d& b, double sigma_rad, std::mt19937& rng) {
   std::normal_distribution<double> g(0, sigma_rad);
-  const Eigen::Matrix<double, 3, 2> E = TangentBasis(b);
+  const Eigen::Matrix<double, 3, 2> E = solve::TangentBasis(b);
   return (b + g(rng) * E.col(0) + g(rng) * E.col(1)).normalized();
 }
 
@@ -55,7 +55,7 @@ TEST(RigidMotion, RecoversKnownTransformExactly) {
   const auto s = MakeScene(7, T, 3);
   std::vector<Eigen::Vector3d> dst;
   for (const auto& p : s.p_scan) dst.push_back(T * p);
-  const auto est = RigidMotion(s.p_scan, dst);
+  const auto est = solve::RigidMotion(s.p_scan, dst);
   ASSERT_TRUE(est);
   EXPECT_LT(RotErrDeg(*est, T), 1e-9);
   EXPECT_LT(TransErrM(*est, T), 1e-9);
@@ -63,14 +63,14 @@ TEST(RigidMotion, RecoversKnownTransformExactly) {
 
 TEST(RigidMotion, RefusesCollinearPoints) {
   std::vector<Eigen::Vector3d> src = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}};
-  EXPECT_FALSE(RigidMotion(src, src));
-  EXPECT_FALSE(RigidMotion({{0, 0, 0}, {1, 0, 0}}, {{0, 0, 0}, {1, 0, 0}}));
+  EXPECT_FALSE(solve::RigidMotion(src, src));
+  EXPECT_FALSE(solve::RigidMotion({{0, 0, 0}, {1, 0, 0}}, {{0, 0, 0}, {1, 0, 0}}));
 }
 
 TEST(LinearPnp, QuarticVanishesAtTheTrueDepth) {
   const auto T = PaperLikePose();
   const auto s = MakeScene(3, T, 11);
-  const auto a = QuanLanQuartic(
+  const auto a = solve::QuanLanQuartic(
       s.bearing[0].dot(s.bearing[1]), s.bearing[0].dot(s.bearing[2]),
       s.bearing[1].dot(s.bearing[2]), (s.p_scan[0] - s.p_scan[1]).squaredNorm(),
       (s.p_scan[0] - s.p_scan[2]).squaredNorm(), (s.p_scan[1] - s.p_scan[2]).squaredNorm());
@@ -92,7 +92,7 @@ class LinearPnpExact : public ::testing::TestWithParam<int> {};
 TEST_P(LinearPnpExact, RecoversPoseTo1e9) {
   const auto T = PaperLikePose();
   const auto s = MakeScene(GetParam(), T, 100 + GetParam());
-  const auto est = LinearPnpQuanLan(s.bearing, s.p_scan);
+  const auto est = solve::LinearPnpQuanLan(s.bearing, s.p_scan);
   ASSERT_TRUE(est);
   EXPECT_LT(RotErrDeg(est->T_cam_scan, T), 1e-9 / kDeg);  // 1e-9 rad
   EXPECT_LT(TransErrM(est->T_cam_scan, T), 1e-9);
@@ -106,33 +106,33 @@ TEST(LinearPnp, NoisyBearingsGiveAClosePose) {
   std::mt19937 rng(5);
   auto s = MakeScene(10, T, 77);
   for (auto& b : s.bearing) b = Perturb(b, 0.1 * kDeg, rng);
-  const auto est = LinearPnpQuanLan(s.bearing, s.p_scan);
+  const auto est = solve::LinearPnpQuanLan(s.bearing, s.p_scan);
   ASSERT_TRUE(est);
   // The linear method is noise-sensitive (the paper's motivation for eq. 7): a
   // starting point, which the refinement then brings close to the truth.
   EXPECT_LT(RotErrDeg(est->T_cam_scan, T), 2.0);
   EXPECT_LT(TransErrM(est->T_cam_scan, T), 0.3);
-  const auto refined = RefinePose(s.bearing, s.p_scan, est->T_cam_scan);
+  const auto refined = solve::RefinePose(s.bearing, s.p_scan, est->T_cam_scan);
   EXPECT_LT(RotErrDeg(refined.T_cam_scan, T), 0.2);
   EXPECT_LT(TransErrM(refined.T_cam_scan, T), 0.02);
 }
 
 TEST(LinearPnp, RefusesTooFewOrMismatched) {
   const auto s = MakeScene(3, PaperLikePose(), 1);
-  EXPECT_FALSE(LinearPnpQuanLan(s.bearing, s.p_scan));
+  EXPECT_FALSE(solve::LinearPnpQuanLan(s.bearing, s.p_scan));
   auto s5 = MakeScene(5, PaperLikePose(), 1);
   s5.p_scan.pop_back();
-  EXPECT_FALSE(LinearPnpQuanLan(s5.bearing, s5.p_scan));
+  EXPECT_FALSE(solve::LinearPnpQuanLan(s5.bearing, s5.p_scan));
 }
 
 TEST(OpenGV, EPnPAndUPnPExact) {
   const auto T = PaperLikePose();
   const auto s = MakeScene(8, T, 9);
-  for (auto solver : {PoseSolver::kEPnP, PoseSolver::kUPnP}) {
-    const auto est = SolvePoseOpenGV(s.bearing, s.p_scan, solver);
-    ASSERT_TRUE(est) << ToString(solver);
-    EXPECT_LT(RotErrDeg(*est, T), 1e-6) << ToString(solver);
-    EXPECT_LT(TransErrM(*est, T), 1e-6) << ToString(solver);
+  for (auto solver : {solve::PoseSolver::kEPnP, solve::PoseSolver::kUPnP}) {
+    const auto est = solve::SolvePoseOpenGV(s.bearing, s.p_scan, solver);
+    ASSERT_TRUE(est) << solve::ToString(solver);
+    EXPECT_LT(RotErrDeg(*est, T), 1e-6) << solve::ToString(solver);
+    EXPECT_LT(TransErrM(*est, T), 1e-6) << solve::ToString(solver);
   }
 }
 
@@ -144,10 +144,10 @@ TEST(Ransac, FlagsAPlantedWrongPairAndIsDeterministic) {
   // Pair 4's image point is picked on the wrong feature, 8 degrees away.
   const Eigen::Vector3d axis = s.bearing[4].cross(Eigen::Vector3d::UnitZ()).normalized();
   s.bearing[4] = Eigen::AngleAxisd(8 * kDeg, axis) * s.bearing[4];
-  RansacOptions opt;
+  solve::RansacOptions opt;
   opt.seed = 42;
-  const auto a = RansacPose(s.bearing, s.p_scan, opt);
-  const auto b = RansacPose(s.bearing, s.p_scan, opt);
+  const auto a = solve::RansacPose(s.bearing, s.p_scan, opt);
+  const auto b = solve::RansacPose(s.bearing, s.p_scan, opt);
   ASSERT_TRUE(a && b);
   EXPECT_FALSE(a->inlier[4]);
   EXPECT_EQ(a->inlier_count(), 9);
@@ -163,7 +163,7 @@ TEST(Refine, ConvergesFromAPerturbedStartOnExactData) {
   Eigen::Isometry3d init = T;
   init.linear() = Eigen::AngleAxisd(3 * kDeg, Eigen::Vector3d(1, 2, 3).normalized()) * T.linear();
   init.translation() += Eigen::Vector3d(0.1, -0.05, 0.08);
-  const auto r = RefinePose(s.bearing, s.p_scan, init);
+  const auto r = solve::RefinePose(s.bearing, s.p_scan, init);
   EXPECT_LT(RotErrDeg(r.T_cam_scan, T), 1e-7);
   EXPECT_LT(TransErrM(r.T_cam_scan, T), 1e-8);
   EXPECT_LT(r.final_rms_rad, 1e-9);
@@ -176,11 +176,11 @@ TEST(Refine, RobustLossResistsAnOutlierThatPlainLeastSquaresDoesNot) {
   auto s = MakeScene(12, T, 14);
   for (auto& b : s.bearing) b = Perturb(b, 0.02 * kDeg, rng);
   s.bearing[2] = Eigen::AngleAxisd(10 * kDeg, Eigen::Vector3d::UnitX()) * s.bearing[2];
-  RefineOptions plain, robust;
+  solve::RefineOptions plain, robust;
   robust.loss = "cauchy";
   robust.loss_scale_rad = 0.1 * kDeg;
-  const auto rp = RefinePose(s.bearing, s.p_scan, T, plain);
-  const auto rr = RefinePose(s.bearing, s.p_scan, T, robust);
+  const auto rp = solve::RefinePose(s.bearing, s.p_scan, T, plain);
+  const auto rr = solve::RefinePose(s.bearing, s.p_scan, T, robust);
   EXPECT_LT(RotErrDeg(rr.T_cam_scan, T), 0.05);
   EXPECT_GT(RotErrDeg(rp.T_cam_scan, T), 2 * RotErrDeg(rr.T_cam_scan, T));
 }
@@ -199,7 +199,7 @@ TEST(Refine, CovarianceMatchesMonteCarloScatter) {
   for (int k = 0; k < trials; ++k) {
     auto s = s0;
     for (auto& b : s.bearing) b = Perturb(b, sigma, rng);
-    const auto r = RefinePose(s.bearing, s.p_scan, T);
+    const auto r = solve::RefinePose(s.bearing, s.p_scan, T);
     ASSERT_TRUE(r.has_covariance) << r.message;
     rpy.push_back(RotationToRpyDeg(r.T_cam_scan.linear()));
     t.push_back(r.T_cam_scan.translation());

@@ -79,12 +79,12 @@ RingCount Ring(const cv::Mat& mask, double cu, double cv_, double r0, double r1)
 }
 
 TEST(ValidRegion, CatadioptricBorderAndBlindSpot) {
-  const CameraModel cam = sim::PresetCamera("omni");  // ocam 640 x 480
+  const camera::CameraModel cam = sim::PresetCamera("omni");  // ocam 640 x 480
   const double cu = cam.params()[0], cv_ = cam.params()[1];
   for (bool jpeg : {false, true}) {
     SCOPED_TRACE(jpeg ? "jpeg" : "png");
     const cv::Mat img = Synthetic(640, 480, cu, cv_, 58.0, 232.0, 5.0, jpeg);
-    const ValidRegion r = FindValidRegion(cam, img);
+    const camera::ValidRegion r = camera::FindValidRegion(cam, img);
     std::printf("%s: %s\n", jpeg ? "jpeg" : "png", r.Describe().c_str());
     EXPECT_NEAR(r.border_radius_px, 232.0, 1.5);
     EXPECT_NEAR(r.blind_spot_radius_px, 58.0, 1.5);
@@ -97,10 +97,10 @@ TEST(ValidRegion, CatadioptricBorderAndBlindSpot) {
 }
 
 TEST(ValidRegion, FisheyeImageCircleAndPhotoWithoutBorder) {
-  const CameraModel fish = sim::PresetCamera("fisheye");  // 1024 x 768
+  const camera::CameraModel fish = sim::PresetCamera("fisheye");  // 1024 x 768
   const double cu = fish.params()[2], cv_ = fish.params()[3];
   const cv::Mat img = Synthetic(1024, 768, cu, cv_, 0.0, 470.0, 4.0, true);
-  const ValidRegion r = FindValidRegion(fish, img);
+  const camera::ValidRegion r = camera::FindValidRegion(fish, img);
   std::printf("fisheye: %s\n", r.Describe().c_str());
   EXPECT_NEAR(r.border_radius_px, 470.0, 1.5);
   EXPECT_EQ(r.blind_spot_radius_px, 0.0) << "no blind spot test for a fisheye";
@@ -112,46 +112,48 @@ TEST(ValidRegion, FisheyeImageCircleAndPhotoWithoutBorder) {
   EXPECT_EQ(scene.valid, scene.total);
 
   // A pinhole photo: no border, a dark object at one edge over a few degrees stays valid.
-  const CameraModel pin = sim::PresetCamera("pinhole");
+  const camera::CameraModel pin = sim::PresetCamera("pinhole");
   const cv::Mat photo = Synthetic(1024, 768, pin.params()[2], pin.params()[3], 0.0, 1e9, 0.0, true);
   cv::Mat dark = photo.clone();
   cv::rectangle(dark, cv::Rect(1000, 350, 24, 40), cv::Scalar(3, 3, 3), cv::FILLED);
   for (const cv::Mat& im : {photo, dark}) {
-    const ValidRegion p = FindValidRegion(pin, im);
+    const camera::ValidRegion p = camera::FindValidRegion(pin, im);
     EXPECT_EQ(p.valid, p.pixels) << p.Describe();
     EXPECT_EQ(p.border_radius_px, 0.0);
   }
   // Without an image: the model's domain only: this fisheye's polynomial folds back 587 px from
   // the centre (127 deg), so the image corners are outside it.
-  const ValidRegion d = FindValidRegion(fish, cv::Mat());
+  const camera::ValidRegion d = camera::FindValidRegion(fish, cv::Mat());
   EXPECT_EQ(Ring(d.mask, cu, cv_, 0, 585).valid, Ring(d.mask, cu, cv_, 0, 585).total);
   EXPECT_EQ(Ring(d.mask, cu, cv_, 589, 1e9).valid, 0u);
-  EXPECT_EQ(FindValidRegion(pin, cv::Mat()).valid, FindValidRegion(pin, cv::Mat()).pixels);
+  EXPECT_EQ(camera::FindValidRegion(pin, cv::Mat()).valid,
+            camera::FindValidRegion(pin, cv::Mat()).pixels);
 }
 
 TEST(ValidRegion, ModelDomainAndLimits) {
   // Barrel distortion that folds back at r = 1/sqrt(3 * 0.45) = 0.861 (distorted 0.574, 229.5 px;
   // the camera loader refuses folds closer than half the distance to the nearest edge, 200 px):
   // pixels farther from the principal point cannot be unprojected.
-  const CameraModel cam = CameraModel::Pinhole(400, 400, 500, 400, {-0.45, 0, 0, 0}, 1000, 800);
-  const ValidRegion r = FindValidRegion(cam, cv::Mat());
+  const camera::CameraModel cam =
+      camera::CameraModel::Pinhole(400, 400, 500, 400, {-0.45, 0, 0, 0}, 1000, 800);
+  const camera::ValidRegion r = camera::FindValidRegion(cam, cv::Mat());
   std::printf("folding pinhole: %s\n", r.Describe().c_str());
   EXPECT_EQ(Ring(r.mask, 500, 400, 0, 225).valid, Ring(r.mask, 500, 400, 0, 225).total);
   EXPECT_EQ(Ring(r.mask, 500, 400, 233, 1e9).valid, 0u);
   EXPECT_GT(r.outside_domain, 0u);
   // A calibrated field of view: 40 deg off the axis is 400 tan(40 deg) = 336 px here without
   // distortion.
-  ValidRegionOptions o;
+  camera::ValidRegionOptions o;
   o.max_angle_deg = 40.0;
-  const CameraModel plain = CameraModel::Pinhole(400, 400, 500, 400, {}, 1000, 800);
-  const ValidRegion l = FindValidRegion(plain, cv::Mat(), o);
+  const camera::CameraModel plain = camera::CameraModel::Pinhole(400, 400, 500, 400, {}, 1000, 800);
+  const camera::ValidRegion l = camera::FindValidRegion(plain, cv::Mat(), o);
   EXPECT_EQ(Ring(l.mask, 500, 400, 0, 334).valid, Ring(l.mask, 500, 400, 0, 334).total);
   EXPECT_EQ(Ring(l.mask, 500, 400, 338, 1e9).valid, 0u);
   EXPECT_GT(l.beyond_limit, 0u);
   // Wrong inputs.
-  EXPECT_THROW(FindValidRegion(plain, cv::Mat(10, 10, CV_8UC3)), Error);
+  EXPECT_THROW(camera::FindValidRegion(plain, cv::Mat(10, 10, CV_8UC3)), Error);
   o.median_px = 4;
-  EXPECT_THROW(FindValidRegion(plain, cv::Mat(), o), Error);
+  EXPECT_THROW(camera::FindValidRegion(plain, cv::Mat(), o), Error);
 }
 
 // Simulated scenes coloured without a mask file: cells coloured although their projection lies
@@ -188,7 +190,7 @@ TEST_P(ValidRegionSim, NothingColouredFromOutsideTheLens) {
   const sim::Simulation s = sim::Simulate(o);
   ASSERT_TRUE(s.mask.enabled);
   const cv::Mat truth = sim::MaskImage(s.mask, s.camera.width(), s.camera.height());
-  const ValidRegion region = FindValidRegion(s.camera, s.image);
+  const camera::ValidRegion region = camera::FindValidRegion(s.camera, s.image);
   const SceneResult none = ColourScene(s, cv::Mat());
   const SceneResult autom = ColourScene(s, region.mask);
   const SceneResult given = ColourScene(s, truth);

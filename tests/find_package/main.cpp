@@ -10,7 +10,8 @@
 #include "scancam/io/scan_io.h"
 
 int main(int argc, char** argv) {
-  const scancam::CameraModel cam = scancam::CameraModel::Pinhole(500, 400, 320, 240, {}, 640, 480);
+  const scancam::camera::CameraModel cam =
+      scancam::camera::CameraModel::Pinhole(500, 400, 320, 240, {}, 640, 480);
   const Eigen::Vector3d p_cam(0.2, -0.1, 2.0);
   const auto uv = cam.Project(p_cam);
   if (!uv || std::abs(uv->x() - 370.0) > 1e-9 || std::abs(uv->y() - 220.0) > 1e-9) {
@@ -24,7 +25,7 @@ int main(int argc, char** argv) {
   }
   const std::string missing = std::string(argc > 1 ? argv[1] : ".") + "/no-such-scan.ptx";
   try {
-    scancam::LoadScan(missing);
+    scancam::io::LoadScan(missing);
     std::fprintf(stderr, "loading a missing scan did not throw\n");
     return 1;
   } catch (const scancam::Error& e) {

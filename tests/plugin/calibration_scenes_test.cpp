@@ -69,7 +69,7 @@ TwoScenes MakeTwoScenes(const QString& name) {
 TEST(CalibrationScenes, EachSceneKeepsItsScanImagePairsAndFile) {
   TwoScenes t = MakeTwoScenes("own");
   CalibrationSession& s = *t.s;
-  const int sim_pairs = static_cast<int>(ReadPairsCsv(Sim().pairs.toStdString()).size());
+  const int sim_pairs = static_cast<int>(io::ReadPairsCsv(Sim().pairs.toStdString()).size());
   ASSERT_EQ(s.sceneCount(), 2);
   EXPECT_EQ(s.activeScene(), 1);
   EXPECT_EQ(s.sceneName(1), "other scan");
@@ -79,9 +79,9 @@ TEST(CalibrationScenes, EachSceneKeepsItsScanImagePairsAndFile) {
   const QString fp2 = CalibrationSession::ScanFingerprint(*OtherScan());
   EXPECT_EQ(s.scanFingerprint(), fp2);
   // Each scene's pairs file holds its own pairs and names its own scan.
-  EXPECT_EQ(ReadPairsCsv(s.sceneAutosavePath(1).toStdString()).size(), 2u);
+  EXPECT_EQ(io::ReadPairsCsv(s.sceneAutosavePath(1).toStdString()).size(), 2u);
   EXPECT_EQ(CalibrationSession::PairsFileScan(s.sceneAutosavePath(1)).section(' ', 0, 0), fp2);
-  EXPECT_EQ(ReadPairsCsv(s.sceneAutosavePath(0).toStdString()).size(),
+  EXPECT_EQ(io::ReadPairsCsv(s.sceneAutosavePath(0).toStdString()).size(),
             static_cast<std::size_t>(sim_pairs));
 
   s.setActiveScene(0);
@@ -112,7 +112,7 @@ TEST(CalibrationScenes, RemovingASceneIsOneUndoStep) {
   EXPECT_EQ(s.imagePath(), t.image1);
   EXPECT_EQ(s.sceneIndex(id2), -1);
   EXPECT_GE(scenes_changed.count(), 1);
-  EXPECT_EQ(ReadPairsCsv(file2.toStdString()).size(), 2u);  // the file stays
+  EXPECT_EQ(io::ReadPairsCsv(file2.toStdString()).size(), 2u);  // the file stays
   EXPECT_THROW(s.removeScene(0), Error);                    // never the last scene
   EXPECT_TRUE(s.undoStack()->undoText().startsWith("Remove scene 2"));
 
@@ -147,7 +147,7 @@ TEST(CalibrationScenes, UndoOfAnotherScenesEditChangesThatScenesFile) {
   s.undoStack()->undo();
   EXPECT_EQ(s.activeScene(), 0);
   EXPECT_EQ(s.scenePairs(1)->completeCount(), 1);
-  EXPECT_EQ(ReadPairsCsv(s.sceneAutosavePath(1).toStdString()).size(), 1u);
+  EXPECT_EQ(io::ReadPairsCsv(s.sceneAutosavePath(1).toStdString()).size(), 1u);
   EXPECT_TRUE(FileText(s.sceneAutosavePath(1)).contains("# scancam-incomplete-pair:"));
   bool said = false;
   for (const QList<QVariant>& r : reports)
@@ -178,7 +178,7 @@ TEST(CalibrationScenes, JointSolveGivesEachScenesPairsTheirResiduals) {
   s.loadPairs(Sim().pairs, CalibrationSession::PairsLoad::kReplace);
   s.solve("ransac");
   ASSERT_TRUE(s.calibration());
-  const Calibration& c = *s.calibration();
+  const solve::Calibration& c = *s.calibration();
   ASSERT_EQ(c.scenes.size(), 2u);
   const int n1 = s.scenePairs(0)->completeCount(), n2 = s.scenePairs(1)->completeCount();
   EXPECT_EQ(c.pair_count, n1 + n2);
@@ -218,16 +218,16 @@ TEST(CalibrationScenes, JointSolveEqualsTheClisOnTwoRoadScenes) {
   const std::string camera = road + "camera-intrinsic.json";
 
   CalibrationSession s;
-  s.setScan(std::make_shared<OrderedScan>(LoadScan(road + "scan.pcd")), "road");
+  s.setScan(std::make_shared<OrderedScan>(io::LoadScan(road + "scan.pcd")), "road");
   s.loadCamera(QString::fromStdString(camera));
   s.loadImage(image1);
   s.loadPairs(QString::fromStdString(pairs1), CalibrationSession::PairsLoad::kReplace);
-  s.addScene(std::make_shared<OrderedScan>(LoadScan(road2 + "scan.pcd")), "road2");
+  s.addScene(std::make_shared<OrderedScan>(io::LoadScan(road2 + "scan.pcd")), "road2");
   s.loadImage(image2);
   s.loadPairs(QString::fromStdString(pairs2), CalibrationSession::PairsLoad::kReplace);
   s.solve("ransac");
   ASSERT_TRUE(s.calibration());
-  const Calibration& c = *s.calibration();
+  const solve::Calibration& c = *s.calibration();
   ASSERT_EQ(c.scenes.size(), 2u);
 
   const std::string dir = std::string(SCANCAM_TEST_TMP) + "/calibration_scenes_road_cli";
@@ -240,8 +240,8 @@ TEST(CalibrationScenes, JointSolveEqualsTheClisOnTwoRoadScenes) {
                            image2.toStdString() + "' --out '" + out + "' --no-alignment-check";
   std::string log;
   ASSERT_EQ(test::RunCli(dir, args, &log), 0) << log;
-  const nlohmann::json j = ReadJsonFile(out);
-  const Eigen::Isometry3d cli = ReadCalibrationPose(out);
+  const nlohmann::json j = io::ReadJsonFile(out);
+  const Eigen::Isometry3d cli = io::ReadCalibrationPose(out);
   // The same function on the same inputs: the same numbers (JSON keeps doubles exactly).
   EXPECT_LT((cli.matrix() - c.T_cam_scan.matrix()).cwiseAbs().maxCoeff(), 1e-12)
       << "session\n"

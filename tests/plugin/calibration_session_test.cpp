@@ -74,7 +74,7 @@ TEST(CalibrationSession, AddPairUndoRedoAndTheAutosaveFollows) {
   const EditablePair& p = s->pairs()->pairs()[0];
   EXPECT_DOUBLE_EQ(p.image_px->x(), h.u);
   EXPECT_DOUBLE_EQ(p.scan_cell->y(), h.row);
-  EXPECT_EQ(ReadPairsCsv(file.toStdString()).size(), 1u);
+  EXPECT_EQ(io::ReadPairsCsv(file.toStdString()).size(), 1u);
 }
 
 TEST(CalibrationSession, RefusesPicksItCannotUse) {
@@ -121,7 +121,7 @@ TEST(CalibrationSession, AutosaveIsKeyedByScanAndImage) {
 
 TEST(CalibrationSession, LoadPairsReplacesOrAppendsOneUndoStepEach) {
   auto s = MakeSession(FreshImage("session_load"));
-  const int n = static_cast<int>(ReadPairsCsv(Sim().pairs.toStdString()).size());
+  const int n = static_cast<int>(io::ReadPairsCsv(Sim().pairs.toStdString()).size());
   ASSERT_GT(n, 4);
   s->loadPairs(Sim().pairs, CalibrationSession::PairsLoad::kReplace);
   EXPECT_EQ(s->pairs()->completeCount(), n);
@@ -134,7 +134,7 @@ TEST(CalibrationSession, LoadPairsReplacesOrAppendsOneUndoStepEach) {
   EXPECT_EQ(s->pairs()->completeCount(), n);
   s->undoStack()->undo();
   EXPECT_EQ(s->pairs()->completeCount(), 2 * n);
-  EXPECT_EQ(ReadPairsCsv(s->autosavePath().toStdString()).size(), static_cast<size_t>(2 * n));
+  EXPECT_EQ(io::ReadPairsCsv(s->autosavePath().toStdString()).size(), static_cast<size_t>(2 * n));
 }
 
 TEST(CalibrationSession, SolveRecoversThePoseFlagsTheWrongPairAndSeesTheScan) {
@@ -143,7 +143,7 @@ TEST(CalibrationSession, SolveRecoversThePoseFlagsTheWrongPairAndSeesTheScan) {
   EXPECT_FALSE(s->colouringProblem().isEmpty());  // no pose yet
   const std::vector<int> rows = s->solve("ransac");
   ASSERT_TRUE(s->calibration().has_value());
-  const Calibration& c = *s->calibration();
+  const solve::Calibration& c = *s->calibration();
   EXPECT_EQ(rows.size(), static_cast<size_t>(c.pair_count));
   EXPECT_EQ(c.inlier_count, c.pair_count - 1);  // the planted wrong pair
   const double rot_err_deg =
@@ -170,7 +170,7 @@ TEST(CalibrationSummaryHtml, ShowsTheSolveAndEscapesWhatCameFromFiles) {
   auto s = MakeSession(FreshImage("session_html"));
   s->loadPairs(Sim().pairs, CalibrationSession::PairsLoad::kReplace);
   s->solve("ransac");
-  CalibrationSummary summary = SummariseCalibration(*s->calibration());
+  solve::CalibrationSummary summary = solve::SummariseCalibration(*s->calibration());
   summary.warnings.push_back("a <b>bold</b> claim");
   const QString html = plugin::ui::CalibrationSummaryHtml(summary, {}, "edges & more");
   EXPECT_TRUE(html.contains("<b>Method</b> ransac + refinement")) << html.toStdString();
@@ -230,7 +230,7 @@ TEST(CalibrationSession, RefineAfterSolveUndoBringsThePairsResidualsBack) {
   auto s = MakeSession(FreshImage("session_refine_solve"));
   s->loadPairs(Sim().pairs, CalibrationSession::PairsLoad::kReplace);
   s->solve("ransac");
-  const Calibration solved = *s->calibration();
+  const solve::Calibration solved = *s->calibration();
   const double err0 = s->pairs()->pairs()[0].error_px;
   ASSERT_TRUE(s->pairs()->pairs()[0].solved);
   s->setRefineOptions(SmallRefine());

@@ -114,7 +114,7 @@ class CalibrationWindowDataTest : public QObject {
     QCOMPARE(m->size(), 2);
     QCOMPARE(*m->pairs()[1].image_px, QPointF(200, 300));
     QCOMPARE(*m->pairs()[1].scan_cell, QPointF(c2.x(), c2.y()));
-    QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(2));
+    QCOMPARE(scancam::io::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(2));
     // Undo the move: pair 1 back at its first pixel.
     undo->undo();
     QCOMPARE(*m->pairs()[0].image_px, QPointF(300, 150));
@@ -124,7 +124,7 @@ class CalibrationWindowDataTest : public QObject {
     // Undo everything: no pairs; redo everything: the final state.
     while (undo->canUndo()) undo->undo();
     QCOMPARE(m->size(), 0);
-    QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(0));
+    QCOMPARE(scancam::io::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(0));
     while (undo->canRedo()) undo->redo();
     QCOMPARE(m->size(), 1);
     QCOMPARE(*m->pairs()[0].image_px, QPointF(320, 170));
@@ -138,7 +138,7 @@ class CalibrationWindowDataTest : public QObject {
     QTest::keyClick(w->pairsTable(), Qt::Key_Z, Qt::ControlModifier);
     QCOMPARE(m->size(), 1);
     QCOMPARE(*m->pairs()[0].image_px, QPointF(320, 170));
-    QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(1));
+    QCOMPARE(scancam::io::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(1));
   }
 
   // Snap: the snapped point is shown first (markers), Enter keeps it, Esc keeps the click; one
@@ -151,12 +151,12 @@ class CalibrationWindowDataTest : public QObject {
     cv::Mat bgr = cv::imread(Sim().image.toStdString(), cv::IMREAD_COLOR);
     QVERIFY(!bgr.empty());
     // A click 1.5 px off a simulated corner that the core snaps (what the window must show).
-    std::optional<scancam::SnapResult> expect;
+    std::optional<scancam::pick::SnapResult> expect;
     QPointF click;
     for (const auto& t : Sim().sim.pair_truth) {
       if (t.wrong) continue;
       click = QPointF(t.uv_true.x() + 1.5, t.uv_true.y() - 1.0);
-      const auto r = scancam::SnapImagePoint(bgr, Eigen::Vector2d(click.x(), click.y()));
+      const auto r = scancam::pick::SnapImagePoint(bgr, Eigen::Vector2d(click.x(), click.y()));
       if (r.accepted && r.shift_px > 0.5) {
         expect = r;
         break;
@@ -178,7 +178,8 @@ class CalibrationWindowDataTest : public QObject {
     const QPointF received = w->cameraView()->markers()[0].px;
     QCOMPARE(w->cameraView()->markers()[0].text, QString("click"));
     QVERIFY(std::abs(received.x() - click.x()) < 1.0);
-    const auto again = scancam::SnapImagePoint(bgr, Eigen::Vector2d(received.x(), received.y()));
+    const auto again =
+        scancam::pick::SnapImagePoint(bgr, Eigen::Vector2d(received.x(), received.y()));
     QVERIFY(again.accepted);
     QVERIFY(std::abs(shown.px.x() - again.position.x()) < 1e-9);
     QVERIFY(std::abs(shown.px.y() - again.position.y()) < 1e-9);
@@ -217,7 +218,8 @@ class CalibrationWindowDataTest : public QObject {
     for (const auto& t : Sim().sim.pair_truth) {
       if (t.wrong || scan_snapped) continue;
       const QPointF view_px(std::round(t.cell_true.y() + 1.0), std::round(t.cell_true.x() - 1.0));
-      const auto r = scancam::SnapScanCell(*Sim().scan, Eigen::Vector2d(view_px.y(), view_px.x()));
+      const auto r =
+          scancam::pick::SnapScanCell(*Sim().scan, Eigen::Vector2d(view_px.y(), view_px.x()));
       if (!r.accepted || r.shift_px < 0.3) continue;
       ClickPixel(w->scanView(0), view_px);
       QVERIFY(w->snapPending());
@@ -227,7 +229,7 @@ class CalibrationWindowDataTest : public QObject {
       // What the window received (the grey marker) snaps to the green one.
       const QPointF got = w->scanView(0)->markers()[0].px;
       QVERIFY(std::abs(got.x() - view_px.x()) < 1.0 && std::abs(got.y() - view_px.y()) < 1.0);
-      const auto r2 = scancam::SnapScanCell(*Sim().scan, Eigen::Vector2d(got.y(), got.x()));
+      const auto r2 = scancam::pick::SnapScanCell(*Sim().scan, Eigen::Vector2d(got.y(), got.x()));
       QVERIFY(r2.accepted);
       QVERIFY(std::abs(green.px.x() - r2.position.y()) < 1e-6);  // unrotated: x = col
       QVERIFY(std::abs(green.px.y() - r2.position.x()) < 1e-6);
@@ -247,7 +249,7 @@ class CalibrationWindowDataTest : public QObject {
     for (int r = 20; r < scan.rows - 20 && !kept_at_once; r += 7)
       for (int c = 20; c < scan.cols - 20 && !kept_at_once; c += 7) {
         if (!scan.valid(r, c) || !scancam::InterpolatePoint(scan, r, c)) continue;
-        if (scancam::SnapScanCell(scan, Eigen::Vector2d(r, c)).accepted) continue;
+        if (scancam::pick::SnapScanCell(scan, Eigen::Vector2d(r, c)).accepted) continue;
         ClickPixel(w->scanView(0), QPointF(c, r));
         QVERIFY(!w->snapPending());
         QCOMPARE(m->size(), 1);

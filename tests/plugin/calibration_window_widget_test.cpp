@@ -239,14 +239,14 @@ class CalibrationWindowTest : public QObject {
       w->addImagePick(310.5, 140.25);
       w->addScanPick(cell.y(), cell.x());
       QVERIFY(QFileInfo::exists(sidecar));
-      const auto saved = scancam::ReadPairsCsv(sidecar.toStdString());
+      const auto saved = scancam::io::ReadPairsCsv(sidecar.toStdString());
       QCOMPARE(saved.size(), std::size_t(1));
       QCOMPARE(saved[0].image_u, 310.5);
       QCOMPARE(saved[0].scan_row, cell.y());
       // A half pair is kept as a comment line: the CSV still holds one pair for every other
       // reader, and the half comes back with the window.
       w->addImagePick(250.25, 240.5);
-      QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(1));
+      QCOMPARE(scancam::io::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(1));
       {
         QFile f(sidecar);
         QVERIFY(f.open(QIODevice::ReadOnly));
@@ -273,7 +273,7 @@ class CalibrationWindowTest : public QObject {
     w2->addScanPick(cell.y() + 2, cell.x() + 3);
     QCOMPARE(w2->pairsModel()->size(), 2);
     QVERIFY(w2->pairsModel()->pairs()[1].complete());
-    QCOMPARE(scancam::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(2));
+    QCOMPARE(scancam::io::ReadPairsCsv(sidecar.toStdString()).size(), std::size_t(2));
     QCOMPARE(w2->cameraView()->markers().size(), 2);
   }
 
@@ -287,8 +287,8 @@ class CalibrationWindowTest : public QObject {
     const QString out = QFileInfo(image).path() + "/chosen.csv";
     QVERIFY(w->savePairs(out));
     QCOMPARE(w->autosavePath(), out);  // later edits go to the chosen file
-    const auto a = scancam::ReadPairsCsv(Sim().pairs.toStdString());
-    const auto b = scancam::ReadPairsCsv(out.toStdString());
+    const auto a = scancam::io::ReadPairsCsv(Sim().pairs.toStdString());
+    const auto b = scancam::io::ReadPairsCsv(out.toStdString());
     QCOMPARE(b.size(), a.size());
     for (std::size_t i = 0; i < a.size(); ++i) {
       QCOMPARE(b[i].image_u, a[i].image_u);
@@ -299,7 +299,7 @@ class CalibrationWindowTest : public QObject {
     }
     w->pairsTable()->selectRow(0);
     w->deleteSelectedPair();
-    QCOMPARE(scancam::ReadPairsCsv(out.toStdString()).size(), a.size() - 1);
+    QCOMPARE(scancam::io::ReadPairsCsv(out.toStdString()).size(), a.size() - 1);
     auto w2 = MakeWindow(QString());
     QVERIFY(w2);
     QVERIFY(w2->loadPairs(out));
@@ -356,9 +356,9 @@ class CalibrationWindowTest : public QObject {
       if (a->text() == "Apply colours") a->trigger();
     QCOMPARE(apply.count(), 1);
     // Save the calibration JSON and read the pose back.
-    const QString json = QString(SCANCAM_TEST_TMP) + "/calibration_window_solve/calib.json";
+    const QString json = QString::fromStdString(Sim().dir) + "/fresh_solve/calib.json";
     QVERIFY(w->saveCalibration(json));
-    const Eigen::Isometry3d back = scancam::ReadCalibrationPose(json.toStdString());
+    const Eigen::Isometry3d back = scancam::io::ReadCalibrationPose(json.toStdString());
     QVERIFY((back.matrix() - T.matrix()).norm() < 1e-9);
     // Editing a pair clears its residuals only.
     w->pairsTable()->selectRow(0);

@@ -23,11 +23,11 @@ using scancam::plugin::CloudScan;
 
 namespace {
 
-const scancam::PtxScan& Ptx() {
-  static const scancam::PtxScan ptx = [] {
+const scancam::io::PtxScan& Ptx() {
+  static const scancam::io::PtxScan ptx = [] {
     scancam::sim::SimulateOptions o = scancam::test::SmallSimOptions(90, 4.0, 91, 2.0);
     o.pairs = 4;
-    return scancam::PtxFromOrderedScan(scancam::sim::Simulate(o).scan);
+    return scancam::io::PtxFromOrderedScan(scancam::sim::Simulate(o).scan);
   }();
   return ptx;
 }
@@ -35,7 +35,7 @@ const scancam::PtxScan& Ptx() {
 // A cloud as CloudCompare's PTX reader makes it: the valid cells in file order, grid h = PTX
 // columns, w = PTX rows, an "Intensity" field; then moved by `T_cloud_scan` (CloudCompare moves
 // the grid's sensor position with the points).
-std::unique_ptr<ccPointCloud> CloudFromPtx(const scancam::PtxScan& ptx,
+std::unique_ptr<ccPointCloud> CloudFromPtx(const scancam::io::PtxScan& ptx,
                                            const Eigen::Isometry3d& T_cloud_scan) {
   auto cloud = std::make_unique<ccPointCloud>("ptx cloud");
   ccPointCloud::Grid::Shared grid(new ccPointCloud::Grid);
@@ -102,7 +102,7 @@ class CloudAdapterTest : public QObject {
   Q_OBJECT
  private slots:
   void gridGivesTheSameScanAsScancamsPtxReader() {
-    const scancam::OrderedScan ref = scancam::PtxToOrderedScan(Ptx(), false, "ref");
+    const scancam::OrderedScan ref = scancam::io::PtxToOrderedScan(Ptx(), false, "ref");
     for (int moved = 0; moved < 2; ++moved) {
       Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
       if (moved) {
@@ -180,8 +180,8 @@ class CloudAdapterTest : public QObject {
       pts[i] = Eigen::Vector3f(P->x, P->y, P->z);
     }
     const Eigen::Vector3d zero = Eigen::Vector3d::Zero();
-    const scancam::OrderedScan cli = scancam::RegridUnordered(
-        pts, nullptr, zero, scancam::UnorderedGrid::kSpherical, scancam::RegridOptions{});
+    const scancam::OrderedScan cli = scancam::io::RegridUnordered(
+        pts, nullptr, zero, scancam::io::UnorderedGrid::kSpherical, scancam::io::RegridOptions{});
     const CloudScan gui = scancam::plugin::ScanOfUngriddedCloud(*cloud, zero, {});
     QCOMPARE(gui.scan->rows, cli.rows);
     QCOMPARE(gui.scan->cols, cli.cols);
@@ -190,17 +190,17 @@ class CloudAdapterTest : public QObject {
       if (cli.valid(k)) QVERIFY(gui.scan->point_m[k] == cli.point_m[k]);
     // The policy's choice between one step and a step per axis keeps at least as many points
     // as the per-axis grid (the window's former default) on this scan.
-    const scancam::AngularSteps separate = scancam::EstimateAngularStepsDeg(pts, zero);
-    scancam::RegridOptions per_axis;
+    const scancam::io::AngularSteps separate = scancam::io::EstimateAngularStepsDeg(pts, zero);
+    scancam::io::RegridOptions per_axis;
     per_axis.step_deg = separate.azimuth_deg;
     per_axis.elevation_step_deg = separate.elevation_deg;
-    const scancam::OrderedScan former = scancam::RegridSpherical(pts, nullptr, zero, per_axis);
+    const scancam::OrderedScan former = scancam::io::RegridSpherical(pts, nullptr, zero, per_axis);
     QVERIFY(cli.valid_count() >= former.valid_count());
     // A step given (-GRID_STEP, --grid-step-deg) is used by both for both axes.
-    scancam::RegridOptions given;
+    scancam::io::RegridOptions given;
     given.step_deg = 3.0;
-    const scancam::OrderedScan cli3 =
-        scancam::RegridUnordered(pts, nullptr, zero, scancam::UnorderedGrid::kSpherical, given);
+    const scancam::OrderedScan cli3 = scancam::io::RegridUnordered(
+        pts, nullptr, zero, scancam::io::UnorderedGrid::kSpherical, given);
     const CloudScan gui3 = scancam::plugin::ScanOfUngriddedCloud(*cloud, zero, {3.0, 0.0});
     QCOMPARE(gui3.scan->rows, cli3.rows);
     QCOMPARE(gui3.scan->cols, cli3.cols);
@@ -210,11 +210,11 @@ class CloudAdapterTest : public QObject {
     sensor->setYawStep(static_cast<PointCoordinateType>(5.0 * M_PI / 180.0));
     sensor->setPitchStep(static_cast<PointCoordinateType>(2.5 * M_PI / 180.0));
     cloud->addChild(sensor);
-    scancam::RegridOptions sensor_steps;
+    scancam::io::RegridOptions sensor_steps;
     sensor_steps.step_deg = scancam::plugin::SensorSteps(*sensor).azimuth_deg;
     sensor_steps.elevation_step_deg = scancam::plugin::SensorSteps(*sensor).elevation_deg;
     QVERIFY(std::abs(sensor_steps.step_deg - 5.0) < 1e-5);
-    const scancam::OrderedScan ref = scancam::RegridSpherical(pts, nullptr, zero, sensor_steps);
+    const scancam::OrderedScan ref = scancam::io::RegridSpherical(pts, nullptr, zero, sensor_steps);
     const CloudScan with_sensor = scancam::plugin::ScanOfUngriddedCloud(*cloud, zero, {});
     QCOMPARE(with_sensor.scan->rows, ref.rows);
     QCOMPARE(with_sensor.scan->cols, ref.cols);

@@ -96,7 +96,7 @@ TEST(E57Filter, DatasetsOpenWithTheirPointsColoursAndIntensity) {
     EXPECT_EQ(c->size(), 2090u);
     ASSERT_TRUE(c->hasColors());
     // The colours are the file's (first record's colour).
-    const scancam::E57Cloud ref = scancam::ReadE57Cloud(E57("tinyCartesianFloatRgb.e57"));
+    const scancam::io::E57Cloud ref = scancam::io::ReadE57Cloud(E57("tinyCartesianFloatRgb.e57"));
     ASSERT_FALSE(ref.points.empty());
     const ccColor::Rgba& c0 = c->getPointColor(0);
     EXPECT_EQ(c0.r, ref.points[0].rgb[0]);
@@ -181,14 +181,14 @@ GriddedFile WriteGridded(const std::string& dir) {
     f.coloured[k] = k % 5 != 0;
   }
   f.path = dir + "/gridded.e57";
-  scancam::WriteE57(f.path, f.scan, &f.rgb, &f.coloured);
+  scancam::io::WriteE57(f.path, f.scan, &f.rgb, &f.coloured);
   return f;
 }
 
 TEST(E57Filter, GriddedScanOpensWithItsGridAsTheWindowReadsIt) {
   const std::string dir = TempDir("gridded");
   const GriddedFile f = WriteGridded(dir);
-  const scancam::OrderedScan core = scancam::LoadE57(f.path);
+  const scancam::OrderedScan core = scancam::io::LoadE57(f.path);
   Loaded l;
   Load(f.path, l);
   ASSERT_EQ(l.result, CC_FERR_NO_ERROR);
@@ -257,8 +257,8 @@ void RewriteXml(const std::string& in, const std::string& out,
   std::string bytes;
   for (std::size_t p = 0; p < pages; ++p) {
     bytes += logical.substr(p * 1020, 1020);
-    const std::uint32_t crc =
-        scancam::E57Crc32c(reinterpret_cast<const std::uint8_t*>(logical.data() + p * 1020), 1020);
+    const std::uint32_t crc = scancam::io::E57Crc32c(
+        reinterpret_cast<const std::uint8_t*>(logical.data() + p * 1020), 1020);
     for (int i = 3; i >= 0; --i) bytes.push_back(static_cast<char>((crc >> (8 * i)) & 0xff));
   }
   std::ofstream(out, std::ios::binary).write(bytes.data(), std::streamsize(bytes.size()));
@@ -296,7 +296,7 @@ TEST(E57Filter, SeveralScansWithTheirPoses) {
             "<y type=\"Float\">2</y><z type=\"Float\">3</z></translation>");
     return xml.substr(0, a) + left + right + xml.substr(b);
   });
-  ASSERT_EQ(scancam::ReadE57Info(dir + "/two.e57").scans.size(), 2u);
+  ASSERT_EQ(scancam::io::ReadE57Info(dir + "/two.e57").scans.size(), 2u);
 
   Loaded l;
   TheLog().errors.clear();
@@ -351,7 +351,7 @@ TEST(E57Filter, SavedCloudReadsBackWithItsGridAndColours) {
   sp.alwaysDisplaySaveDialog = false;
   const std::string out = dir + "/saved.e57";
   ASSERT_EQ(filter.saveToFile(c, QString::fromStdString(out), sp), CC_FERR_NO_ERROR);
-  const scancam::OrderedScan back = scancam::LoadE57(out);
+  const scancam::OrderedScan back = scancam::io::LoadE57(out);
   ASSERT_EQ(back.rows, f.scan.rows);
   ASSERT_EQ(back.cols, f.scan.cols);
   EXPECT_EQ(back.valid_count(), f.scan.valid_count());
@@ -361,7 +361,7 @@ TEST(E57Filter, SavedCloudReadsBackWithItsGridAndColours) {
       EXPECT_LT((back.point_m[k] - f.scan.point_m[k]).norm(), 1e-5f) << k;
     }
   }
-  const scancam::E57Cloud rec = scancam::ReadE57Cloud(out);
+  const scancam::io::E57Cloud rec = scancam::io::ReadE57Cloud(out);
   ASSERT_EQ(rec.points.size(), f.scan.valid_count());
   std::size_t with_colour = 0;
   for (const auto& p : rec.points) {

@@ -60,7 +60,7 @@ void ExpectLidarCloud(const std::string& path, Loaded& l, std::size_t returns, c
   ASSERT_EQ(c->gridCount(), 1u);
   EXPECT_EQ(c->grid(0)->h, 64u);
   EXPECT_GE(c->getScalarFieldIndexByName("Intensity"), 0);
-  const scancam::OrderedScan ref = scancam::LoadScan(path, {});
+  const scancam::OrderedScan ref = scancam::io::LoadScan(path, {});
   EXPECT_EQ(int(c->grid(0)->w), ref.cols);
   // The qScanCam window sees LoadScan's grid: same cells, same points.
   const scancam::plugin::CloudScan cs = scancam::plugin::ScanFromGrid(*c, 0);
@@ -80,7 +80,7 @@ void ExpectLidarCloud(const std::string& path, Loaded& l, std::size_t returns, c
 
 // Finite returns not at the origin of a KITTI file.
 std::size_t KittiReturns(const std::string& path) {
-  const scancam::KittiCloud k = scancam::ReadKittiBin(path);
+  const scancam::io::KittiCloud k = scancam::io::ReadKittiBin(path);
   std::size_t n = 0;
   for (const auto& p : k.points_m) n += p.allFinite() && !p.isZero(0.f) ? 1 : 0;
   return n;

@@ -5,10 +5,13 @@
 // small Refine options. Qt Core + core only.
 #pragma once
 
+#include <unistd.h>
+
 #include <QFile>
 #include <QPointF>
 #include <QString>
 #include <cerrno>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -41,8 +44,16 @@ inline SimData& Sim() {
     o.wrong_pairs = 1;
     o.pairs = 10;
     s.sim = scancam::sim::Simulate(o);
+    // ctest runs each test of an executable as its own process, several at once: the folder
+    // is the process's own, so one process's clean-up never removes another's files; it is
+    // removed when the process ends.
     s.dir = std::string(SCANCAM_TEST_TMP) + "/calibration_window_sim_" +
-            std::string(program_invocation_short_name);
+            std::string(program_invocation_short_name) + "." + std::to_string(::getpid());
+    static const std::string* const dir_at_exit = new std::string(s.dir);  // outlives d
+    std::atexit([] {
+      std::error_code ec;
+      std::filesystem::remove_all(*dir_at_exit, ec);
+    });
     std::filesystem::remove_all(s.dir);
     scancam::sim::WriteSimulation(s.sim, s.dir);
     s.scan = std::make_shared<scancam::OrderedScan>(s.sim.scan);
@@ -56,7 +67,7 @@ inline SimData& Sim() {
 
 // A fresh copy of the image (so each test has its own sidecar file).
 inline QString FreshImage(const QString& name) {
-  const QString dir = QString(SCANCAM_TEST_TMP) + "/calibration_window_" + name;
+  const QString dir = QString::fromStdString(Sim().dir) + "/fresh_" + name;
   std::filesystem::remove_all(dir.toStdString());
   std::filesystem::create_directories(dir.toStdString());
   const QString path = dir + "/photo.png";
@@ -103,7 +114,7 @@ inline QString PerturbedCalibration(const QString& name, double deg, double m) {
       Eigen::AngleAxisd(deg * M_PI / 180.0, Eigen::Vector3d(1, -2, 1).normalized()).matrix();
   d.translation() = m * Eigen::Vector3d(-1, 1, 2).normalized();
   const QString path = QString(SCANCAM_TEST_TMP) + "/" + name + ".json";
-  WriteJsonFile(path.toStdString(), {{"T_cam_scan", PoseToJson(d * Sim().sim.T_cam_scan)}});
+  io::WriteJsonFile(path.toStdString(), {{"T_cam_scan", io::PoseToJson(d * Sim().sim.T_cam_scan)}});
   return path;
 }
 

@@ -19,7 +19,7 @@
 #include "scancam/error.h"
 #include "yaml_reader.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 
 // ---- the file ---------------------------------------------------------------------------------
 /// A camera file read into memory (at most 64 MB, no NUL bytes, not blank), with its JSON or
@@ -163,4 +163,4 @@ void SaveOpenCalib(const CameraModel& camera, const std::string& path);
 bool SniffKitti(CameraFileContent& file);
 CameraModel LoadKitti(CameraFileContent& file, const LoadCameraOptions& options);
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

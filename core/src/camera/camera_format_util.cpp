@@ -10,7 +10,7 @@
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 namespace {
 
 std::string ReadText(const std::string& path) {
@@ -49,7 +49,7 @@ CameraFileContent::CameraFileContent(const std::string& path) : path_(path), tex
 }
 
 const nlohmann::json& CameraFileContent::Json() {
-  if (!json_) json_ = std::make_unique<nlohmann::json>(ParseJsonText(text_, path_));
+  if (!json_) json_ = std::make_unique<nlohmann::json>(io::ParseJsonText(text_, path_));
   return *json_;
 }
 
@@ -69,7 +69,7 @@ std::string Num(double v) {
 }
 
 bool ParseFiniteDouble(const std::string& token, double* v) {
-  return io_detail::ParseDouble(token, *v) && std::isfinite(*v);
+  return io::detail::ParseDouble(token, *v) && std::isfinite(*v);
 }
 
 std::vector<double> PinholeDistortionForFile(const CameraModel& c) {
@@ -159,4 +159,4 @@ CameraModel FisheyeFromK(const std::string& file, const Keys& keys, const std::v
   });
 }
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

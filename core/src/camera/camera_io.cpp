@@ -10,8 +10,8 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 
-namespace scancam {
-namespace camera_detail {
+namespace scancam::camera {
+namespace detail {
 
 bool SniffKitti(CameraFileContent& file) {
   return !file.is_json() && LooksLikeKittiCalib(file.text());
@@ -87,21 +87,21 @@ CameraModel LoadCameraUnwrapped(const std::string& path, const LoadCameraOptions
 }
 
 }  // namespace
-}  // namespace camera_detail
+}  // namespace detail
 
 const char* CameraFileFormatName(CameraFileFormat f) {
-  const camera_detail::CameraFormat* e = camera_detail::FindFormat(f);
+  const camera::detail::CameraFormat* e = camera::detail::FindFormat(f);
   return e ? e->name : f == CameraFileFormat::kAuto ? "auto" : "?";
 }
 
 CameraFileFormat DetectCameraFileFormat(const std::string& path) {
-  camera_detail::CameraFileContent file(path);
-  return camera_detail::Detect(file);
+  camera::detail::CameraFileContent file(path);
+  return camera::detail::Detect(file);
 }
 
 CameraModel LoadCamera(const std::string& path, const LoadCameraOptions& options) {
   try {
-    return camera_detail::LoadCameraUnwrapped(path, options);
+    return camera::detail::LoadCameraUnwrapped(path, options);
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {  // library exceptions the readers did not foresee
@@ -131,9 +131,9 @@ void SaveCamera(const CameraModel& camera, const std::string& path, CameraFileFo
     throw FileError(path, "", "KITTI calib.txt files are read, not written");
   }
   if (format == CameraFileFormat::kAuto) format = CameraFileFormat::kOpenCv;
-  const camera_detail::CameraFormat* e = camera_detail::FindFormat(format);
+  const camera::detail::CameraFormat* e = camera::detail::FindFormat(format);
   if (!e || !e->save) throw FileError(path, "", "unsupported camera file format for writing");
   e->save(camera, path);
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -13,7 +13,7 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 
-namespace scancam {
+namespace scancam::camera {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -262,7 +262,7 @@ void CameraModel::Init() {
         const J rj(r, 0);
         J xd, yd;
         const double kr[8] = {k[0], k[1], 0.0, 0.0, k[4], k[5], k[6], k[7]};
-        camera_internal::DistortRadTan8(kr, rj, J(0.0), &xd, &yd);
+        camera::internal::DistortRadTan8(kr, rj, J(0.0), &xd, &yd);
         const double r2 = r * r;
         const double den = 1.0 + r2 * (k[5] + r2 * (k[6] + r2 * k[7]));
         return den > 0.0 && xd.v[0] > 0.0;
@@ -441,7 +441,7 @@ bool CameraModel::WithinFov(const Eigen::Vector3d& p) const {
 std::optional<Eigen::Vector2d> CameraModel::ProjectNoImage(const Eigen::Vector3d& p) const {
   if (!WithinFov(p)) return std::nullopt;
   Eigen::Vector2d uv;
-  if (!scancam::ProjectT(type_, params_.data(), p.data(), uv.data()) || !uv.allFinite()) {
+  if (!scancam::camera::ProjectT(type_, params_.data(), p.data(), uv.data()) || !uv.allFinite()) {
     return std::nullopt;
   }
   return uv;
@@ -616,4 +616,4 @@ void CheckImageSize(const CameraModel& camera, int width, int height,
                       "size)");
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

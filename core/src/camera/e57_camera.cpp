@@ -7,11 +7,11 @@
 
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 namespace {
 
-Eigen::Isometry3d PoseOf(const E57Pose& p) {
+Eigen::Isometry3d PoseOf(const io::E57Pose& p) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.linear() = p.rotation.toRotationMatrix();
   t.translation() = p.translation;
@@ -32,7 +32,7 @@ Eigen::Matrix3d E57CameraToOpenCv(const std::string& representation) {
   return r;
 }
 
-Eigen::Isometry3d E57ImageTCamScan(const E57ImageInfo& im, const E57Pose& scan_pose,
+Eigen::Isometry3d E57ImageTCamScan(const io::E57ImageInfo& im, const io::E57Pose& scan_pose,
                                    bool scan_pose_applied) {
   Eigen::Isometry3d cv_e57 = Eigen::Isometry3d::Identity();
   cv_e57.linear() = E57CameraToOpenCv(im.representation);
@@ -41,7 +41,7 @@ Eigen::Isometry3d E57ImageTCamScan(const E57ImageInfo& im, const E57Pose& scan_p
   return cv_e57 * PoseOf(im.pose).inverse() * file_scan;
 }
 
-CameraModel E57ImageCamera(const std::string& path, const E57ImageInfo& im, int index) {
+CameraModel E57ImageCamera(const std::string& path, const io::E57ImageInfo& im, int index) {
   const std::string where = "image " + std::to_string(index);
   auto fail = [&](const std::string& what) { throw FileError(path, where, what); };
   const std::string& rep = im.representation;
@@ -91,7 +91,7 @@ CameraModel E57ImageCamera(const std::string& path, const E57ImageInfo& im, int 
     double cx = im.principal_x_px, cy = im.principal_y_px;
     double dist[8] = {0, 0, 0, 0, 0, 0, 0, 0};
     if (im.has_leica_distortion) {
-      const E57LeicaDistortion& d = im.leica;
+      const io::E57LeicaDistortion& d = im.leica;
       const bool opencv = d.type.size() == 6 &&
                           std::equal(d.type.begin(), d.type.end(), "opencv", [](char a, char b) {
                             return std::tolower(static_cast<unsigned char>(a)) == b;
@@ -132,4 +132,4 @@ CameraModel E57ImageCamera(const std::string& path, const E57ImageInfo& im, int 
   return cam;
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -7,7 +7,7 @@
 #include "camera_format.h"
 #include "scancam/output_file.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 namespace {
 
 const YNode* KalibrCamera(const YNode& root, const std::string& cam) {
@@ -272,4 +272,4 @@ void SaveRos(const CameraModel& c, const std::string& path) {
   WriteFileAtomically(path, out.str());
 }
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

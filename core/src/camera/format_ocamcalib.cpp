@@ -8,7 +8,7 @@
 #include "camera_format.h"
 #include "scancam/output_file.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 namespace {
 
 bool LooksLikeOCam(const std::string& text) {
@@ -148,4 +148,4 @@ void SaveOCam(const CameraModel& c, const std::string& path) {
   WriteFileAtomically(path, out.str());
 }
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

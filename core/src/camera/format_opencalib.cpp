@@ -5,7 +5,7 @@
 #include "camera_format.h"
 #include "scancam/output_file.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 namespace {
 
 bool IsOpenCalib(const nlohmann::json& j) {
@@ -115,4 +115,4 @@ void SaveOpenCalib(const CameraModel& c, const std::string& path) {
   WriteFileAtomically(path, j.dump(4) + "\n");
 }
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

@@ -10,7 +10,7 @@
 #include "camera_format.h"
 #include "scancam/output_file.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 namespace {
 
 // "line N: key" when the node has a line (YAML), else "key" (JSON).
@@ -257,4 +257,4 @@ void SaveOpenCv(const CameraModel& c, const std::string& path) {
   WriteFileAtomically(path, fs.releaseAndGetString());
 }
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

@@ -10,7 +10,7 @@
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 namespace {
 
@@ -40,7 +40,7 @@ Eigen::Isometry3d CheckedPose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t
     }
     rows.push_back(row);
   }
-  return PoseFromJson(rows, path, key);
+  return io::PoseFromJson(rows, path, key);
 }
 
 }  // namespace
@@ -59,19 +59,19 @@ bool IsKittiCalibFile(const std::string& path) {
 }
 
 KittiCalib ParseKittiCalib(const std::string& path, const std::string& text) {
-  io_detail::CheckLooksLikeText(path, text, 0, text.size());
+  io::detail::CheckLooksLikeText(path, text, 0, text.size());
   std::map<std::string, Entry> entries;
-  io_detail::LineReader lines(text);
+  io::detail::LineReader lines(text);
   std::string_view line;
   std::vector<std::string_view> tok;
   while (lines.Next(line)) {
-    io_detail::SplitWhitespace(line, tok);
+    io::detail::SplitWhitespace(line, tok);
     if (tok.empty()) continue;
-    const std::string where = io_detail::LineWhere(lines.line_number());
+    const std::string where = io::detail::LineWhere(lines.line_number());
     if (tok[0].size() < 2 || tok[0].back() != ':') {
       throw FileError(
           path, where,
-          "expected 'KEY: numbers' (a KITTI calib.txt line), found " + io_detail::Quote(tok[0]));
+          "expected 'KEY: numbers' (a KITTI calib.txt line), found " + io::detail::Quote(tok[0]));
     }
     const std::string key(tok[0].substr(0, tok[0].size() - 1));
     if (entries.count(key)) throw FileError(path, where, "key '" + key + "' given twice");
@@ -79,10 +79,10 @@ KittiCalib ParseKittiCalib(const std::string& path, const std::string& text) {
     e.line = lines.line_number();
     for (std::size_t i = 1; i < tok.size(); ++i) {
       double v = 0.0;
-      if (!io_detail::ParseDouble(tok[i], v) || !std::isfinite(v)) {
+      if (!io::detail::ParseDouble(tok[i], v) || !std::isfinite(v)) {
         throw FileError(path, where,
                         key + ": value " + std::to_string(i) +
-                            " is not a finite number: " + io_detail::Quote(tok[i]));
+                            " is not a finite number: " + io::detail::Quote(tok[i]));
       }
       e.values.push_back(v);
     }
@@ -96,7 +96,7 @@ KittiCalib ParseKittiCalib(const std::string& path, const std::string& text) {
                       "Tr_velo_to_cam and Tr_imu_to_velo)");
     }
     if (it->second.values.size() != n) {
-      throw FileError(path, io_detail::LineWhere(it->second.line),
+      throw FileError(path, io::detail::LineWhere(it->second.line),
                       key + ": expected " + std::to_string(n) + " numbers, found " +
                           std::to_string(it->second.values.size()));
     }
@@ -116,11 +116,11 @@ KittiCalib ParseKittiCalib(const std::string& path, const std::string& text) {
   const Eigen::Matrix3d K = c.P2.leftCols<3>();
   if (std::abs(K(1, 0)) > 1e-9 || std::abs(K(2, 0)) > 1e-9 || std::abs(K(2, 1)) > 1e-9 ||
       std::abs(K(2, 2) - 1.0) > 1e-9) {
-    throw FileError(path, io_detail::LineWhere(p2.line),
+    throw FileError(path, io::detail::LineWhere(p2.line),
                     "P2: its left 3x3 block is not a camera matrix [fx s cx; 0 fy cy; 0 0 1]");
   }
   if (std::abs(K(0, 1)) > 1e-6 * std::abs(K(0, 0))) {
-    throw FileError(path, io_detail::LineWhere(p2.line),
+    throw FileError(path, io::detail::LineWhere(p2.line),
                     "P2: a skewed camera matrix (K(0,1) != 0) is not supported");
   }
   CheckedPose(c.R0_rect, Eigen::Vector3d::Zero(), path, "R0_rect");
@@ -129,7 +129,7 @@ KittiCalib ParseKittiCalib(const std::string& path, const std::string& text) {
 }
 
 KittiCalib ReadKittiCalib(const std::string& path) {
-  return ParseKittiCalib(path, io_detail::ReadWholeFile(path));
+  return ParseKittiCalib(path, io::detail::ReadWholeFile(path));
 }
 
 CameraModel KittiCamera2(const KittiCalib& calib, int width, int height, const std::string& path) {
@@ -151,4 +151,4 @@ Eigen::Isometry3d KittiVeloToCam2(const KittiCalib& calib, const std::string& pa
   return shift * R0 * Tr;
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -7,7 +7,7 @@
 
 #include <cmath>
 
-namespace scancam::camera_internal {
+namespace scancam::camera::internal {
 namespace {
 
 /// Solves F(x) = target for x in R^2 by Newton's method from the start value in x (double).
@@ -54,4 +54,4 @@ bool UndistortRadTan4(const double* k, const double target[2], double x[2], doub
   return SolveNewton2(f, target, x, jac);
 }
 
-}  // namespace scancam::camera_internal
+}  // namespace scancam::camera::internal

@@ -9,7 +9,7 @@
 
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::camera {
 namespace {
 
 constexpr double kNone = 1e12;  // "no border in this sector" (a radius beyond any image)
@@ -329,4 +329,4 @@ ValidRegion FindValidRegion(const CameraModel& camera, const cv::Mat& image,
   return res;
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -7,7 +7,7 @@
 #include "camera_format.h"
 #include "scancam/error.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 namespace {
 
 class YamlReader {
@@ -330,4 +330,4 @@ YNode JsonToYNode(const std::string& path, const nlohmann::json& j, int depth) {
   return n;
 }
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

@@ -19,7 +19,7 @@
 
 #include "scancam/error.h"
 
-namespace scancam::camera_detail {
+namespace scancam::camera::detail {
 
 bool ParseFiniteDouble(const std::string& token, double* v);  // camera_format.h
 
@@ -109,4 +109,4 @@ class YFields {
   std::string prefix_;
 };
 
-}  // namespace scancam::camera_detail
+}  // namespace scancam::camera::detail

@@ -36,7 +36,7 @@ void VisitKeys(V& v, ColourOptions& o) {
   o.blend = blend == "weighted" ? BlendMode::kWeighted : BlendMode::kBestView;
   v.Number("weight_power", &o.weight_power);
   v.Object("continuity", [&](auto& cv) {
-    ContinuityOptions& c = o.continuity;
+    scan::ContinuityOptions& c = o.continuity;
     cv.Number("min_bearing_angle_deg", &c.min_bearing_angle_deg);
     cv.Number("range_noise_m", &c.range_noise_m);
     cv.Bool("planar_extrapolation", &c.planar_extrapolation);
@@ -63,65 +63,67 @@ void VisitKeys(V& v, ColourOptions& o) {
 
 ColourOptions FromJson(const nlohmann::json& j, const std::string& source,
                        const ColourOptions& base) {
-  return OptionsFromJson(
+  return io::OptionsFromJson(
       j, source, base, [](auto& v, ColourOptions& o) { VisitKeys(v, o); }, ValidateColourOptions);
 }
 
 }  // namespace
 
-std::vector<OptionProblem> ValidateColourOptions(const ColourOptions& o) {
-  std::vector<OptionProblem> p;
+std::vector<io::OptionProblem> ValidateColourOptions(const ColourOptions& o) {
+  std::vector<io::OptionProblem> p;
   auto nonneg = [&](double v, const char* key) {
-    RequireOption(&p, v >= 0.0, key, "must be >= 0", v);
+    io::RequireOption(&p, v >= 0.0, key, "must be >= 0", v);
   };
   nonneg(o.depth_tolerance_m, "depth_tolerance_m");
   nonneg(o.depth_tolerance_fraction, "depth_tolerance_fraction");
   nonneg(o.slope_tolerance_px, "slope_tolerance_px");
-  RequireOption(&p, o.max_tolerance_fraction > 0.0, "max_tolerance_fraction", "must be > 0",
-                o.max_tolerance_fraction);
-  RequireOption(&p, o.backface_margin_deg < 90.0, "backface_margin_deg",
-                "must be < 90 (negative: no back-face test)", o.backface_margin_deg);
+  io::RequireOption(&p, o.max_tolerance_fraction > 0.0, "max_tolerance_fraction", "must be > 0",
+                    o.max_tolerance_fraction);
+  io::RequireOption(&p, o.backface_margin_deg < 90.0, "backface_margin_deg",
+                    "must be < 90 (negative: no back-face test)", o.backface_margin_deg);
   nonneg(o.edge_fill, "edge_fill");
   nonneg(o.isolated_fill, "isolated_fill");
   nonneg(o.strip_fill, "strip_fill");
   nonneg(o.ground_edge_fill, "ground_edge_fill");
-  RequireOption(&p, o.max_splat_px >= 1.0, "max_splat_px", "must be >= 1 px", o.max_splat_px);
+  io::RequireOption(&p, o.max_splat_px >= 1.0, "max_splat_px", "must be >= 1 px", o.max_splat_px);
   nonneg(o.footprint_min_weight, "footprint_min_weight");
   nonneg(o.weight_power, "weight_power");
-  const ContinuityOptions& c = o.continuity;
-  RequireOption(&p, c.min_bearing_angle_deg >= 0.0 && c.min_bearing_angle_deg < 90.0,
-                "continuity.min_bearing_angle_deg", "must be in [0, 90)", c.min_bearing_angle_deg);
+  const scan::ContinuityOptions& c = o.continuity;
+  io::RequireOption(&p, c.min_bearing_angle_deg >= 0.0 && c.min_bearing_angle_deg < 90.0,
+                    "continuity.min_bearing_angle_deg", "must be in [0, 90)",
+                    c.min_bearing_angle_deg);
   nonneg(c.range_noise_m, "continuity.range_noise_m");
   nonneg(c.planar_tolerance, "continuity.planar_tolerance");
   nonneg(c.ground_tolerance_m, "continuity.ground_tolerance_m");
   nonneg(c.ground_tolerance_fraction, "continuity.ground_tolerance_fraction");
-  RequireOption(&p, c.ground_max_slope_deg >= 0.0 && c.ground_max_slope_deg < 90.0,
-                "continuity.ground_max_slope_deg", "must be in [0, 90)", c.ground_max_slope_deg);
+  io::RequireOption(&p, c.ground_max_slope_deg >= 0.0 && c.ground_max_slope_deg < 90.0,
+                    "continuity.ground_max_slope_deg", "must be in [0, 90)",
+                    c.ground_max_slope_deg);
   const GroundOptions& g = o.ground;
   if (!(g.up.allFinite() && g.up.norm() > 0.0))
     p.push_back({"ground.up", "must be a finite, non-zero vector [x, y, z]"});
-  RequireOption(&p, g.max_tilt_deg >= 0.0 && g.max_tilt_deg < 90.0, "ground.max_tilt_deg",
-                "must be in [0, 90)", g.max_tilt_deg);
-  RequireOption(&p, g.fit_threshold_m > 0.0, "ground.fit_threshold_m", "must be > 0",
-                g.fit_threshold_m);
-  RequireOption(&p, g.min_inlier_fraction >= 0.0 && g.min_inlier_fraction <= 1.0,
-                "ground.min_inlier_fraction", "must be in [0, 1]", g.min_inlier_fraction);
-  RequireOption(&p, g.max_points >= 3, "ground.max_points", "must be >= 3",
-                static_cast<double>(g.max_points));
+  io::RequireOption(&p, g.max_tilt_deg >= 0.0 && g.max_tilt_deg < 90.0, "ground.max_tilt_deg",
+                    "must be in [0, 90)", g.max_tilt_deg);
+  io::RequireOption(&p, g.fit_threshold_m > 0.0, "ground.fit_threshold_m", "must be > 0",
+                    g.fit_threshold_m);
+  io::RequireOption(&p, g.min_inlier_fraction >= 0.0 && g.min_inlier_fraction <= 1.0,
+                    "ground.min_inlier_fraction", "must be in [0, 1]", g.min_inlier_fraction);
+  io::RequireOption(&p, g.max_points >= 3, "ground.max_points", "must be >= 3",
+                    static_cast<double>(g.max_points));
   return p;
 }
 
 std::string ColourOptionsJson(const ColourOptions& options) {
-  return OptionsToJson(options, [](auto& v, ColourOptions& o) { VisitKeys(v, o); });
+  return io::OptionsToJson(options, [](auto& v, ColourOptions& o) { VisitKeys(v, o); });
 }
 
 ColourOptions ParseColourOptions(const std::string& text, const std::string& source,
                                  const ColourOptions& base) {
-  return FromJson(ParseJsonText(text, source), source, base);
+  return FromJson(io::ParseJsonText(text, source), source, base);
 }
 
 ColourOptions ReadColourOptions(const std::string& path, const ColourOptions& base) {
-  return FromJson(ReadJsonFile(path), path, base);
+  return FromJson(io::ReadJsonFile(path), path, base);
 }
 
 void WriteColourOptions(const std::string& path, const ColourOptions& options) {

@@ -33,7 +33,7 @@ void ProjectRow(const OrderedScan& scan, const Proj& proj, const ViewCtx& vc, in
   const float* rho = scan.range_m.data() + base;
   if (bad && RowHasBadCell(P, scan.beam_dir.data() + base, rho, cols))
     bad->store(true, std::memory_order_relaxed);
-  if constexpr (std::is_same_v<typename Proj::ModelType, PinholeModel>) {
+  if constexpr (std::is_same_v<typename Proj::ModelType, camera::PinholeModel>) {
     ProjectRowPinhole<kPoints>(proj, vc, P, rho, cols, b);
   } else {
     for (int c = 0; c < cols; ++c) {
@@ -347,7 +347,7 @@ ViewStats ColourOneView(const OrderedScan& scan, const std::string& scan_name,
   const double f2 = f0 + (deferred_colour ? 0.9 : 1.0) * per_view;
   Counters cnt;
   std::atomic<bool> bad{false};
-  VisitProjector(vc.view->camera, [&](const auto& proj) {
+  camera::VisitProjector(vc.view->camera, [&](const auto& proj) {
     std::atomic<bool>* check = check_cells ? &bad : nullptr;
     if (cp.occlusion) {
       // One spare element: the AVX2 finish gathers 32-bit words at 16-bit pixels.

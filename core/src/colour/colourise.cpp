@@ -45,10 +45,11 @@
 namespace scancam::colour {
 namespace internal {
 
-ColourParams MakeColourParams(const ColourOptions& options, const ContinuityOptions& continuity,
-                              const OrderedScan& scan, std::size_t views) {
+ColourParams MakeColourParams(const ColourOptions& options,
+                              const scan::ContinuityOptions& continuity, const OrderedScan& scan,
+                              std::size_t views) {
   ColourParams cp;
-  cp.cont = scan_detail::MakeContParams(continuity);
+  cp.cont = scan::detail::MakeContParams(continuity);
   cp.max_offset = 2.f * static_cast<float>(options.max_splat_px);
   cp.max_splat = static_cast<float>(options.max_splat_px);
   cp.edge_fill = static_cast<float>(options.edge_fill);
@@ -60,7 +61,7 @@ ColourParams MakeColourParams(const ColourOptions& options, const ContinuityOpti
   cp.tol_slope = static_cast<float>(options.slope_tolerance_px);
   cp.tol_max = static_cast<float>(options.max_tolerance_fraction);
   cp.backface_sin =
-      static_cast<float>(std::sin(options.backface_margin_deg * scan_detail::kDegToRad));
+      static_cast<float>(std::sin(options.backface_margin_deg * scan::detail::kDegToRad));
   cp.occlusion = options.occlusion;
   cp.backface = options.backface_margin_deg >= 0.0 && options.occlusion;
   cp.footprint = options.occlusion && options.footprint_min_weight <= 0.5;
@@ -115,8 +116,8 @@ std::string Percent(double f) {
 }
 
 // Fraction of valid cells (every `stride`-th) that project into the image with transform T.
-double InViewFraction(const OrderedScan& scan, const CameraModel& cam, const Eigen::Isometry3d& T,
-                      std::size_t stride) {
+double InViewFraction(const OrderedScan& scan, const camera::CameraModel& cam,
+                      const Eigen::Isometry3d& T, std::size_t stride) {
   std::size_t n = 0, in = 0;
   for (std::size_t i = 0; i < scan.size(); i += stride) {
     if (!scan.valid(i)) continue;
@@ -158,7 +159,7 @@ void CheckView(const ColourView& view) {
     throw FileError(name, "",
                     "the image must be 8-bit 3-channel BGR (CV_8UC3), got type " +
                         std::to_string(view.image.type()));
-  CheckImageSize(view.camera, view.image.cols, view.image.rows, name);
+  camera::CheckImageSize(view.camera, view.image.cols, view.image.rows, name);
   if (!view.mask.empty()) {
     if (view.mask.type() != CV_8UC1)
       throw FileError(name, "mask", "the mask must be 8-bit one-channel (CV_8UC1)");
@@ -200,7 +201,7 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
   ColouredScan out;
   ColourParams cp;
   {
-    ContinuityOptions cont = options.continuity;
+    scan::ContinuityOptions cont = options.continuity;
     if (!cont.ground && options.ground.enabled) cont.ground = EstimateGround(scan, options.ground);
     out.ground = cont.ground;
     cp = MakeColourParams(options, cont, scan, views.size());
@@ -297,8 +298,9 @@ ColouredScan Colourise(const OrderedScan& scan, const std::vector<ColourView>& v
 }
 
 Eigen::Isometry3d LoadExtrinsic(const std::string& path) {
-  if (IsKittiCalibFile(path)) return KittiVeloToCam2(ReadKittiCalib(path), path);
-  return ReadExtrinsicJson(path);
+  if (camera::IsKittiCalibFile(path))
+    return camera::KittiVeloToCam2(camera::ReadKittiCalib(path), path);
+  return io::ReadExtrinsicJson(path);
 }
 
 }  // namespace scancam::colour

@@ -126,9 +126,9 @@ void WriteColouredPly(const std::string& path, const OrderedScan& scan,
 void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
                       const ColouredScan& coloured, const ExportOptions& options) {
   CheckSizes(scan, coloured, path);
-  PtxScan ptx;
+  io::PtxScan ptx;
   if (scan.origin_m == Eigen::Vector3d::Zero()) {
-    ptx = PtxFromOrderedScan(scan);
+    ptx = io::PtxFromOrderedScan(scan);
   } else {  // points in a registered frame: the scanner frame in the file, the pose in the header
     OrderedScan local = scan;
     for (std::size_t i = 0; i < local.size(); ++i)
@@ -136,7 +136,7 @@ void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
     local.origin_m.setZero();
     Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
     pose.block<3, 1>(0, 3) = scan.origin_m;
-    ptx = PtxFromOrderedScan(local, pose);
+    ptx = io::PtxFromOrderedScan(local, pose);
   }
   ptx.rgb.assign(ptx.size(), {0, 0, 0});
   for (std::size_t i = 0; i < scan.size(); ++i) {  // PTX file order = the grid's index
@@ -150,7 +150,7 @@ void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
     const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
     ptx.rgb[i] = {c.r, c.g, c.b};
   }
-  WritePtx(path, {ptx});
+  io::WritePtx(path, {ptx});
 }
 
 void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
@@ -218,18 +218,18 @@ TexturedMesh BuildTexturedMesh(const OrderedScan& scan, const std::vector<Colour
   std::vector<std::vector<std::int32_t>> vid(static_cast<std::size_t>(nv) + 1);
 
   const Eigen::Vector3f origin = scan.origin_m.cast<float>();
-  ContinuityOptions co = options.continuity;
+  scan::ContinuityOptions co = options.continuity;
   if (!co.ground) co.ground = coloured.ground;  // the mesh joins what the colouring joined
   if (options.close_wrap) {
     // A grid that closes a full turn gets the quads across its seam too (without them a
     // rotating scanner's last plane and its first, or a lidar's azimuth seam, leave a slit).
-    const GridWrap w = DetectGridWrap(scan);
+    const scan::GridWrap w = scan::DetectGridWrap(scan);
     co.wrap_rows = co.wrap_rows || w.rows;
     co.wrap_cols = co.wrap_cols || w.cols;
   }
   co.wrap_rows = co.wrap_rows && scan.rows > 2;
   co.wrap_cols = co.wrap_cols && scan.cols > 2;
-  const ContinuityTest continuous(co);
+  const scan::ContinuityTest continuous(co);
   auto cont = [&](int r, int c, int dr, int dc) { return continuous(scan, r, c, dr, dc); };
   auto vertex = [&](int part, std::size_t cell) -> std::uint32_t {
     auto& ids = vid[part];

@@ -15,7 +15,7 @@
 
 namespace scancam::colour {
 
-std::string DescribeGround(const GroundPlane& g, const Eigen::Vector3d& origin_m,
+std::string DescribeGround(const scan::GroundPlane& g, const Eigen::Vector3d& origin_m,
                            const Eigen::Vector3d& up) {
   char buf[160];
   std::snprintf(buf, sizeof buf,
@@ -25,7 +25,7 @@ std::string DescribeGround(const GroundPlane& g, const Eigen::Vector3d& origin_m
   return buf;
 }
 
-std::optional<GroundPlane> EstimateGround(const OrderedScan& scan, const GroundOptions& o) {
+std::optional<scan::GroundPlane> EstimateGround(const OrderedScan& scan, const GroundOptions& o) {
   if (!o.up.allFinite() || !(o.up.norm() > 0.0))
     throw Error("EstimateGround: the up direction must be a finite, non-zero vector");
   if (!(o.max_tilt_deg > 0.0 && o.max_tilt_deg < 90.0) || !(o.fit_threshold_m > 0.0) ||
@@ -76,7 +76,7 @@ std::optional<GroundPlane> EstimateGround(const OrderedScan& scan, const GroundO
     n = -n;
     d = -d;
   }
-  GroundPlane g;
+  scan::GroundPlane g;
   g.normal = n;
   g.offset_m = d;
   // The refit may tilt the plane beyond the limit, or put it above the sensor: no ground then.

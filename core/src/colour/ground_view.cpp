@@ -13,11 +13,11 @@ GroundViewStats MeasureGroundFalseOcclusion(const OrderedScan& scan, const Colou
                                             const GroundViewOptions& o) {
   if (coloured.size() != scan.size())
     throw Error("ground false occlusions: the colouring does not match the scan");
-  const std::optional<GroundPlane> plane =
+  const std::optional<scan::GroundPlane> plane =
       coloured.ground ? coloured.ground : EstimateGround(scan, o.ground);
   if (!plane) throw Error("ground false occlusions: the scan has no ground plane");
-  const GroundPlane& g = *plane;
-  const CameraModel& cam = view.camera;
+  const scan::GroundPlane& g = *plane;
+  const camera::CameraModel& cam = view.camera;
   const int w = cam.width(), h = cam.height();
   const Eigen::Isometry3d& T = view.T_cam_scan;
   auto on_ground = [&](std::size_t i) {

@@ -29,7 +29,7 @@ inline int CeilPx(float x) { return -FloorPx(-x); }
 // The options as the passes and kernels use them (single precision, sines, flags): made once
 // per Colourise call by MakeColourParams, passed by const reference to every pass and kernel.
 struct ColourParams {
-  scan_detail::ContParams cont;  // the continuity test, with the ground plane used
+  scan::detail::ContParams cont;  // the continuity test, with the ground plane used
   float max_offset = 128.f;      // 2 max_splat_px: neighbours farther in the image are not used
   float max_splat = 64.f;        // max_splat_px
   float edge_fill = 2.f, isolated_fill = 1.f, strip_fill = 1.f, ground_fill = 1.f;
@@ -47,8 +47,9 @@ struct ColourParams {
 };
 
 // `continuity` is options.continuity with the ground plane used (given or estimated).
-ColourParams MakeColourParams(const ColourOptions& options, const ContinuityOptions& continuity,
-                              const OrderedScan& scan, std::size_t views);
+ColourParams MakeColourParams(const ColourOptions& options,
+                              const scan::ContinuityOptions& continuity, const OrderedScan& scan,
+                              std::size_t views);
 
 // One image: the view and what the passes derive from it, precomputed once.
 struct ViewCtx {

@@ -20,7 +20,7 @@ simd::IsaChoice& ColourIsa() {
 
 namespace {
 
-using scan_detail::ContinuousCells;
+using scan::detail::ContinuousCells;
 
 namespace k4 {
 using namespace simd::v4;
@@ -89,17 +89,19 @@ bool UseAvx2() { return ColourIsa().Uses(simd::Isa::kAvx2); }
 }  // namespace
 
 template <bool kPoints>
-void ProjectRowPinhole(const ModelProjector<PinholeModel>& proj, const ViewCtx& vc,
+void ProjectRowPinhole(const camera::ModelProjector<camera::PinholeModel>& proj, const ViewCtx& vc,
                        const Eigen::Vector3f* P, const float* rho, int cols, RowBuf* b) {
 #if SCANCAM_SIMD_AVX2
   if (UseAvx2()) return k8::ProjectRowPinhole<kPoints>(proj, vc, P, rho, cols, b);
 #endif
   k4::ProjectRowPinhole<kPoints>(proj, vc, P, rho, cols, b);
 }
-template void ProjectRowPinhole<true>(const ModelProjector<PinholeModel>&, const ViewCtx&,
-                                      const Eigen::Vector3f*, const float*, int, RowBuf*);
-template void ProjectRowPinhole<false>(const ModelProjector<PinholeModel>&, const ViewCtx&,
-                                       const Eigen::Vector3f*, const float*, int, RowBuf*);
+template void ProjectRowPinhole<true>(const camera::ModelProjector<camera::PinholeModel>&,
+                                      const ViewCtx&, const Eigen::Vector3f*, const float*, int,
+                                      RowBuf*);
+template void ProjectRowPinhole<false>(const camera::ModelProjector<camera::PinholeModel>&,
+                                       const ViewCtx&, const Eigen::Vector3f*, const float*, int,
+                                       RowBuf*);
 
 bool RowHasBadCell(const Eigen::Vector3f* P, const Eigen::Vector3f* B, const float* rho, int cols) {
 #if SCANCAM_SIMD_AVX2

@@ -25,7 +25,7 @@ simd::IsaChoice& ColourIsa();
 // Projects grid row `P`, `rho` (cols cells) with the pinhole model in float: codes, pixel
 // coordinates and distances into b, and (kPoints) a copy of the points.
 template <bool kPoints>
-void ProjectRowPinhole(const ModelProjector<PinholeModel>& proj, const ViewCtx& vc,
+void ProjectRowPinhole(const camera::ModelProjector<camera::PinholeModel>& proj, const ViewCtx& vc,
                        const Eigen::Vector3f* P, const float* rho, int cols, RowBuf* b);
 // True when a valid cell of the row breaks CheckScan's per-cell rule (BadCell).
 bool RowHasBadCell(const Eigen::Vector3f* P, const Eigen::Vector3f* B, const float* rho, int cols);

@@ -68,7 +68,7 @@ void ComputeLocal(const OrderedScan& scan, const ColourParams& cp, const Proj& p
   // A cell on the ground (the band of continuity test 3) next to a cell without a return or
   // also on the ground hides nothing standing on the ground from a camera above it: its box
   // reaches ground_fill (ColourOptions::ground_edge_fill) towards such a neighbour.
-  auto on_ground = [&](std::size_t j) { return scan_detail::OnGround(scan, j, cp.cont); };
+  auto on_ground = [&](std::size_t j) { return scan::detail::OnGround(scan, j, cp.cont); };
   const bool ground_cell = cp.cont.ground && on_ground(i);
   const Eigen::Vector3f& bi = scan.beam_dir[i];
   // Normal equations of the least-squares depth gradient: sum D D^T g = sum D dd.

@@ -17,22 +17,23 @@ namespace scancam::colour {
 namespace {
 
 cv::Mat ReadChecked(const std::string& path, int flags, const char* what,
-                    const CameraModel& camera) {
+                    const camera::CameraModel& camera) {
   if (!camera.valid()) return ReadImage(path, flags, what);
-  return ReadImage(path, flags, what, [&](int w, int h) { CheckImageSize(camera, w, h, path); });
+  return ReadImage(path, flags, what,
+                   [&](int w, int h) { camera::CheckImageSize(camera, w, h, path); });
 }
 
 }  // namespace
 
-cv::Mat ReadViewImage(const std::string& path, const CameraModel& camera) {
+cv::Mat ReadViewImage(const std::string& path, const camera::CameraModel& camera) {
   return ReadChecked(path, cv::IMREAD_COLOR, "image", camera);
 }
 
-cv::Mat ReadViewMask(const std::string& path, const CameraModel& camera) {
+cv::Mat ReadViewMask(const std::string& path, const camera::CameraModel& camera) {
   return ReadChecked(path, cv::IMREAD_GRAYSCALE, "mask", camera);
 }
 
-cv::Mat ChooseViewRegion(const CameraModel& camera, const cv::Mat& image,
+cv::Mat ChooseViewRegion(const camera::CameraModel& camera, const cv::Mat& image,
                          const std::string& mask_path, const ViewLoadOptions& options,
                          std::string* how) {
   if (!mask_path.empty()) {
@@ -44,12 +45,12 @@ cv::Mat ChooseViewRegion(const CameraModel& camera, const cv::Mat& image,
     if (how) *how = "every pixel (no automatic valid region)";
     return {};
   }
-  ValidRegionOptions o;
+  camera::ValidRegionOptions o;
   o.max_angle_deg = options.max_view_angle_deg;
   if (!(o.max_angle_deg >= 0.0 && o.max_angle_deg <= 180.0))
     throw Error("the maximum view angle must be in [0, 180] deg, not " +
                 std::to_string(o.max_angle_deg));
-  const ValidRegion r = FindValidRegion(camera, image, o);
+  const camera::ValidRegion r = camera::FindValidRegion(camera, image, o);
   if (how) *how = "automatic: " + r.Describe() + (image.empty() ? " (no image: model only)" : "");
   return r.mask;
 }
@@ -59,7 +60,7 @@ ColourView LoadView(const ViewPaths& paths, const ViewLoadOptions& options,
   if (paths.camera.empty()) throw Error("a view needs a camera file");
   ColourView v;
   v.name = paths.image;
-  v.camera = LoadCameraForImage(paths.camera, paths.image);
+  v.camera = camera::LoadCameraForImage(paths.camera, paths.image);
   if (!paths.image.empty()) v.image = ReadViewImage(paths.image, v.camera);
   if (!paths.calib.empty()) v.T_cam_scan = LoadExtrinsic(paths.calib);
   v.mask = ChooseViewRegion(v.camera, v.image, paths.mask, options, region_how);
@@ -67,24 +68,24 @@ ColourView LoadView(const ViewPaths& paths, const ViewLoadOptions& options,
   return v;
 }
 
-ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Pose& scan_pose,
+ColourView LoadE57View(const std::string& e57_path, int image_index, const io::E57Pose& scan_pose,
                        bool scan_pose_applied, const ViewPaths& overrides,
                        const ViewLoadOptions& options, std::string* region_how) {
-  const E57FileInfo info = ReadE57Info(e57_path);
+  const io::E57FileInfo info = io::ReadE57Info(e57_path);
   const int n = static_cast<int>(info.images.size());
   if (image_index < 0 || image_index >= n) {
     throw FileError(e57_path, "",
                     "E57 image " + std::to_string(image_index) + " asked for, but the file has " +
                         std::to_string(n) + " image" + (n == 1 ? "" : "s"));
   }
-  const E57ImageInfo& im = info.images[static_cast<std::size_t>(image_index)];
+  const io::E57ImageInfo& im = info.images[static_cast<std::size_t>(image_index)];
   const std::string where = "image " + std::to_string(image_index);
   ColourView v;
   v.name = e57_path + " " + where;
   if (!overrides.camera.empty()) {
-    v.camera = LoadCameraForImage(overrides.camera, overrides.image);
+    v.camera = camera::LoadCameraForImage(overrides.camera, overrides.image);
   } else {
-    v.camera = E57ImageCamera(e57_path, im, image_index);
+    v.camera = camera::E57ImageCamera(e57_path, im, image_index);
   }
   if (!overrides.image.empty()) {
     v.name = overrides.image;
@@ -103,7 +104,7 @@ ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Po
     try {
       // A scratch file, not an output: written directly (an open OutputBatch would only stage
       // an atomic write until the end of the run).
-      const std::vector<std::uint8_t> bytes = ReadE57ImageBlob(e57_path, image_index);
+      const std::vector<std::uint8_t> bytes = io::ReadE57ImageBlob(e57_path, image_index);
       {
         std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
         f.write(reinterpret_cast<const char*>(bytes.data()),
@@ -136,7 +137,7 @@ ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Po
           e57_path, where,
           "a " + im.representation + " image has no camera pose here: give the pose with --calib");
     }
-    v.T_cam_scan = E57ImageTCamScan(im, scan_pose, scan_pose_applied);
+    v.T_cam_scan = camera::E57ImageTCamScan(im, scan_pose, scan_pose_applied);
   }
   v.mask = ChooseViewRegion(v.camera, v.image, overrides.mask, options, region_how);
   CheckView(v);

@@ -14,7 +14,7 @@
 #include "scancam/io/regrid.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
 using namespace e57_detail;
 
@@ -333,4 +333,4 @@ std::string ExtractE57Image(const std::string& path, int image_index, const std:
   return im.blob_type;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

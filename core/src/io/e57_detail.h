@@ -19,7 +19,7 @@
 #include "scancam/io/e57.h"
 #include "scancam/progress.h"
 
-namespace scancam::e57_detail {
+namespace scancam::io::e57_detail {
 
 constexpr std::uint64_t kPage = 1024;      // physical page size
 constexpr std::uint64_t kPageData = 1020;  // data bytes per page (the rest is the CRC)
@@ -49,8 +49,8 @@ inline long long ToIndex(double v) {
   return static_cast<long long>(v);
 }
 
-using io_detail::ByteWhere;
-using io_detail::Quote;
+using io::detail::ByteWhere;
+using io::detail::Quote;
 
 inline std::uint64_t Le64(const std::uint8_t* p) {
   std::uint64_t v = 0;
@@ -209,4 +209,4 @@ void ReadScanPoints(PagedFile& file, const ScanDesc& scan, int scan_index,
                     const std::function<void(const E57Point*, std::size_t)>& sink,
                     const Progress& progress);
 
-}  // namespace scancam::e57_detail
+}  // namespace scancam::io::e57_detail

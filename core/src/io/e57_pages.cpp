@@ -4,7 +4,7 @@
 
 #include "e57_detail.h"
 
-namespace scancam {
+namespace scancam::io {
 
 namespace {
 
@@ -151,4 +151,4 @@ Header ReadHeader(PagedFile& f) {
 }
 
 }  // namespace e57_detail
-}  // namespace scancam
+}  // namespace scancam::io

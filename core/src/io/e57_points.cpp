@@ -5,7 +5,7 @@
 
 #include "e57_detail.h"
 
-namespace scancam::e57_detail {
+namespace scancam::io::e57_detail {
 
 namespace {
 
@@ -348,4 +348,4 @@ void ReadScanPoints(PagedFile& file, const ScanDesc& scan, int scan_index,
   reader.Run(sink, progress);
 }
 
-}  // namespace scancam::e57_detail
+}  // namespace scancam::io::e57_detail

@@ -11,7 +11,7 @@
 #include "scancam/io/e57.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
 using namespace e57_detail;
 
@@ -45,7 +45,7 @@ struct BitPacker {
 
 std::string XmlNumber(double v) {
   std::string s;
-  io_detail::AppendNumber(s, v);
+  io::detail::AppendNumber(s, v);
   return s;
 }
 
@@ -347,4 +347,4 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
   progress(1.0, "writing E57");
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

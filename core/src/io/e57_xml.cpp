@@ -5,7 +5,7 @@
 
 #include "e57_detail.h"
 
-namespace scancam::e57_detail {
+namespace scancam::io::e57_detail {
 
 namespace {
 
@@ -46,12 +46,12 @@ class Xml {
   static bool ParseLL(const char* s, long long& v) {
     const std::string_view t = Trimmed(s);
     v = 0;
-    return t.empty() || io_detail::ParseInt64(t, v);
+    return t.empty() || io::detail::ParseInt64(t, v);
   }
   static bool ParseD(const char* s, double& v) {
     const std::string_view t = Trimmed(s);
     v = 0;
-    return t.empty() || io_detail::ParseDouble(t, v);
+    return t.empty() || io::detail::ParseDouble(t, v);
   }
 
   long long AttrInt(const pugi::xml_node& n, const char* name, long long fallback) const {
@@ -373,4 +373,4 @@ ParsedFile Parse(PagedFile& file) {
   return pf;
 }
 
-}  // namespace scancam::e57_detail
+}  // namespace scancam::io::e57_detail

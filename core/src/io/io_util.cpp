@@ -6,7 +6,7 @@
 
 #include "scancam/output_file.h"
 
-namespace scancam::io_detail {
+namespace scancam::io::detail {
 
 std::string ReadWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -207,4 +207,4 @@ std::string Quote(std::string_view token) {
   return s + "'";
 }
 
-}  // namespace scancam::io_detail
+}  // namespace scancam::io::detail

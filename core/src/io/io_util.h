@@ -12,7 +12,7 @@
 
 #include "scancam/error.h"
 
-namespace scancam::io_detail {
+namespace scancam::io::detail {
 
 /// Reads a whole file; throws FileError when it cannot be opened or read.
 std::string ReadWholeFile(const std::string& path);
@@ -114,4 +114,4 @@ inline std::string ByteWhere(std::size_t offset) { return "byte " + std::to_stri
 /// A token shortened for an error message.
 std::string Quote(std::string_view token);
 
-}  // namespace scancam::io_detail
+}  // namespace scancam::io::detail

@@ -14,7 +14,7 @@
 
 #include "scancam/io/options_json.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// Reads the members of one JSON object into a struct's fields (absent keys leave the field as
 /// it is), remembering which keys were used; Finish() throws for the others. Errors:
@@ -108,4 +108,4 @@ std::string OptionsToJson(const T& options, VisitKeys&& visit_keys) {
   return w.Text();
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

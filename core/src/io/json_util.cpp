@@ -10,7 +10,7 @@
 #include "scancam/error.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
 namespace {
 
@@ -128,7 +128,7 @@ nlohmann::json ParseJsonText(const std::string& text, const std::string& path) {
 }
 
 nlohmann::json ReadJsonFile(const std::string& path) {
-  return ParseJsonText(io_detail::ReadWholeFile(path), path);
+  return ParseJsonText(io::detail::ReadWholeFile(path), path);
 }
 
 void WriteJsonFile(const std::string& path, const nlohmann::json& j) {
@@ -149,4 +149,4 @@ const nlohmann::json& JsonField(const nlohmann::json& j, const std::string& key,
   return *it;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

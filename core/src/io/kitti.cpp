@@ -11,7 +11,7 @@
 #include "scancam/error.h"
 #include "scancam/io/regrid.h"
 
-namespace scancam {
+namespace scancam::io {
 
 namespace {
 
@@ -36,7 +36,7 @@ KittiCloud ReadKittiBin(const std::string& path, const Progress& progress) {
   if (size == 0) throw FileError(path, "", "the file is empty: no point");
   if (size % kRecord != 0) {
     const std::uint64_t whole = size / kRecord;
-    throw FileError(path, io_detail::ByteWhere(static_cast<std::size_t>(whole * kRecord)),
+    throw FileError(path, io::detail::ByteWhere(static_cast<std::size_t>(whole * kRecord)),
                     "the file's " + std::to_string(size) +
                         " bytes are not a whole number of 16-byte records (x y z reflectance, "
                         "float32): " +
@@ -56,7 +56,7 @@ KittiCloud ReadKittiBin(const std::string& path, const Progress& progress) {
   while (record < n) {
     const std::size_t want = std::min(n - record, buf.size() / kRecord);
     if (std::fread(buf.data(), kRecord, want, file.get()) != want) {
-      throw FileError(path, io_detail::ByteWhere(record * kRecord),
+      throw FileError(path, io::detail::ByteWhere(record * kRecord),
                       "cannot read the file (it changed or shrank while being read)");
     }
     for (std::size_t k = 0; k < want; ++k, ++record) {
@@ -76,7 +76,7 @@ KittiCloud ReadKittiBin(const std::string& path, const Progress& progress) {
         char value[32];
         std::snprintf(value, sizeof value, "%g", static_cast<double>(v[a]));
         throw FileError(path,
-                        io_detail::ByteWhere(record * kRecord + 4 * static_cast<std::size_t>(a)),
+                        io::detail::ByteWhere(record * kRecord + 4 * static_cast<std::size_t>(a)),
                         std::string("record ") + std::to_string(record) + ": " + kName[a] + " is " +
                             value + problem + " (not a KITTI .bin, or a damaged one)");
       }
@@ -113,4 +113,4 @@ OrderedScan LoadKittiBin(const std::string& path, const std::string& grid, doubl
   return scan;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

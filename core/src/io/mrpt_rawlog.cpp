@@ -27,7 +27,7 @@
 #include "scancam/error.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
 using namespace mrpt_detail;
 
@@ -126,7 +126,7 @@ OrderedScan UnpackScan(Unpacker& u) {
 
 }  // namespace
 
-}  // namespace scancam
+}  // namespace scancam::io
 
 // ---------------------------------------------------------------- the budget in sanitizer builds
 
@@ -165,7 +165,7 @@ void __sanitizer_set_death_callback(void (*callback)(void));
 }
 #endif
 
-namespace scancam {
+namespace scancam::io {
 namespace {
 
 // Exit status of a child that ends itself over the budget or on a sanitizer report (the
@@ -222,7 +222,7 @@ void StartChildBudget(std::size_t) {}
 #endif
 
 }  // namespace
-}  // namespace scancam
+}  // namespace scancam::io
 
 #ifdef SCANCAM_RAWLOG_ASAN
 // ASan calls this before it prints a report (symbolising the stack takes ~1 s): a report in
@@ -232,7 +232,7 @@ extern "C" void __asan_on_error() {
 }
 #endif
 
-namespace scancam {
+namespace scancam::io {
 namespace {
 
 std::size_t VirtualMemoryBytes() {
@@ -558,4 +558,4 @@ void WriteMrpt2DScanRawlog(const std::string& path, const RotatingScanData& data
   file.Commit();
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -21,7 +21,7 @@
 #include "scancam/io/mrpt_rawlog.h"
 #include "scancam/ordered_scan.h"
 
-namespace scancam::mrpt_detail {
+namespace scancam::io::mrpt_detail {
 
 using mrpt::obs::CObservation;
 using mrpt::obs::CObservation2DRangeScan;
@@ -132,4 +132,4 @@ OrderedScan DepthToScan(const std::string& path, const std::string& where,
 OrderedScan StackScans(const std::string& path, const std::vector<ObsRecord>& obs, const Entry& e,
                        std::vector<Eigen::Vector3f>* mrpt_points);
 
-}  // namespace scancam::mrpt_detail
+}  // namespace scancam::io::mrpt_detail

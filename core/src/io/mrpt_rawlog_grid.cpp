@@ -10,7 +10,7 @@
 #include "mrpt_rawlog_detail.h"
 #include "scancam/error.h"
 
-namespace scancam::mrpt_detail {
+namespace scancam::io::mrpt_detail {
 
 namespace {
 
@@ -314,4 +314,4 @@ OrderedScan StackScans(const std::string& path, const std::vector<ObsRecord>& ob
   return scan;
 }
 
-}  // namespace scancam::mrpt_detail
+}  // namespace scancam::io::mrpt_detail

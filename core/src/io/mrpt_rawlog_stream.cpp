@@ -16,7 +16,7 @@
 #include "mrpt_rawlog_detail.h"
 #include "scancam/error.h"
 
-namespace scancam::mrpt_detail {
+namespace scancam::io::mrpt_detail {
 
 DecodeWhere* g_where = nullptr;
 
@@ -89,7 +89,7 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
     throw FileError(path, "", "cannot open the file for reading (missing or not a file)");
   }
   RawlogBytes b;
-  std::string file = io_detail::ReadWholeFile(path);
+  std::string file = io::detail::ReadWholeFile(path);
   b.file_size = file.size();
   if (file.empty()) throw FileError(path, "", "empty file (no object)");
   if (file.size() < 2 || static_cast<unsigned char>(file[0]) != 0x1f ||
@@ -118,7 +118,7 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
   for (;;) {
     if (produced == b.data.size()) {
       if (produced >= max_bytes) {
-        throw FileError(path, io_detail::ByteWhere(file.size() - in_left),
+        throw FileError(path, io::detail::ByteWhere(file.size() - in_left),
                         "the gzip stream inflates to more than " + std::to_string(max_bytes >> 20) +
                             " MiB (half this machine's memory); not read");
       }
@@ -141,7 +141,7 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
         inflateReset(&zs);
         continue;
       }
-      throw FileError(path, io_detail::ByteWhere(at),
+      throw FileError(path, io::detail::ByteWhere(at),
                       std::to_string(in_left) +
                           " bytes after the end of the gzip stream (the file was appended to "
                           "or is damaged)");
@@ -152,15 +152,15 @@ RawlogBytes ReadRawlogBytes(const std::string& path) {
       break;
     }
     if (rc == Z_BUF_ERROR && zs.avail_out == 0) continue;  // needs more output space
-    if (rc == Z_MEM_ERROR) throw FileError(path, io_detail::ByteWhere(at), "out of memory");
-    throw FileError(path, io_detail::ByteWhere(at),
+    if (rc == Z_MEM_ERROR) throw FileError(path, io::detail::ByteWhere(at), "out of memory");
+    throw FileError(path, io::detail::ByteWhere(at),
                     "the gzip data is damaged: " + ZlibProblem(zs.msg));
   }
   b.data.resize(produced);
   b.data.shrink_to_fit();
   if (b.data.empty()) {
     if (!b.complete) {
-      throw FileError(path, io_detail::ByteWhere(b.file_size),
+      throw FileError(path, io::detail::ByteWhere(b.file_size),
                       "truncated: the gzip stream ends before any data");
     }
     throw FileError(path, "", "empty rawlog (the gzip stream holds no object)");
@@ -352,4 +352,4 @@ Loaded LoadEntries(const std::string& path, const RawlogBytes& bytes) {
   return l;
 }
 
-}  // namespace scancam::mrpt_detail
+}  // namespace scancam::io::mrpt_detail

@@ -6,7 +6,7 @@
 #include "json_option_reader.h"
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::io {
 namespace {
 
 std::string Found(const nlohmann::json& j) {
@@ -137,4 +137,4 @@ void JsonOptionReader::Finish() const {
       Fail(it.key(), "unknown option (check the spelling; see the documentation for the keys)");
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -12,7 +12,7 @@
 #include "scancam/error.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
 namespace {
 
@@ -285,4 +285,4 @@ void WritePairsCsv(const std::string& path, const std::vector<PointPair>& pairs)
   WriteFileAtomically(path, FormatPairsCsv(pairs));
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -14,9 +14,9 @@
 #include "scancam/io/regrid.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
-using io_detail::Quote;
+using io::detail::Quote;
 
 namespace {
 
@@ -56,7 +56,7 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
   head.resize(static_cast<std::size_t>(in.gcount()));
 
   PcdHeader h;
-  io_detail::LineReader lines(head);
+  io::detail::LineReader lines(head);
   std::string_view line;
   std::vector<std::string_view> tok;
   bool seen_fields = false, seen_size = false, seen_type = false;
@@ -67,12 +67,12 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
     for (std::size_t i = 0; i < line.size(); ++i) {
       const unsigned char c = static_cast<unsigned char>(line[i]);
       if ((c < 0x20 && c != '\t' && c != '\r') || c >= 0x7f) {
-        throw FileError(path, io_detail::ByteWhere(lines.line_offset() + i),
+        throw FileError(path, io::detail::ByteWhere(lines.line_offset() + i),
                         "binary data in the PCD header (byte value " + std::to_string(int(c)) +
                             "); not a PCD file");
       }
     }
-    io_detail::SplitWhitespace(line, tok);
+    io::detail::SplitWhitespace(line, tok);
     if (tok.empty() || tok[0].front() == '#') continue;
     const std::string key(tok[0]);
     const std::size_t nv = tok.size() - 1;
@@ -85,7 +85,7 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
     };
     auto integer = [&](std::string_view s, long long lo) {
       long long v = 0;
-      if (!io_detail::ParseInt64(s, v) || v < lo) {
+      if (!io::detail::ParseInt64(s, v) || v < lo) {
         Fail(path, ln,
              key + ": expected an integer >= " + std::to_string(lo) + ", found " + Quote(s));
       }
@@ -141,7 +141,7 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
       need(7);
       double v[7];
       for (int i = 0; i < 7; ++i) {
-        if (!io_detail::ParseDouble(tok[i + 1], v[i]) || !std::isfinite(v[i])) {
+        if (!io::detail::ParseDouble(tok[i + 1], v[i]) || !std::isfinite(v[i])) {
           Fail(path, ln, "VIEWPOINT: expected 7 finite numbers, found " + Quote(tok[i + 1]));
         }
       }
@@ -214,7 +214,7 @@ void CheckNothingAfter(const std::string& path, std::size_t end, std::size_t fil
     zeros = in && tail.find_first_not_of('\0') == std::string::npos;
   }
   if (zeros) return;
-  throw FileError(path, io_detail::ByteWhere(end),
+  throw FileError(path, io::detail::ByteWhere(end),
                   "the data should end here (" + data_is + ") but " + std::to_string(extra) +
                       " more bytes follow that are not zero padding: bytes inserted or "
                       "appended (the points would be misread)");
@@ -226,7 +226,7 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
   const std::size_t expected = static_cast<std::size_t>(h.points) * h.point_size();
   if (h.data == "binary") {
     if (available < expected) {
-      throw FileError(path, io_detail::ByteWhere(file_size),
+      throw FileError(path, io::detail::ByteWhere(file_size),
                       "truncated: the binary data starting at byte " +
                           std::to_string(h.data_offset) + " should hold " +
                           std::to_string(expected) + " bytes (" + std::to_string(h.points) +
@@ -240,7 +240,7 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
                           std::to_string(h.data_offset));
   } else if (h.data == "binary_compressed") {
     if (available < 8) {
-      throw FileError(path, io_detail::ByteWhere(file_size),
+      throw FileError(path, io::detail::ByteWhere(file_size),
                       "truncated: no compressed-size words after DATA (byte " +
                           std::to_string(h.data_offset) + ")");
     }
@@ -248,21 +248,21 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
     in.seekg(static_cast<std::streamoff>(h.data_offset));
     const std::uint32_t compressed = ReadU32(in), uncompressed = ReadU32(in);
     if (uncompressed != expected) {
-      throw FileError(path, io_detail::ByteWhere(h.data_offset + 4),
+      throw FileError(path, io::detail::ByteWhere(h.data_offset + 4),
                       "compressed data unpacks to " + std::to_string(uncompressed) +
                           " bytes but the header's " + std::to_string(h.points) + " points x " +
                           std::to_string(h.point_size()) + " bytes need " +
                           std::to_string(expected));
     }
     if (available - 8 < compressed) {
-      throw FileError(path, io_detail::ByteWhere(file_size),
+      throw FileError(path, io::detail::ByteWhere(file_size),
                       "truncated: " + std::to_string(compressed) +
                           " compressed bytes announced at byte " + std::to_string(h.data_offset) +
                           ", only " + std::to_string(available - 8) + " present");
     }
     // LZF packs at most ~100:1; a larger ratio is a damaged size word, not data to unpack.
     if (expected / 200 > compressed) {
-      throw FileError(path, io_detail::ByteWhere(h.data_offset),
+      throw FileError(path, io::detail::ByteWhere(h.data_offset),
                       "the compressed-size word says " + std::to_string(compressed) +
                           " bytes, which cannot unpack to the " + std::to_string(expected) +
                           " bytes the header needs: the file is damaged");
@@ -274,14 +274,14 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
     // console line about decompression sizes).
     std::string packed(compressed, '\0');
     in.read(packed.data(), static_cast<std::streamsize>(compressed));
-    if (!in) throw FileError(path, io_detail::ByteWhere(h.data_offset + 8), "read error");
+    if (!in) throw FileError(path, io::detail::ByteWhere(h.data_offset + 8), "read error");
     std::vector<char> unpacked(expected);
     const unsigned int got = expected == 0
                                  ? 0
                                  : pcl::lzfDecompress(packed.data(), compressed, unpacked.data(),
                                                       static_cast<unsigned int>(expected));
     if (got != expected) {
-      throw FileError(path, io_detail::ByteWhere(h.data_offset + 8),
+      throw FileError(path, io::detail::ByteWhere(h.data_offset + 8),
                       "the compressed point data is damaged: it does not unpack to the " +
                           std::to_string(expected) + " bytes the header's " +
                           std::to_string(h.points) + " points x " + std::to_string(h.point_size()) +
@@ -289,8 +289,8 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
     }
   } else {
     // ascii: one line per point with every value, nothing more.
-    const std::string text = io_detail::ReadWholeFile(path);
-    io_detail::LineReader lines(text);
+    const std::string text = io::detail::ReadWholeFile(path);
+    io::detail::LineReader lines(text);
     std::string_view line;
     std::vector<std::string_view> tok;
     while (lines.line_number() < h.data_line && lines.Next(line)) {
@@ -303,11 +303,11 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
         const unsigned char c = static_cast<unsigned char>(line[i]);
         if (c < 0x20 && c != '\t' && c != '\r') {
           throw FileError(
-              path, io_detail::ByteWhere(lines.line_offset() + i),
+              path, io::detail::ByteWhere(lines.line_offset() + i),
               "binary data (byte value " + std::to_string(int(c)) + ") in an ascii PCD");
         }
       }
-      io_detail::SplitWhitespace(line, tok);
+      io::detail::SplitWhitespace(line, tok);
       if (tok.empty()) continue;
       if (n == h.points) {
         Fail(path, ln, "more point lines than POINTS " + std::to_string(h.points));
@@ -319,7 +319,7 @@ void CheckDataSection(const std::string& path, const PcdHeader& h, std::size_t f
       }
       for (std::string_view t : tok) {
         double v = 0.0;
-        if (!io_detail::ParseDouble(t, v)) Fail(path, ln, "not a number: " + Quote(t));
+        if (!io::detail::ParseDouble(t, v)) Fail(path, ln, "not a number: " + Quote(t));
       }
       ++n;
     }
@@ -441,7 +441,7 @@ pcl::PCLPointCloud2 ReadBinaryData(const std::string& path, const PcdHeader& h) 
   std::ifstream in(path, std::ios::binary);
   in.seekg(static_cast<std::streamoff>(h.data_offset));
   if (!in.read(reinterpret_cast<char*>(cloud.data.data()), static_cast<std::streamsize>(bytes))) {
-    throw FileError(path, io_detail::ByteWhere(h.data_offset),
+    throw FileError(path, io::detail::ByteWhere(h.data_offset),
                     "truncated: the data section holds fewer than the header's " +
                         std::to_string(h.points) + " points");
   }
@@ -505,16 +505,16 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options,
   } catch (const Error&) {
     throw;
   } catch (const std::exception& e) {
-    throw FileError(path, io_detail::ByteWhere(header.data_offset),
+    throw FileError(path, io::detail::ByteWhere(header.data_offset),
                     std::string("PCL could not read the data: ") + e.what());
   }
   if (rc < 0) {
-    throw FileError(path, io_detail::ByteWhere(header.data_offset),
+    throw FileError(path, io::detail::ByteWhere(header.data_offset),
                     "PCL could not read the data section (error " + std::to_string(rc) + ")");
   }
   const std::size_t n = static_cast<std::size_t>(cloud.width) * cloud.height;
   if (n != static_cast<std::size_t>(header.points) || cloud.data.size() < n * cloud.point_step) {
-    throw FileError(path, io_detail::ByteWhere(header.data_offset),
+    throw FileError(path, io::detail::ByteWhere(header.data_offset),
                     "PCL read " + std::to_string(n) + " points, the header says " +
                         std::to_string(header.points));
   }
@@ -659,4 +659,4 @@ void WriteOrganisedPcd(const std::string& path, const OrderedScan& scan) {
   }
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

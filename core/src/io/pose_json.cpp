@@ -5,7 +5,7 @@
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
 
-namespace scancam {
+namespace scancam::io {
 
 Eigen::Isometry3d ReadCalibrationPose(const std::string& path) {
   const nlohmann::json j = ReadJsonFile(path);
@@ -31,4 +31,4 @@ Eigen::Isometry3d ReadExtrinsicJson(const std::string& path) {
                   "ground_truth.json) or an OpenCalib extrinsic '<name>.param.sensor_calib.data'");
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

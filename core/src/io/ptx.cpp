@@ -12,9 +12,9 @@
 #include "scancam/error.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::io {
 
-using io_detail::Quote;
+using io::detail::Quote;
 
 namespace {
 
@@ -40,7 +40,7 @@ class PtxParser {
         if (scan_number == 0) throw FileError(path_, "", "empty file (no PTX scan)");
         return false;
       }
-      io_detail::SplitWhitespace(line, tok_);
+      io::detail::SplitWhitespace(line, tok_);
       if (!tok_.empty()) break;
     }
     if (scan_number > 0 && (tok_.size() == 4 || tok_.size() == 7)) {
@@ -61,7 +61,7 @@ class PtxParser {
     const long long cols = ReadCount("number of columns");
     after_.clear();
     if (!lines_.Next(line)) Truncated(scan_number, "header (number of rows)");
-    io_detail::SplitWhitespace(line, tok_);
+    io::detail::SplitWhitespace(line, tok_);
     const long long rows = ReadCount("number of rows");
     if (cols * rows > kMaxCells) {
       Fail(path_, lines_.line_number(),
@@ -138,7 +138,7 @@ class PtxParser {
       // The checked path: every rule with its message.
       lines_.CheckText(line);
       const int ln = lines_.line_number();
-      io_detail::SplitWhitespace(line, tok_);
+      io::detail::SplitWhitespace(line, tok_);
       if (k == 0) {
         fields = tok_.size();
         first_line = ln;
@@ -157,7 +157,7 @@ class PtxParser {
       }
       if (!keep) continue;
       for (int c = 0; c < 4; ++c) {
-        if (!io_detail::ParseFloat(tok_[c], p[c]) || !std::isfinite(p[c])) {
+        if (!io::detail::ParseFloat(tok_[c], p[c]) || !std::isfinite(p[c])) {
           static const char* names[4] = {"x", "y", "z", "intensity"};
           Fail(path_, ln,
                std::string(names[c]) + ": expected a finite number, found " + Quote(tok_[c]));
@@ -166,7 +166,7 @@ class PtxParser {
       if (fields == 7) {
         for (int c = 0; c < 3; ++c) {
           long long v = 0;
-          if (!io_detail::ParseInt64(tok_[4 + c], v) || v < 0 || v > 255) {
+          if (!io::detail::ParseInt64(tok_[4 + c], v) || v < 0 || v > 255) {
             Fail(path_, ln, "colour: expected an integer in [0, 255], found " + Quote(tok_[4 + c]));
           }
           rgb[c] = static_cast<std::uint8_t>(v);
@@ -231,7 +231,7 @@ class PtxParser {
  private:
   long long ReadCount(const char* what) {
     long long v = 0;
-    if (tok_.size() != 1 || !io_detail::ParseInt64(tok_[0], v) || v <= 0 || v > kMaxCells) {
+    if (tok_.size() != 1 || !io::detail::ParseInt64(tok_[0], v) || v <= 0 || v > kMaxCells) {
       Fail(path_, lines_.line_number(),
            after_ + "expected the " + what + " of a PTX scan header (one positive integer up to " +
                std::to_string(kMaxCells) +
@@ -247,14 +247,14 @@ class PtxParser {
   void ReadNumbers(int scan_number, int count, double* v, const char* what) {
     std::string_view line;
     if (!lines_.Next(line)) Truncated(scan_number, std::string("header (") + what + ")");
-    io_detail::SplitWhitespace(line, tok_);
+    io::detail::SplitWhitespace(line, tok_);
     if (static_cast<int>(tok_.size()) != count) {
       Fail(path_, lines_.line_number(),
            std::string(what) + ": expected " + std::to_string(count) + " numbers, found " +
                std::to_string(tok_.size()) + " fields");
     }
     for (int k = 0; k < count; ++k) {
-      if (!io_detail::ParseDouble(tok_[k], v[k]) || !std::isfinite(v[k])) {
+      if (!io::detail::ParseDouble(tok_[k], v[k]) || !std::isfinite(v[k])) {
         Fail(path_, lines_.line_number(),
              std::string(what) + ": expected a finite number, found " + Quote(tok_[k]));
       }
@@ -306,7 +306,7 @@ class PtxParser {
   }
 
   std::string path_;
-  io_detail::FileLineReader lines_;
+  io::detail::FileLineReader lines_;
   Progress progress_;
   std::size_t failed_lines_ = 1;  // of the last block ParseBlock did not take
   std::vector<std::string_view> tok_;
@@ -610,13 +610,13 @@ void PtxWriter::BeginScan(const PtxScan& ptx) {
   written_ = 0;
   rgb_ = -1;
   std::string& out = file_.buffer();
-  io_detail::AppendNumber(out, static_cast<long long>(ptx.columns));
+  io::detail::AppendNumber(out, static_cast<long long>(ptx.columns));
   out += '\n';
-  io_detail::AppendNumber(out, static_cast<long long>(ptx.rows));
+  io::detail::AppendNumber(out, static_cast<long long>(ptx.rows));
   out += '\n';
   auto vec3 = [&](const Eigen::Vector3d& v) {
     for (int i = 0; i < 3; ++i) {
-      io_detail::AppendNumber(out, v[i]);
+      io::detail::AppendNumber(out, v[i]);
       out += i < 2 ? ' ' : '\n';
     }
   };
@@ -624,7 +624,7 @@ void PtxWriter::BeginScan(const PtxScan& ptx) {
   for (int a = 0; a < 3; ++a) vec3(ptx.scanner_axes.col(a));
   for (int k = 0; k < 4; ++k) {  // transposed: one column per line
     for (int r = 0; r < 4; ++r) {
-      io_detail::AppendNumber(out, ptx.transform(r, k));
+      io::detail::AppendNumber(out, ptx.transform(r, k));
       out += r < 3 ? ' ' : '\n';
     }
   }
@@ -650,14 +650,14 @@ void PtxWriter::AppendPoints(const PtxScan& part) {
   std::string& out = file_.buffer();
   for (std::size_t k = 0; k < n; ++k) {
     for (int i = 0; i < 3; ++i) {
-      io_detail::AppendNumber(out, part.xyz[k][i]);
+      io::detail::AppendNumber(out, part.xyz[k][i]);
       out += ' ';
     }
-    io_detail::AppendNumber(out, part.intensity[k]);
+    io::detail::AppendNumber(out, part.intensity[k]);
     if (rgb) {
       for (int i = 0; i < 3; ++i) {
         out += ' ';
-        io_detail::AppendNumber(out, static_cast<long long>(part.rgb[k][i]));
+        io::detail::AppendNumber(out, static_cast<long long>(part.rgb[k][i]));
       }
     }
     out += '\n';
@@ -715,4 +715,4 @@ OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,
   return scan;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

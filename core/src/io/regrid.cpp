@@ -11,7 +11,7 @@
 #include "regrid_detail.h"
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::io {
 
 namespace regrid_detail {
 
@@ -694,4 +694,4 @@ OrderedScan RegridRings(const std::vector<Eigen::Vector3f>& points, const std::v
   return scan;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -9,7 +9,7 @@
 
 #include "scancam/io/regrid.h"
 
-namespace scancam::regrid_detail {
+namespace scancam::io::regrid_detail {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
@@ -32,4 +32,4 @@ double MedianOf(std::vector<double>& v);
 void CheckInputs(const std::vector<Eigen::Vector3f>& points, const std::vector<float>* intensity,
                  const RegridOptions& o);
 
-}  // namespace scancam::regrid_detail
+}  // namespace scancam::io::regrid_detail

@@ -10,7 +10,7 @@
 #include "scancam/error.h"
 #include "scancam/io/regrid.h"
 
-namespace scancam {
+namespace scancam::io {
 
 using namespace regrid_detail;  // NOLINT: the io module's re-gridding helpers
 
@@ -283,4 +283,4 @@ OrderedScan RegridUnordered(const std::vector<Eigen::Vector3f>& points,
   return scan;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

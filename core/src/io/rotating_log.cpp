@@ -7,10 +7,10 @@
 #include "io_util.h"
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::io {
 
-using io_detail::LineWhere;
-using io_detail::Quote;
+using io::detail::LineWhere;
+using io::detail::Quote;
 
 Eigen::Vector3d RotatingScanBeam(double phi_rad, double theta_rad) {
   const double ci = std::cos(phi_rad), si = std::sin(phi_rad);
@@ -106,9 +106,9 @@ struct PlaneRecord {
 }  // namespace
 
 RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progress) {
-  const std::string text = io_detail::ReadWholeFile(path);
+  const std::string text = io::detail::ReadWholeFile(path);
   if (text.empty()) throw FileError(path, "", "empty file (no beams)");
-  io_detail::CheckLooksLikeText(path, text, 0, text.size());
+  io::detail::CheckLooksLikeText(path, text, 0, text.size());
   const std::size_t line_count =
       static_cast<std::size_t>(std::count(text.begin(), text.end(), '\n')) + 1;
 
@@ -119,19 +119,19 @@ RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progre
   int first_data_line = 0;
   std::vector<PlaneRecord> planes;
   std::vector<std::string_view> tok;
-  io_detail::LineReader lines(text);
+  io::detail::LineReader lines(text);
   std::string_view line;
   std::size_t data_lines = 0;
   while (lines.Next(line)) {
     const int ln = lines.line_number();
     if ((ln & 0xffff) == 0) progress(0.9 * lines.fraction(), "reading");
-    io_detail::SplitWhitespace(line, tok);
+    io::detail::SplitWhitespace(line, tok);
     if (tok.empty()) continue;
     if (tok[0].front() == '#') {
       // Header / comment: "# key value" or "#key value".
       std::vector<std::string_view> h;
       std::string_view rest = line.substr(line.find('#') + 1);
-      io_detail::SplitWhitespace(rest, h);
+      io::detail::SplitWhitespace(rest, h);
       if (h.empty()) continue;
       const std::string_view key = h[0];
       const bool known = key == "scancam-rotating" || key == "dx_m" || key == "dz_m" ||
@@ -144,14 +144,14 @@ RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progre
       }
       if (key == "dx_m" || key == "dz_m") {
         double v = 0.0;
-        if (!io_detail::ParseDouble(h[1], v) || !std::isfinite(v)) {
+        if (!io::detail::ParseDouble(h[1], v) || !std::isfinite(v)) {
           Fail(path, ln,
                "header " + std::string(key) + ": expected a finite number, found " + Quote(h[1]));
         }
         (key == "dx_m" ? d.dx_m : d.dz_m) = v;
       } else {
         long long v = 0;
-        if (!io_detail::ParseInt64(h[1], v)) {
+        if (!io::detail::ParseInt64(h[1], v)) {
           Fail(path, ln,
                "header " + std::string(key) + ": expected an integer, found " + Quote(h[1]));
         }
@@ -193,7 +193,7 @@ RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progre
                ") has " + (mode ? "none" : "one"));
     }
     long long plane = 0;
-    if (!io_detail::ParseInt64(tok[0], plane)) {
+    if (!io::detail::ParseInt64(tok[0], plane)) {
       Fail(path, ln, "plane index: expected an integer, found " + Quote(tok[0]));
     }
     if (plane < 0 || static_cast<std::size_t>(plane) >= line_count) {
@@ -204,16 +204,16 @@ RotatingScanData ReadRotatingLog(const std::string& path, const Progress& progre
     }
     double phi = 0.0, theta = 0.0;
     float range = 0.f, intensity = 0.f;
-    if (!io_detail::ParseDouble(tok[1], phi) || !std::isfinite(phi)) {
+    if (!io::detail::ParseDouble(tok[1], phi) || !std::isfinite(phi)) {
       Fail(path, ln, "phi_rad: expected a finite number, found " + Quote(tok[1]));
     }
-    if (!io_detail::ParseDouble(tok[2], theta) || !std::isfinite(theta)) {
+    if (!io::detail::ParseDouble(tok[2], theta) || !std::isfinite(theta)) {
       Fail(path, ln, "theta_rad: expected a finite number, found " + Quote(tok[2]));
     }
-    if (!io_detail::ParseFloat(tok[3], range)) {
+    if (!io::detail::ParseFloat(tok[3], range)) {
       Fail(path, ln, "range_m: expected a number (nan for no return), found " + Quote(tok[3]));
     }
-    if (mode == 1 && !io_detail::ParseFloat(tok[4], intensity)) {
+    if (mode == 1 && !io::detail::ParseFloat(tok[4], intensity)) {
       Fail(path, ln, "intensity: expected a number, found " + Quote(tok[4]));
     }
     if (static_cast<std::size_t>(plane) >= planes.size()) {
@@ -320,13 +320,13 @@ RotatingLogWriter::RotatingLogWriter(const std::string& path, const RotatingScan
   out += "# plane phi_rad theta_rad range_m";
   out += intensity_ ? " intensity\n" : "\n";
   out += "# dx_m ";
-  io_detail::AppendNumber(out, d.dx_m);
+  io::detail::AppendNumber(out, d.dx_m);
   out += "\n# dz_m ";
-  io_detail::AppendNumber(out, d.dz_m);
+  io::detail::AppendNumber(out, d.dz_m);
   out += "\n# planes ";
-  io_detail::AppendNumber(out, static_cast<long long>(d.planes));
+  io::detail::AppendNumber(out, static_cast<long long>(d.planes));
   out += "\n# beams ";
-  io_detail::AppendNumber(out, static_cast<long long>(d.beams));
+  io::detail::AppendNumber(out, static_cast<long long>(d.beams));
   out += '\n';
 }
 
@@ -346,16 +346,16 @@ void RotatingLogWriter::Append(const RotatingScanData& d, int first_plane) {
   for (int i = 0; i < d.planes; ++i) {
     for (int j = 0; j < d.beams; ++j) {
       const std::size_t k = static_cast<std::size_t>(i) * d.beams + j;
-      io_detail::AppendNumber(out, static_cast<long long>(first_plane + i));
+      io::detail::AppendNumber(out, static_cast<long long>(first_plane + i));
       out += ' ';
-      io_detail::AppendNumber(out, d.phi_rad[i]);
+      io::detail::AppendNumber(out, d.phi_rad[i]);
       out += ' ';
-      io_detail::AppendNumber(out, d.theta_rad[j]);
+      io::detail::AppendNumber(out, d.theta_rad[j]);
       out += ' ';
-      io_detail::AppendNumber(out, d.range_m[k]);
+      io::detail::AppendNumber(out, d.range_m[k]);
       if (intensity_) {
         out += ' ';
-        io_detail::AppendNumber(out, d.intensity[k]);
+        io::detail::AppendNumber(out, d.intensity[k]);
       }
       out += '\n';
     }
@@ -373,4 +373,4 @@ void RotatingLogWriter::Commit() {
   file_.Commit();
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

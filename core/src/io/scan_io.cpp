@@ -14,7 +14,7 @@
 #include "scancam/io/ptx.h"
 #include "scancam/io/rotating_log.h"
 
-namespace scancam {
+namespace scancam::io {
 
 std::string DetectScanFormat(const std::string& path) {
   std::string ext = std::filesystem::path(path).extension().string();
@@ -80,4 +80,4 @@ OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options,
   return scan;
 }
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -14,7 +14,7 @@
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 
-namespace scancam {
+namespace scancam::pick {
 namespace {
 
 constexpr double kNaN = PointPair::kNaN;
@@ -527,4 +527,4 @@ std::string DescribeSnap(const SnapResult& snap) {
   return "kept: " + snap.why;
 }
 
-}  // namespace scancam
+}  // namespace scancam::pick

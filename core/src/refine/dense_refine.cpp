@@ -237,7 +237,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     const RefineScene& sc = scenes[k];
     if (!sc.scan) throw Error("dense refinement: scene " + std::to_string(k + 1) + " has no scan");
     AlignmentData d = PrepareAlignment(*sc.scan, sc.view, o.alignment);
-    const CameraModel& cam = d.camera;
+    const camera::CameraModel& cam = d.camera;
     const double mu = 0.3 * cam.width(), mv = 0.3 * cam.height();
     auto reachable = [&](const Eigen::Vector3f& p) {
       const auto uv = cam.ProjectUnbounded(start * p.cast<double>());
@@ -443,7 +443,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     const int bu = std::max(1, o.uncertainty_blocks_u), bv = std::max(1, o.uncertainty_blocks_v);
     const int blocks = bu * bv;
     auto block_of = [&](const Eigen::Vector3f& p) {
-      const CameraModel& cam = scene_now->camera;
+      const camera::CameraModel& cam = scene_now->camera;
       const auto uv = cam.ProjectUnbounded(best.T * p.cast<double>());
       if (!uv) return 0;
       const int x = std::clamp(static_cast<int>(uv->x() * bu / cam.width()), 0, bu - 1);

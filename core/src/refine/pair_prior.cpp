@@ -104,26 +104,26 @@ DenseRefineResult RefineWithPairs(const std::vector<RefineScene>& scenes,
   if (!(po.weight >= 0.0)) throw Error("picked pairs: the prior weight must be >= 0");
   PairCheck c;
   // Each scene's pairs with its camera and scan; the noise model at the start pose.
-  std::vector<PairNoiseScene> noise_scenes;
+  std::vector<solve::PairNoiseScene> noise_scenes;
   for (std::size_t k = 0; k < scenes.size(); ++k) {
-    PairNoiseScene n;
+    solve::PairNoiseScene n;
     n.pairs = pairs[k].pairs;
     n.scan = scenes[k].scan;
     n.camera = &scenes[k].view.camera;
     n.source = pairs[k].source;
     noise_scenes.push_back(std::move(n));
   }
-  const WeightedPairs wp(noise_scenes, start, po.noise);
+  const solve::WeightedPairs wp(noise_scenes, start, po.noise);
   c.pairs = static_cast<int>(wp.size());
   if (wp.size() < 4) {
     throw Error(pairs[0].source + ": " + std::to_string(wp.size()) +
                 " picked pair(s) in all; at least 4 are needed to use them in refinement");
   }
   // The pairs' own weighted solve: their optimum and their pooled noise level.
-  RefineOptions ro;
+  solve::RefineOptions ro;
   ro.prior_dof = 2.0 * std::max(0.0, po.noise.noise_prior_pairs);
-  const RefineResult own =
-      RefinePose(wp.bearings_cam(), wp.points_scan(), start, ro, {}, wp.covariances());
+  const solve::RefineResult own =
+      solve::RefinePose(wp.bearings_cam(), wp.points_scan(), start, ro, {}, wp.covariances());
   c.T_pairs = own.T_cam_scan;
   c.variance_factor = own.has_covariance ? std::max(1.0, own.variance_factor) : 1.0;
   const double vf = c.variance_factor;

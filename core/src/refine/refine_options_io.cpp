@@ -84,23 +84,24 @@ void VisitKeys(V& v, DenseRefineOptions& o) {
 
 DenseRefineOptions FromJson(const nlohmann::json& j, const std::string& source,
                             const DenseRefineOptions& base) {
-  return OptionsFromJson(
+  return io::OptionsFromJson(
       j, source, base, [](auto& v, DenseRefineOptions& o) { VisitKeys(v, o); },
       ValidateDenseRefineOptions);
 }
 
 }  // namespace
 
-std::vector<OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& o) {
-  std::vector<OptionProblem> p;
+std::vector<io::OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& o) {
+  std::vector<io::OptionProblem> p;
   auto in = [&](const char* key, double v, double lo, double hi) {
-    RequireOption(&p, v >= lo && v <= hi, key, "must be in [" + Num(lo) + ", " + Num(hi) + "]", v);
+    io::RequireOption(&p, v >= lo && v <= hi, key, "must be in [" + Num(lo) + ", " + Num(hi) + "]",
+                      v);
   };
   auto positive = [&](const char* key, double v) {
-    RequireOption(&p, v > 0.0, key, "must be > 0", v);
+    io::RequireOption(&p, v > 0.0, key, "must be > 0", v);
   };
   auto non_negative = [&](const char* key, double v) {
-    RequireOption(&p, v >= 0.0, key, "must be >= 0", v);
+    io::RequireOption(&p, v >= 0.0, key, "must be >= 0", v);
   };
   in("edge_weight", o.edge_weight, 0.0, 1000.0);
   in("starts", o.starts, 1, 100);
@@ -111,22 +112,22 @@ std::vector<OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& 
   positive("initial_step_m", o.initial_step_m);
   positive("final_step_deg", o.final_step_deg);
   positive("final_step_m", o.final_step_m);
-  RequireOption(&p, o.final_step_deg <= o.initial_step_deg, "final_step_deg",
-                "must be <= initial_step_deg", o.final_step_deg);
-  RequireOption(&p, o.final_step_m <= o.initial_step_m, "final_step_m", "must be <= initial_step_m",
-                o.final_step_m);
+  io::RequireOption(&p, o.final_step_deg <= o.initial_step_deg, "final_step_deg",
+                    "must be <= initial_step_deg", o.final_step_deg);
+  io::RequireOption(&p, o.final_step_m <= o.initial_step_m, "final_step_m",
+                    "must be <= initial_step_m", o.final_step_m);
   in("max_evaluations", o.max_evaluations, 1, 100000000);
   if (o.level_sigma_px.empty())
     p.push_back({"level_sigma_px", "must hold at least one level (0: the image as it is)"});
   for (const double s : o.level_sigma_px)
-    RequireOption(&p, s >= 0.0, "level_sigma_px", "every level must be >= 0", s);
+    io::RequireOption(&p, s >= 0.0, "level_sigma_px", "every level must be >= 0", s);
   if (o.level_min_step_deg.size() + 1 < o.level_sigma_px.size()) {
     p.push_back({"level_min_step_deg", "needs one step per level of level_sigma_px but the last (" +
                                            std::to_string(o.level_sigma_px.size() - 1) + "), has " +
                                            std::to_string(o.level_min_step_deg.size())});
   }
   for (const double s : o.level_min_step_deg)
-    RequireOption(&p, s > 0.0, "level_min_step_deg", "every step must be > 0", s);
+    io::RequireOption(&p, s > 0.0, "level_min_step_deg", "every step must be > 0", s);
   non_negative("reanchor_rounds", o.reanchor_rounds);
   non_negative("resamples", o.resamples);
   in("uncertainty_blocks_u", o.uncertainty_blocks_u, 1, 1000);
@@ -138,8 +139,8 @@ std::vector<OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& 
   positive("diverged_deg", o.diverged_deg);
   positive("diverged_m", o.diverged_m);
   non_negative("diverged_objective", o.diverged_objective);
-  RequireOption(&p, o.seed <= 2147483647u, "seed", "must be in [0, 2147483647]",
-                static_cast<double>(o.seed));
+  io::RequireOption(&p, o.seed <= 2147483647u, "seed", "must be in [0, 2147483647]",
+                    static_cast<double>(o.seed));
   const AlignmentOptions& a = o.alignment;
   positive("alignment.edge_sigma_px", a.edge_sigma_px);
   non_negative("alignment.depth_jump_m", a.depth_jump_m);
@@ -151,22 +152,22 @@ std::vector<OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& 
   non_negative("alignment.occlusion_tolerance_fraction", a.occlusion_tolerance_fraction);
   non_negative("alignment.min_range_m", a.min_range_m);
   non_negative("alignment.max_range_m", a.max_range_m);
-  RequireOption(&p, a.tile_rows >= 1, "alignment.tile_rows", "must be >= 1", a.tile_rows);
-  RequireOption(&p, a.tile_cols >= 1, "alignment.tile_cols", "must be >= 1", a.tile_cols);
+  io::RequireOption(&p, a.tile_rows >= 1, "alignment.tile_rows", "must be >= 1", a.tile_rows);
+  io::RequireOption(&p, a.tile_cols >= 1, "alignment.tile_cols", "must be >= 1", a.tile_cols);
   return p;
 }
 
 std::string DenseRefineOptionsJson(const DenseRefineOptions& options) {
-  return OptionsToJson(options, [](auto& v, DenseRefineOptions& o) { VisitKeys(v, o); });
+  return io::OptionsToJson(options, [](auto& v, DenseRefineOptions& o) { VisitKeys(v, o); });
 }
 
 DenseRefineOptions ParseDenseRefineOptions(const std::string& text, const std::string& source,
                                            const DenseRefineOptions& base) {
-  return FromJson(ParseJsonText(text, source), source, base);
+  return FromJson(io::ParseJsonText(text, source), source, base);
 }
 
 DenseRefineOptions ReadDenseRefineOptions(const std::string& path, const DenseRefineOptions& base) {
-  return FromJson(ReadJsonFile(path), path, base);
+  return FromJson(io::ReadJsonFile(path), path, base);
 }
 
 void WriteDenseRefineOptions(const std::string& path, const DenseRefineOptions& options) {

@@ -8,7 +8,7 @@
 
 #include "continuity_cells.h"
 
-namespace scancam {
+namespace scancam::scan {
 
 double GroundPlane::tilt_deg(const Eigen::Vector3d& up) const {
   const double c = std::clamp(normal.dot(up.normalized()), -1.0, 1.0);
@@ -48,15 +48,15 @@ GridWrap DetectGridWrap(const OrderedScan& scan) {
 }
 
 struct ContinuityTest::Params {
-  scan_detail::ContParams p;
+  scan::detail::ContParams p;
 };
 
 ContinuityTest::ContinuityTest(const ContinuityOptions& options)
-    : p_(std::make_shared<const Params>(Params{scan_detail::MakeContParams(options)})) {}
+    : p_(std::make_shared<const Params>(Params{scan::detail::MakeContParams(options)})) {}
 
 bool ContinuityTest::operator()(const OrderedScan& scan, int r, int c, int dr, int dc) const {
   if (dr == 0 && dc == 0) return false;
-  return scan_detail::ContinuousCells(scan, r, c, dr, dc, p_->p);
+  return scan::detail::ContinuousCells(scan, r, c, dr, dc, p_->p);
 }
 
 bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
@@ -64,4 +64,4 @@ bool ContinuousNeighbours(const OrderedScan& scan, int r, int c, int dr, int dc,
   return ContinuityTest(options)(scan, r, c, dr, dc);
 }
 
-}  // namespace scancam
+}  // namespace scancam::scan

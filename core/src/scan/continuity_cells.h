@@ -12,7 +12,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/scan/continuity.h"
 
-namespace scancam::scan_detail {
+namespace scancam::scan::detail {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 
@@ -123,4 +123,4 @@ inline bool OnGround(const OrderedScan& s, std::size_t j, const ContParams& p) {
   return std::abs(h) <= p.gtol_m + p.gtol_frac * s.range_m[j];
 }
 
-}  // namespace scancam::scan_detail
+}  // namespace scancam::scan::detail

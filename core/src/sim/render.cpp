@@ -19,7 +19,7 @@ namespace {
 // fisheye's field of view).
 class BearingGrid {
  public:
-  explicit BearingGrid(const CameraModel& camera)
+  explicit BearingGrid(const camera::CameraModel& camera)
       : camera_(camera), cw_(camera.width() + 1), ch_(camera.height() + 1) {
     corner_.resize(std::size_t(cw_) * ch_);
     ok_.assign(corner_.size(), 0);
@@ -56,7 +56,7 @@ class BearingGrid {
            fb * ((1 - fa) * corner_[c + cw_] + fa * corner_[c + cw_ + 1]);
   }
 
-  const CameraModel& camera_;
+  const camera::CameraModel& camera_;
   int cw_, ch_;
   std::vector<Eigen::Vector3d> corner_;
   std::vector<std::uint8_t> ok_;
@@ -64,7 +64,7 @@ class BearingGrid {
 
 }  // namespace
 
-cv::Mat RenderImage(const Scene& scene, const CameraModel& camera,
+cv::Mat RenderImage(const Scene& scene, const camera::CameraModel& camera,
                     const Eigen::Isometry3d& T_world_cam, const RenderOptions& options,
                     const Progress& progress) {
   if (!camera.valid()) throw Error("RenderImage: no camera");
@@ -135,7 +135,7 @@ cv::Mat RenderImage(const Scene& scene, const CameraModel& camera,
   return out;
 }
 
-double RenderBearingError(const CameraModel& camera, int samples_per_axis) {
+double RenderBearingError(const camera::CameraModel& camera, int samples_per_axis) {
   const BearingGrid grid(camera);
   double worst = 0.0;
   const int w = camera.width(), h = camera.height();
@@ -154,7 +154,7 @@ double RenderBearingError(const CameraModel& camera, int samples_per_axis) {
   return worst;
 }
 
-bool VisibleFromCamera(const Scene& scene, const CameraModel& camera,
+bool VisibleFromCamera(const Scene& scene, const camera::CameraModel& camera,
                        const Eigen::Isometry3d& T_world_cam, const ImageMask& mask,
                        const Eigen::Vector3d& p_world, Eigen::Vector2d* uv) {
   const Eigen::Vector3d p_cam = T_world_cam.inverse() * p_world;

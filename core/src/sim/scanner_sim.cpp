@@ -203,10 +203,10 @@ std::optional<Eigen::Vector3d> TruthPoint(const Scene& scene, const SimScanner& 
   return Eigen::Vector3d(o + hit->t * d);
 }
 
-RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample,
-                                int first_plane) {
+io::RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample,
+                                    int first_plane) {
   const RotatingScannerParams& p = scanner.params();
-  RotatingScanData d;
+  io::RotatingScanData d;
   d.planes = sample.truth.rows;
   d.beams = p.beams;
   for (int i = first_plane; i < first_plane + d.planes; ++i)

@@ -101,8 +101,8 @@ struct Candidate {
   Eigen::Vector3d bearing;      // unit, scanner frame
 };
 
-bool InsideWithMargin(const CameraModel& cam, const ImageMask& mask, const Eigen::Vector2d& uv,
-                      double margin) {
+bool InsideWithMargin(const camera::CameraModel& cam, const ImageMask& mask,
+                      const Eigen::Vector2d& uv, double margin) {
   if (uv.x() < margin - 0.5 || uv.y() < margin - 0.5 || uv.x() > cam.width() - 0.5 - margin ||
       uv.y() > cam.height() - 0.5 - margin) {
     return false;
@@ -231,9 +231,9 @@ std::string Fixed(double v, int digits) {
 
 // ---- presets --------------------------------------------------------------------------------
 
-CameraModel PresetCamera(const std::string& preset) {
+camera::CameraModel PresetCamera(const std::string& preset) {
   if (preset == "omni") {
-    OCamParams p;
+    camera::OCamParams p;
     p.center_u = kOmniCu;
     p.center_v = kOmniCv;
     p.c = 1.0003;
@@ -244,17 +244,20 @@ CameraModel PresetCamera(const std::string& preset) {
     const double rho_corner =
         std::hypot(std::max(kOmniCu, 640 - kOmniCu), std::max(kOmniCv, 480 - kOmniCv)) + 4.0;
     p.invpol = FitInvPol(p.pol, rho_corner);
-    return CameraModel::OCam(p, 640, 480, "simulated catadioptric (OCamCalib)");
+    return camera::CameraModel::OCam(p, 640, 480, "simulated catadioptric (OCamCalib)");
   }
   if (preset == "pinhole") {
-    return CameraModel::Pinhole(610.5, 611.2, 515.3, 381.9, {-0.25, 0.07, 4e-4, -2.5e-4, -0.008},
-                                1024, 768, "simulated wide-angle pinhole");
+    return camera::CameraModel::Pinhole(610.5, 611.2, 515.3, 381.9,
+                                        {-0.25, 0.07, 4e-4, -2.5e-4, -0.008}, 1024, 768,
+                                        "simulated wide-angle pinhole");
   }
   if (preset == "fisheye") {
-    return CameraModel::Fisheye(286.0, 286.4, 511.6, 384.2, {0.031, -0.012, 0.0025, -0.0004}, 1024,
-                                768, "simulated fisheye (Kannala-Brandt)");
+    return camera::CameraModel::Fisheye(286.0, 286.4, 511.6, 384.2,
+                                        {0.031, -0.012, 0.0025, -0.0004}, 1024, 768,
+                                        "simulated fisheye (Kannala-Brandt)");
   }
-  if (preset == "equirect") return CameraModel::Equirect(1440, 720, "simulated 360 panorama");
+  if (preset == "equirect")
+    return camera::CameraModel::Equirect(1440, 720, "simulated 360 panorama");
   throw Error("unknown camera preset '" + preset + "' (omni, pinhole, fisheye, equirect)");
 }
 
@@ -330,7 +333,7 @@ Simulation Prepare(const SimulateOptions& o) {
   if (o.image_circle_px > 0.0) {
     // A lens whose image circle ends inside the image: black beyond it.
     const std::vector<double>& prm = sim.camera.params();
-    const bool ocam = sim.camera.type() == CameraType::kOCam;
+    const bool ocam = sim.camera.type() == camera::CameraType::kOCam;
     if (!sim.mask.enabled) {
       sim.mask.enabled = true;
       sim.mask.centre_u = ocam ? prm[0] : prm[2];
@@ -463,7 +466,7 @@ Simulation Simulate(const Scene& scene, const SimulateOptions& o, const Progress
   sim.sample = SampleScan(scene, *sim.scanner, sim.T_world_scan, o.noise, o.seed, progress);
   if (o.scanner == "rotating") {
     sim.rotating = ToRotatingData(static_cast<const RotatingScanner&>(*sim.scanner), sim.sample);
-    sim.scan = scancam::ToOrderedScan(*sim.rotating, "scan.txt");
+    sim.scan = scancam::io::ToOrderedScan(*sim.rotating, "scan.txt");
   } else {
     sim.scan = SampleToOrderedScan(*sim.scanner, sim.sample, "scan.pcd");
   }
@@ -487,7 +490,7 @@ std::string ScanFileName(const Simulation& sim) {
   return sim.options.scanner == "rotating" ? "scan.txt" : "scan.pcd";
 }
 std::string CameraFileName(const Simulation& sim) {
-  return sim.camera.type() == CameraType::kOCam ? "camera.txt" : "camera.yaml";
+  return sim.camera.type() == camera::CameraType::kOCam ? "camera.txt" : "camera.yaml";
 }
 
 namespace {
@@ -522,16 +525,17 @@ void AppendTruthRows(StreamedFile& file, const ScanTruth& tr, int first_row) {
 // image.png, the camera file, mask.png and pairs.csv.
 void WriteCameraFiles(const Simulation& sim, const std::filesystem::path& d) {
   WritePng((d / "image.png").string(), sim.image);
-  if (sim.camera.type() == CameraType::kOCam) {
-    SaveCamera(sim.camera, (d / "camera.txt").string(), CameraFileFormat::kOCamCalib);
+  if (sim.camera.type() == camera::CameraType::kOCam) {
+    camera::SaveCamera(sim.camera, (d / "camera.txt").string(),
+                       camera::CameraFileFormat::kOCamCalib);
   } else {
-    SaveCamera(sim.camera, (d / "camera.yaml").string(), CameraFileFormat::kOpenCv);
+    camera::SaveCamera(sim.camera, (d / "camera.yaml").string(), camera::CameraFileFormat::kOpenCv);
   }
   if (sim.mask.enabled) {
     WritePng((d / "mask.png").string(),
              MaskImage(sim.mask, sim.camera.width(), sim.camera.height()));
   }
-  WritePairsCsv((d / "pairs.csv").string(), sim.pairs);
+  io::WritePairsCsv((d / "pairs.csv").string(), sim.pairs);
 }
 
 void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d);
@@ -552,11 +556,11 @@ void WriteSimulation(const Simulation& sim, const std::string& dir, const Progre
   const std::filesystem::path d = OutputDirectory(dir);
   progress(0.0, "writing files");
   if (sim.rotating) {
-    WriteRotatingLog((d / "scan.txt").string(), *sim.rotating);
+    io::WriteRotatingLog((d / "scan.txt").string(), *sim.rotating);
   } else {
-    WriteOrganisedPcd((d / "scan.pcd").string(), sim.scan);
+    io::WriteOrganisedPcd((d / "scan.pcd").string(), sim.scan);
   }
-  WritePtx((d / "scan.ptx").string(), {PtxFromOrderedScan(sim.scan)});
+  io::WritePtx((d / "scan.ptx").string(), {io::PtxFromOrderedScan(sim.scan)});
   WriteCameraFiles(sim, d);
   progress(0.3, "writing files");
 
@@ -585,24 +589,24 @@ void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d)
         "T_cam_scan maps scanner-frame points into the camera frame (X_cam = R X_scan + t); "
         "camera frame OpenCV (x right, y down, z forward); world = the room (x east, y north, z "
         "up); rotation_rpy_deg: R = Rz(yaw) Ry(pitch) Rx(roll)";
-    j["T_cam_scan"] = PoseToJson(sim.T_cam_scan);
-    j["rotation_rpy_deg"] = Vector3ToJson(RotationToRpyDeg(sim.T_cam_scan.linear()));
-    j["translation_m"] = Vector3ToJson(sim.T_cam_scan.translation());
-    j["camera_centre_in_scan_m"] = Vector3ToJson(sim.T_cam_scan.inverse().translation());
-    if (sim.camera.type() == CameraType::kOCam) {
+    j["T_cam_scan"] = io::PoseToJson(sim.T_cam_scan);
+    j["rotation_rpy_deg"] = io::Vector3ToJson(RotationToRpyDeg(sim.T_cam_scan.linear()));
+    j["translation_m"] = io::Vector3ToJson(sim.T_cam_scan.translation());
+    j["camera_centre_in_scan_m"] = io::Vector3ToJson(sim.T_cam_scan.inverse().translation());
+    if (sim.camera.type() == camera::CameraType::kOCam) {
       // The same rig in OCamCalib's own camera frame (the paper's Table I is in it).
       const Eigen::Matrix3d P = OCamFromOpenCv();
       j["ocamcalib_frame"] = {
           {"note", "X_ocam = (Y_cv, X_cv, -Z_cv): OCamCalib's frame, z along the mirror axis"},
-          {"rotation_rpy_deg", Vector3ToJson(RotationToRpyDeg(P * sim.T_cam_scan.linear()))},
-          {"translation_m", Vector3ToJson(P * sim.T_cam_scan.translation())}};
+          {"rotation_rpy_deg", io::Vector3ToJson(RotationToRpyDeg(P * sim.T_cam_scan.linear()))},
+          {"translation_m", io::Vector3ToJson(P * sim.T_cam_scan.translation())}};
     }
-    j["T_world_scan"] = PoseToJson(sim.T_world_scan);
-    j["T_world_cam"] = PoseToJson(sim.T_world_cam);
+    j["T_world_scan"] = io::PoseToJson(sim.T_world_scan);
+    j["T_world_cam"] = io::PoseToJson(sim.T_world_cam);
     json cam;
     cam["file"] = CameraFileName(sim);
     cam["preset"] = o.camera;
-    cam["model"] = CameraTypeName(sim.camera.type());
+    cam["model"] = camera::CameraTypeName(sim.camera.type());
     cam["width"] = sim.camera.width();
     cam["height"] = sim.camera.height();
     cam["description"] = sim.camera.Describe();
@@ -621,7 +625,7 @@ void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d)
     img["true_colour"] =
         "albedo (texture, bilinear) times shading ambient + (1 - ambient)(0.5 + 0.5 n.l), one "
         "point light, no shadows, view-independent; pixels average it over their area";
-    img["light_m"] = Vector3ToJson(Eigen::Vector3d(2.2, 2.8, 2.5));
+    img["light_m"] = io::Vector3ToJson(Eigen::Vector3d(2.2, 2.8, 2.5));
     j["image"] = img;
     json sc;
     sc["kind"] = sim.scanner->Kind();
@@ -660,8 +664,8 @@ void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d)
                        {"wrong", t.wrong},
                        {"image_feature", t.image_feature},
                        {"scan_feature", t.scan_feature},
-                       {"point_scan_m", Vector3ToJson(t.point_scan_m)},
-                       {"scan_point_m", Vector3ToJson(t.scan_point_m)},
+                       {"point_scan_m", io::Vector3ToJson(t.point_scan_m)},
+                       {"scan_point_m", io::Vector3ToJson(t.scan_point_m)},
                        {"inset_m", t.inset_m},
                        {"scan_interp_error_m", t.scan_interp_error_m},
                        {"image_uv_true", {t.uv_true.x(), t.uv_true.y()}},
@@ -674,7 +678,7 @@ void WriteGroundTruthJson(const Simulation& sim, const std::filesystem::path& d)
     j["pick_sigma_cells"] = o.pick_sigma_cells;
     j["pairs"] = pairs;
     j["warnings"] = sim.warnings;
-    WriteJsonFile((d / "ground_truth.json").string(), j);
+    io::WriteJsonFile((d / "ground_truth.json").string(), j);
   }
 }
 
@@ -703,17 +707,17 @@ Simulation SimulateToDirectory(const Scene& scene, const SimulateOptions& o, con
 
   // The scan, block_rows planes at a time, into scan.txt, scan.ptx and truth.csv. The headers
   // are those of the whole scan (WriteSimulation's files).
-  RotatingScanData header;
+  io::RotatingScanData header;
   {
     ScanSample none;
     none.truth.rows = rows;
     header = ToRotatingData(scanner, none);
     header.intensity.assign(1, 0.f);  // the simulated scan has intensity
   }
-  RotatingLogWriter log((d / "scan.txt").string(), header);
-  PtxWriter ptx((d / "scan.ptx").string());
+  io::RotatingLogWriter log((d / "scan.txt").string(), header);
+  io::PtxWriter ptx((d / "scan.ptx").string());
   {
-    PtxScan ptx_header;
+    io::PtxScan ptx_header;
     ptx_header.columns = rows;  // PtxFromOrderedScan: PTX columns = scan rows
     ptx_header.rows = cols;
     ptx.BeginScan(ptx_header);
@@ -727,11 +731,11 @@ Simulation SimulateToDirectory(const Scene& scene, const SimulateOptions& o, con
     progress(double(first) / rows, "camera visibility");
     MarkVisible(scene, sim, block.truth);
     progress(double(first) / rows, "writing the scan");
-    const RotatingScanData part = ToRotatingData(scanner, block, first);
+    const io::RotatingScanData part = ToRotatingData(scanner, block, first);
     log.Append(part, first);
-    const OrderedScan grid = scancam::ToOrderedScan(part, "scan.txt");
+    const OrderedScan grid = scancam::io::ToOrderedScan(part, "scan.txt");
     sim.valid_cells += grid.valid_count();
-    ptx.AppendPoints(PtxFromOrderedScan(grid));
+    ptx.AppendPoints(io::PtxFromOrderedScan(grid));
     AppendTruthRows(truth, block.truth, first);
   }
   log.Commit();

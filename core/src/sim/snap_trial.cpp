@@ -30,8 +30,8 @@ SnapTrial RunSnapTrial(const Simulation& sim, const Scene& scene, const SnapTria
     c.cell_true = *cell;
     c.uv_click = *uv + o.click_sigma_px * Eigen::Vector2d(rng.Normal(), rng.Normal());
     c.cell_click = *cell + o.click_sigma_cells * Eigen::Vector2d(rng.Normal(), rng.Normal());
-    c.image_snap = SnapImagePoint(sim.image, c.uv_click, o.image);
-    c.scan_snap = SnapScanCell(sim.scan, c.cell_click, o.scan);
+    c.image_snap = pick::SnapImagePoint(sim.image, c.uv_click, o.image);
+    c.scan_snap = pick::SnapScanCell(sim.scan, c.cell_click, o.scan);
     c.uv_snapped = c.image_snap.position;
     c.cell_snapped = c.scan_snap.position;
     trial.image_accepted += c.image_snap.accepted ? 1 : 0;
@@ -47,8 +47,8 @@ SnapTrial RunSnapTrial(const Simulation& sim, const Scene& scene, const SnapTria
     p.scan_row = c.cell_click.x();
     p.scan_col = c.cell_click.y();
     PointPair q = p;
-    ApplyImageSnap(c.image_snap, q);
-    ApplyScanSnap(c.scan_snap, q);
+    pick::ApplyImageSnap(c.image_snap, q);
+    pick::ApplyScanSnap(c.scan_snap, q);
     // A click on a cell without a return gives no pair (a user would click again).
     if (PairLaserPoint(p, &sim.scan) && PairLaserPoint(q, &sim.scan)) {
       trial.clicked_pairs.push_back(p);

@@ -12,7 +12,7 @@
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/linear_pnp.h"
 
-namespace scancam {
+namespace scancam::solve {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
@@ -81,11 +81,11 @@ bool BeamDerivatives(const OrderedScan* scan, const PointPair& p, Eigen::Vector3
 
 }  // namespace
 
-namespace calibrate_internal {
+namespace internal {
 
 // Covariance of a pair's bearing error seen from the camera (calibrate.h, "Weighted
 // refinement"), rad^2, 3x3 on the tangent plane at the pixel's bearing.
-Eigen::Matrix3d BearingCovariance(const CameraModel& camera, const OrderedScan* scan,
+Eigen::Matrix3d BearingCovariance(const camera::CameraModel& camera, const OrderedScan* scan,
                                   const PointPair& pair, const Eigen::Vector3d& bearing,
                                   const Eigen::Vector3d& p_scan, const Eigen::Isometry3d& T,
                                   const CalibrateOptions& o) {
@@ -162,15 +162,15 @@ Eigen::Matrix<double, 6, 6> PairInformation(const Eigen::Isometry3d& T, const Ei
   return J2.transpose() * S.inverse() * J2;
 }
 
-}  // namespace calibrate_internal
+}  // namespace internal
 
 namespace {
 
-using calibrate_internal::BearingCovariance;
-using calibrate_internal::FlatPairs;
-using calibrate_internal::PairInformation;
-using calibrate_internal::SuggestPicks;
-using calibrate_internal::Usable;
+using solve::internal::BearingCovariance;
+using solve::internal::FlatPairs;
+using solve::internal::PairInformation;
+using solve::internal::SuggestPicks;
+using solve::internal::Usable;
 
 void MeanStdMax(const std::vector<double>& v, double* mean, double* sd, double* mx) {
   *mean = *sd = *mx = 0;
@@ -190,7 +190,7 @@ std::string Where(const FlatPairs& f, std::size_t i) {
 }
 
 // Weak-geometry and gimbal-lock warnings (calibrate.h, "Uncertainty").
-void GeometryWarnings(const CameraModel& camera, const std::vector<Eigen::Vector3d>& points,
+void GeometryWarnings(const camera::CameraModel& camera, const std::vector<Eigen::Vector3d>& points,
                       Calibration* cal) {
   Eigen::Vector2d lo(1e300, 1e300), hi(-1e300, -1e300);
   double dmin = 1e300, dmax = 0;
@@ -297,7 +297,7 @@ void CompareScene(const Calibration& joint, const Calibration& alone, SceneResul
 }
 
 Calibration CalibrateFlat(const FlatPairs& f, const std::vector<const OrderedScan*>& scene_scans,
-                          const CameraModel& camera, const CalibrateOptions& options) {
+                          const camera::CameraModel& camera, const CalibrateOptions& options) {
   const std::vector<PointPair>& pairs = f.pairs;
   const std::string& first_source = f.source.empty() ? options.pairs_source : f.source[0];
   const std::size_t n = pairs.size();
@@ -582,12 +582,12 @@ FlatPairs Flatten(const std::vector<CalibrationScene>& scenes, const CalibrateOp
 }  // namespace
 
 Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
-                      const CameraModel& camera, const CalibrateOptions& options) {
+                      const camera::CameraModel& camera, const CalibrateOptions& options) {
   return CalibrateScenes({CalibrationScene{pairs, scan, options.pairs_source}}, camera, options);
 }
 
-Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes, const CameraModel& camera,
-                            const CalibrateOptions& options) {
+Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes,
+                            const camera::CameraModel& camera, const CalibrateOptions& options) {
   if (!camera.valid()) throw Error("calibration: no camera model");
   if (scenes.empty()) throw Error("calibration: no scene given");
   std::vector<const OrderedScan*> scene_scans;
@@ -625,4 +625,4 @@ Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes, const C
   return cal;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

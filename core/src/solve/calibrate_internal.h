@@ -11,7 +11,7 @@
 
 #include "scancam/solve/calibrate.h"
 
-namespace scancam::calibrate_internal {
+namespace scancam::solve::internal {
 
 // The flat list of every scene's pairs (CalibrateScenes): pair i, its scene's scan and name,
 // and its position within its scene.
@@ -25,7 +25,7 @@ struct FlatPairs {
 
 // Covariance of a pair's bearing error seen from the camera (calibrate.h, "Weighted
 // refinement"), rad^2, 3x3 on the tangent plane at the pixel's bearing.
-Eigen::Matrix3d BearingCovariance(const CameraModel& camera, const OrderedScan* scan,
+Eigen::Matrix3d BearingCovariance(const camera::CameraModel& camera, const OrderedScan* scan,
                                   const PointPair& pair, const Eigen::Vector3d& bearing,
                                   const Eigen::Vector3d& p_scan, const Eigen::Isometry3d& T,
                                   const CalibrateOptions& o);
@@ -40,10 +40,10 @@ Eigen::Matrix<double, 6, 6> PairInformation(const Eigen::Isometry3d& T, const Ei
 
 // Fills cal->suggestions (see PickSuggestion in calibrate.h) from the refined pose and the
 // inliers (bearings, laser points in the scanner frame, per flat pair).
-void SuggestPicks(const CameraModel& camera, const FlatPairs& f,
+void SuggestPicks(const camera::CameraModel& camera, const FlatPairs& f,
                   const std::vector<const OrderedScan*>& scene_scans,
                   const std::vector<Eigen::Vector3d>& bearings,
                   const std::vector<Eigen::Vector3d>& points, const std::vector<bool>& inlier,
                   const CalibrateOptions& options, Calibration* cal);
 
-}  // namespace scancam::calibrate_internal
+}  // namespace scancam::solve::internal

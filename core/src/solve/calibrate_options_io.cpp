@@ -8,7 +8,7 @@
 #include "scancam/io/json_util.h"
 #include "scancam/output_file.h"
 
-namespace scancam {
+namespace scancam::solve {
 namespace {
 
 constexpr char kKind[] = "calibrate options";
@@ -55,58 +55,60 @@ void VisitKeys(V& v, CalibrateOptions& o) {
 
 CalibrateOptions FromJson(const nlohmann::json& j, const std::string& source,
                           const CalibrateOptions& base) {
-  return OptionsFromJson(
+  return io::OptionsFromJson(
       j, source, base, [](auto& v, CalibrateOptions& o) { VisitKeys(v, o); },
       ValidateCalibrateOptions);
 }
 
 }  // namespace
 
-std::vector<OptionProblem> ValidateCalibrateOptions(const CalibrateOptions& o) {
-  std::vector<OptionProblem> p;
+std::vector<io::OptionProblem> ValidateCalibrateOptions(const CalibrateOptions& o) {
+  std::vector<io::OptionProblem> p;
   if (!OneOf(o.method, {"paper", "ransac", "epnp", "upnp"}))
     p.push_back({"method", "'" + o.method + "' is not paper, ransac, epnp or upnp"});
-  RequireOption(&p, o.threshold_px > 0.0, "threshold_px", "must be > 0", o.threshold_px);
-  RequireOption(&p, o.threshold_cells >= 0.0, "threshold_cells", "must be >= 0", o.threshold_cells);
-  RequireOption(&p, o.threshold_deg >= 0.0, "threshold_deg", "must be >= 0 (0: in pixels)",
-                o.threshold_deg);
-  RequireOption(&p, o.sigma_px >= 0.0, "sigma_px", "must be >= 0", o.sigma_px);
-  RequireOption(&p, o.sigma_cells >= 0.0, "sigma_cells", "must be >= 0", o.sigma_cells);
-  RequireOption(&p, o.sigma_point_m >= 0.0, "sigma_point_m", "must be >= 0", o.sigma_point_m);
+  io::RequireOption(&p, o.threshold_px > 0.0, "threshold_px", "must be > 0", o.threshold_px);
+  io::RequireOption(&p, o.threshold_cells >= 0.0, "threshold_cells", "must be >= 0",
+                    o.threshold_cells);
+  io::RequireOption(&p, o.threshold_deg >= 0.0, "threshold_deg", "must be >= 0 (0: in pixels)",
+                    o.threshold_deg);
+  io::RequireOption(&p, o.sigma_px >= 0.0, "sigma_px", "must be >= 0", o.sigma_px);
+  io::RequireOption(&p, o.sigma_cells >= 0.0, "sigma_cells", "must be >= 0", o.sigma_cells);
+  io::RequireOption(&p, o.sigma_point_m >= 0.0, "sigma_point_m", "must be >= 0", o.sigma_point_m);
   if (o.sigma_px + o.sigma_cells + o.sigma_point_m <= 0.0)
     p.push_back({"sigma_px", "sigma_px, sigma_cells and sigma_point_m must not all be 0"});
-  RequireOption(&p, o.suggest_picks >= 0 && o.suggest_picks <= 100, "suggest_picks",
-                "must be in [0, 100]", o.suggest_picks);
-  RequireOption(&p, o.noise_prior_pairs >= 0.0, "noise_prior_pairs", "must be >= 0",
-                o.noise_prior_pairs);
+  io::RequireOption(&p, o.suggest_picks >= 0 && o.suggest_picks <= 100, "suggest_picks",
+                    "must be in [0, 100]", o.suggest_picks);
+  io::RequireOption(&p, o.noise_prior_pairs >= 0.0, "noise_prior_pairs", "must be >= 0",
+                    o.noise_prior_pairs);
   const RefineOptions& r = o.refine_options;
   if (!OneOf(r.loss, {"none", "huber", "cauchy"}))
     p.push_back({"refine_options.loss", "'" + r.loss + "' is not none, huber or cauchy"});
-  RequireOption(&p, r.loss_scale_rad > 0.0, "refine_options.loss_scale_rad", "must be > 0",
-                r.loss_scale_rad);
-  RequireOption(&p, r.loss_scale_sigma > 0.0, "refine_options.loss_scale_sigma", "must be > 0",
-                r.loss_scale_sigma);
-  RequireOption(&p, r.max_iterations >= 1, "refine_options.max_iterations", "must be >= 1",
-                r.max_iterations);
-  RequireOption(&p, r.prior_dof >= 0.0, "refine_options.prior_dof", "must be >= 0", r.prior_dof);
+  io::RequireOption(&p, r.loss_scale_rad > 0.0, "refine_options.loss_scale_rad", "must be > 0",
+                    r.loss_scale_rad);
+  io::RequireOption(&p, r.loss_scale_sigma > 0.0, "refine_options.loss_scale_sigma", "must be > 0",
+                    r.loss_scale_sigma);
+  io::RequireOption(&p, r.max_iterations >= 1, "refine_options.max_iterations", "must be >= 1",
+                    r.max_iterations);
+  io::RequireOption(&p, r.prior_dof >= 0.0, "refine_options.prior_dof", "must be >= 0",
+                    r.prior_dof);
   return p;
 }
 
 std::string CalibrateOptionsJson(const CalibrateOptions& options) {
-  return OptionsToJson(options, [](auto& v, CalibrateOptions& o) { VisitKeys(v, o); });
+  return io::OptionsToJson(options, [](auto& v, CalibrateOptions& o) { VisitKeys(v, o); });
 }
 
 CalibrateOptions ParseCalibrateOptions(const std::string& text, const std::string& source,
                                        const CalibrateOptions& base) {
-  return FromJson(ParseJsonText(text, source), source, base);
+  return FromJson(io::ParseJsonText(text, source), source, base);
 }
 
 CalibrateOptions ReadCalibrateOptions(const std::string& path, const CalibrateOptions& base) {
-  return FromJson(ReadJsonFile(path), path, base);
+  return FromJson(io::ReadJsonFile(path), path, base);
 }
 
 void WriteCalibrateOptions(const std::string& path, const CalibrateOptions& options) {
   WriteFileAtomically(path, CalibrateOptionsJson(options));
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -11,7 +11,7 @@
 #include "calibrate_internal.h"
 #include "scancam/scan/continuity.h"
 
-namespace scancam::calibrate_internal {
+namespace scancam::solve::internal {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
@@ -27,7 +27,8 @@ struct CandidateFeature {
 };
 
 std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
-                                                  const ContinuityTest& continuous, int r, int c) {
+                                                  const scan::ContinuityTest& continuous, int r,
+                                                  int c) {
   if (!scan.valid(r, c)) return std::nullopt;
   const float range = scan.range_m[scan.index(r, c)];
   CandidateFeature f;
@@ -99,7 +100,7 @@ std::optional<CandidateFeature> ClassifyCandidate(const OrderedScan& scan,
 
 }  // namespace
 
-void SuggestPicks(const CameraModel& camera, const FlatPairs& f,
+void SuggestPicks(const camera::CameraModel& camera, const FlatPairs& f,
                   const std::vector<const OrderedScan*>& scene_scans,
                   const std::vector<Eigen::Vector3d>& bearings,
                   const std::vector<Eigen::Vector3d>& points, const std::vector<bool>& inlier,
@@ -129,7 +130,7 @@ void SuggestPicks(const CameraModel& camera, const FlatPairs& f,
   // with a grid neighbour that is farther and not continuous with it, scan/continuity.h: an
   // object's outline, where its corners are), about 1000 of them spread over each grid, that
   // the camera sees, with clutter rejected and corners preferred (ClassifyCandidate).
-  const ContinuityTest continuous;
+  const scan::ContinuityTest continuous;
   struct Cand {
     int scene, r, c;
     Eigen::Vector3d p;
@@ -249,4 +250,4 @@ void SuggestPicks(const CameraModel& camera, const FlatPairs& f,
   }
 }
 
-}  // namespace scancam::calibrate_internal
+}  // namespace scancam::solve::internal

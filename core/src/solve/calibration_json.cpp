@@ -5,17 +5,17 @@
 
 #include "scancam/io/json_util.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inputs) {
   nlohmann::json j;
-  j["T_cam_scan"] = PoseToJson(c.T_cam_scan);
+  j["T_cam_scan"] = io::PoseToJson(c.T_cam_scan);
   j["convention"] =
       "T_cam_scan maps scanner-frame points into the camera frame (X_cam = R X_scan + t, "
       "metres); camera frame = OpenCV (x right, y down, z forward); rotation_rpy_deg: R = "
       "Rz(yaw) Ry(pitch) Rx(roll)";
-  j["rotation_rpy_deg"] = Vector3ToJson(c.rotation_rpy_deg);
-  j["translation_m"] = Vector3ToJson(c.T_cam_scan.translation());
+  j["rotation_rpy_deg"] = io::Vector3ToJson(c.rotation_rpy_deg);
+  j["translation_m"] = io::Vector3ToJson(c.T_cam_scan.translation());
   j["method"] = c.method;
   j["refined"] = c.refined;
   j["weighted"] = c.weighted;
@@ -29,10 +29,10 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
   j["errors"] = {{"reprojection_px", {{"mean", c.mean_px}, {"std", c.std_px}, {"max", c.max_px}}},
                  {"angular_deg", {{"mean", c.mean_deg}, {"std", c.std_deg}, {"max", c.max_deg}}}};
   if (c.has_covariance) {
-    j["std"] = {{"rotation_rpy_deg", Vector3ToJson(c.std_rpy_deg)},
-                {"rotation_std_deg_cam_xyz", Vector3ToJson(c.std_rot_cam_deg)},
-                {"translation_m", Vector3ToJson(c.std_t_m)}};
-    j["rotation_std_deg_cam_xyz"] = Vector3ToJson(c.std_rot_cam_deg);
+    j["std"] = {{"rotation_rpy_deg", io::Vector3ToJson(c.std_rpy_deg)},
+                {"rotation_std_deg_cam_xyz", io::Vector3ToJson(c.std_rot_cam_deg)},
+                {"translation_m", io::Vector3ToJson(c.std_t_m)}};
+    j["rotation_std_deg_cam_xyz"] = io::Vector3ToJson(c.std_rot_cam_deg);
     nlohmann::json cov = nlohmann::json::array();
     for (int r = 0; r < 6; ++r) {
       nlohmann::json row = nlohmann::json::array();
@@ -57,7 +57,7 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
     if (!p.label.empty()) q["label"] = p.label;
     q["image_px"] = {p.image_px.x(), p.image_px.y()};
     if (std::isfinite(p.scan_row)) q["scan_cell"] = {p.scan_row, p.scan_col};
-    q["p_scan_m"] = Vector3ToJson(p.p_scan);
+    q["p_scan_m"] = io::Vector3ToJson(p.p_scan);
     q["inlier"] = p.inlier;
     q["error_deg"] = p.error_deg;
     q["threshold_deg"] = p.threshold_deg;
@@ -71,10 +71,10 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
     nlohmann::json q = {
         {"image_px", {g.image_px.x(), g.image_px.y()}},
         {"scan_cell", {g.scan_row, g.scan_col}},
-        {"p_scan_m", Vector3ToJson(g.p_scan)},
-        {"predicted_std_rotation_rpy_deg", Vector3ToJson(g.predicted_std_rpy_deg)},
-        {"predicted_rotation_std_deg_cam_xyz", Vector3ToJson(g.predicted_std_rot_cam_deg)},
-        {"predicted_std_translation_m", Vector3ToJson(g.predicted_std_t_m)},
+        {"p_scan_m", io::Vector3ToJson(g.p_scan)},
+        {"predicted_std_rotation_rpy_deg", io::Vector3ToJson(g.predicted_std_rpy_deg)},
+        {"predicted_rotation_std_deg_cam_xyz", io::Vector3ToJson(g.predicted_std_rot_cam_deg)},
+        {"predicted_std_translation_m", io::Vector3ToJson(g.predicted_std_t_m)},
         {"reason", g.reason}};
     if (several) q["scene"] = g.scene + 1;
     sug.push_back(q);
@@ -90,15 +90,15 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
                           {"solved_alone", r.solved}};
       if (!r.error.empty()) q["error"] = r.error;
       if (r.solved) {
-        q["alone"] = {{"T_cam_scan", PoseToJson(r.T_cam_scan)},
+        q["alone"] = {{"T_cam_scan", io::PoseToJson(r.T_cam_scan)},
                       {"inlier_count", r.inlier_count},
-                      {"rotation_std_deg_cam_xyz", Vector3ToJson(r.std_rot_cam_deg)},
-                      {"std_translation_m", Vector3ToJson(r.std_t_m)}};
+                      {"rotation_std_deg_cam_xyz", io::Vector3ToJson(r.std_rot_cam_deg)},
+                      {"std_translation_m", io::Vector3ToJson(r.std_t_m)}};
         q["vs_joint"] = {
-            {"rotation_diff_deg_cam_xyz", Vector3ToJson(r.rotation_diff_cam_deg)},
-            {"translation_diff_m", Vector3ToJson(r.translation_diff_m)},
-            {"rotation_diff_sigma", Vector3ToJson(r.rotation_diff_sigma)},
-            {"translation_diff_sigma", Vector3ToJson(r.translation_diff_sigma)},
+            {"rotation_diff_deg_cam_xyz", io::Vector3ToJson(r.rotation_diff_cam_deg)},
+            {"translation_diff_m", io::Vector3ToJson(r.translation_diff_m)},
+            {"rotation_diff_sigma", io::Vector3ToJson(r.rotation_diff_sigma)},
+            {"translation_diff_sigma", io::Vector3ToJson(r.translation_diff_sigma)},
             {"mahalanobis", r.mahalanobis},
             {"convention",
              "R_alone = exp(d) R_joint, d in the camera frame (deg); translation_diff = t_alone - "
@@ -113,4 +113,4 @@ nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inp
   return j;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

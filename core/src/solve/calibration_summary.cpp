@@ -3,7 +3,7 @@
 #include <iomanip>
 #include <sstream>
 
-namespace scancam {
+namespace scancam::solve {
 
 CalibrationSummary SummariseCalibration(const Calibration& c) {
   CalibrationSummary s;
@@ -123,4 +123,4 @@ std::string FormatCalibrationSummary(const Calibration& c) {
   return FormatSummaryText(SummariseCalibration(c));
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

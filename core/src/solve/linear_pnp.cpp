@@ -6,7 +6,7 @@
 
 #include "scancam/solve/rigid_motion.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 std::array<double, 5> QuanLanQuartic(double c12, double c13, double c23, double e12, double e13,
                                      double e23) {
@@ -262,4 +262,4 @@ std::optional<LinearPnpResult> LinearPnpQuanLan(const std::vector<Eigen::Vector3
   return result;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

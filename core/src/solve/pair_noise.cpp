@@ -9,7 +9,7 @@
 #include "scancam/error.h"
 #include "scancam/solve/refine.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 WeightedPairs::WeightedPairs(const std::vector<PairNoiseScene>& scenes,
                              const Eigen::Isometry3d& T_noise, const CalibrateOptions& noise) {
@@ -37,7 +37,7 @@ WeightedPairs::WeightedPairs(const std::vector<PairNoiseScene>& scenes,
       }
       const Eigen::Vector3d bn = b->normalized();
       const Eigen::Matrix3d S =
-          calibrate_internal::BearingCovariance(*s.camera, s.scan, p, bn, *x, T_noise, noise);
+          solve::internal::BearingCovariance(*s.camera, s.scan, p, bn, *x, T_noise, noise);
       const Eigen::Matrix<double, 3, 2> E = TangentBasis(bn);
       const Eigen::Matrix2d S2 = E.transpose() * S * E;
       bearing_cam_.push_back(bn);
@@ -84,4 +84,4 @@ double WeightedPairs::RmsPixelError(const Eigen::Isometry3d& T, double* max_px) 
   return n ? std::sqrt(sum / n) : nan;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -9,7 +9,7 @@
 
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 PoseSolver ParsePoseSolver(const std::string& name) {
   if (name == "p3p" || name == "kneip") return PoseSolver::kP3PKneip;
@@ -221,4 +221,4 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
   return best;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

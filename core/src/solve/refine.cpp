@@ -10,7 +10,7 @@
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/ransac_pose.h"
 
-namespace scancam {
+namespace scancam::solve {
 namespace {
 
 // Eq. 7 residual for one pair, as a smooth 2-vector whose squared norm is the
@@ -232,4 +232,4 @@ RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
   return res;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

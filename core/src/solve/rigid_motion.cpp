@@ -2,7 +2,7 @@
 
 #include <Eigen/SVD>
 
-namespace scancam {
+namespace scancam::solve {
 
 std::optional<Eigen::Isometry3d> RigidMotion(const std::vector<Eigen::Vector3d>& src,
                                              const std::vector<Eigen::Vector3d>& dst,
@@ -41,4 +41,4 @@ std::optional<Eigen::Isometry3d> RigidMotion(const std::vector<Eigen::Vector3d>&
   return T;
 }
 
-}  // namespace scancam
+}  // namespace scancam::solve

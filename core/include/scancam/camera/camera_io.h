@@ -37,7 +37,7 @@
 #include "scancam/camera/camera_model.h"
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 enum class CameraFileFormat {
   kAuto,           ///< detect from the content (loading only)
@@ -89,4 +89,4 @@ void SaveCamera(const CameraModel& camera, const std::string& path,
 
 // CheckImageSize (an image's size against the camera's) is in camera_model.h.
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -39,7 +39,7 @@
 #include "scancam/camera/models.h"
 #include "scancam/error.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 /// "pinhole", "fisheye", "omni", "ocam", "equirect".
 const char* CameraTypeName(CameraType type);
@@ -179,7 +179,7 @@ class CameraModel {
   bool ProjectT(const T* p_cam, T* uv) const {
     std::array<T, OCamModel::kNumParams> p;  // the largest model
     for (std::size_t i = 0; i < params_.size(); ++i) p[i] = T(params_[i]);
-    return scancam::ProjectT(type_, p.data(), p_cam, uv);
+    return scancam::camera::ProjectT(type_, p.data(), p_cam, uv);
   }
 
  private:
@@ -204,4 +204,4 @@ class CameraModel {
 void CheckImageSize(const CameraModel& camera, int width, int height,
                     const std::string& image_path);
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -25,7 +25,7 @@
 #include "scancam/camera/camera_model.h"
 #include "scancam/camera/models.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 /// The field-of-view test: camera-frame point p (metres) has a finite, non-zero norm and its
 /// angle from +z is at most acos(cos_max) (every direction when all_dirs).
@@ -91,4 +91,4 @@ inline auto VisitProjector(const CameraModel& camera, F&& f) {
                           [&](auto model) { return f(ModelProjector<decltype(model)>(camera)); });
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -35,11 +35,11 @@
 #include "scancam/camera/camera_model.h"
 #include "scancam/io/e57.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 /// Image `index` (`im`, from ReadE57Info(path)) as a camera. Throws scancam::FileError naming
 /// the file, the image and why it cannot be a camera.
-CameraModel E57ImageCamera(const std::string& path, const E57ImageInfo& im, int index);
+CameraModel E57ImageCamera(const std::string& path, const io::E57ImageInfo& im, int index);
 
 /// R_cv_e57: the rotation from the representation's E57 camera frame to the OpenCV frame.
 /// Throws scancam::Error for a representation without a camera model.
@@ -47,7 +47,7 @@ Eigen::Matrix3d E57CameraToOpenCv(const std::string& representation);
 
 /// T_cam_scan (OpenCV camera frame) for image `im` and the scan whose pose is `scan_pose`;
 /// `scan_pose_applied`: the scan's points are already in the file frame.
-Eigen::Isometry3d E57ImageTCamScan(const E57ImageInfo& im, const E57Pose& scan_pose,
+Eigen::Isometry3d E57ImageTCamScan(const io::E57ImageInfo& im, const io::E57Pose& scan_pose,
                                    bool scan_pose_applied);
 
-}  // namespace scancam
+}  // namespace scancam::camera

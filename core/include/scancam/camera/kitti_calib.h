@@ -20,7 +20,7 @@
 
 #include "scancam/camera/camera_model.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 /// The parts of a KITTI calib.txt ScanCam uses.
 struct KittiCalib {
@@ -44,4 +44,4 @@ CameraModel KittiCamera2(const KittiCalib& calib, int width, int height, const s
 /// T_cam_scan of camera 2 for the Velodyne scan (formula above).
 Eigen::Isometry3d KittiVeloToCam2(const KittiCalib& calib, const std::string& path);
 
-}  // namespace scancam
+}  // namespace scancam::camera

@@ -11,7 +11,7 @@
 // of false means "outside the model's analytic domain" (behind the camera for models that cannot
 // see there, beyond the OCam polynomial's valid radius, a zero vector, an undistortion that did not
 // converge). These functions do NOT know the image size and do NOT check for fold-back of the
-// distortion polynomials of the pinhole / fisheye / omni models: scancam::CameraModel
+// distortion polynomials of the pinhole / fisheye / omni models: scancam::camera::CameraModel
 // (camera_model.h) adds both checks at run time with precomputed limits. Use CameraModel for
 // validity and these structs (or ProjectT) inside cost functions.
 //
@@ -28,7 +28,7 @@
 #include <limits>
 #include <type_traits>
 
-namespace scancam {
+namespace scancam::camera {
 
 /// The supported camera models. Names (files, CLI): "pinhole", "fisheye", "omni", "ocam",
 /// "equirect".
@@ -40,7 +40,7 @@ enum class CameraType {
   kEquirect = 4,  ///< EquirectModel: equirectangular (longitude / latitude) panorama
 };
 
-namespace camera_internal {
+namespace internal {
 
 /// The value part of a double or of a (nested) autodiff number whose value member is `a`
 /// (ceres::Jet).
@@ -114,7 +114,7 @@ inline void ImplicitStep2(const double x0[2], const double jac[4], const T fx[2]
   x[1] = x0[1] - (-jac[2] * r0 + jac[0] * r1) / det;
 }
 
-}  // namespace camera_internal
+}  // namespace internal
 
 // ---------------------------------------------------------------------------------------------
 /// Pinhole with OpenCV's rational distortion; agrees with cv::projectPoints (same coefficients)
@@ -142,7 +142,7 @@ struct PinholeModel {
     const T x = p[0] / p[2];
     const T y = p[1] / p[2];
     T xd, yd;
-    camera_internal::DistortRadTan8(params + kIdxDist, x, y, &xd, &yd);
+    camera::internal::DistortRadTan8(params + kIdxDist, x, y, &xd, &yd);
     uv[0] = params[kIdxFx] * xd + params[kIdxCx];
     uv[1] = params[kIdxFy] * yd + params[kIdxCy];
     return true;
@@ -151,7 +151,7 @@ struct PinholeModel {
   /// Undistorted normalised coordinates (x', y') of a pixel; false if Newton fails.
   template <typename T>
   static bool UnprojectNormalized(const T* params, const T* uv, T* xy) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     const T target[2] = {(uv[0] - params[kIdxCx]) / params[kIdxFx],
                          (uv[1] - params[kIdxCy]) / params[kIdxFy]};
     double k[kNumDist];
@@ -159,10 +159,10 @@ struct PinholeModel {
     const double ts[2] = {ScalarPart(target[0]), ScalarPart(target[1])};
     double x0[2] = {ts[0], ts[1]};
     double jac[4];
-    if (!camera_internal::UndistortRadTan8(k, ts, x0, jac)) return false;
+    if (!camera::internal::UndistortRadTan8(k, ts, x0, jac)) return false;
     T fx[2];
-    camera_internal::DistortRadTan8(params + kIdxDist, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
-    camera_internal::ImplicitStep2(x0, jac, fx, target, xy);
+    camera::internal::DistortRadTan8(params + kIdxDist, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
+    camera::internal::ImplicitStep2(x0, jac, fx, target, xy);
     return true;
   }
 
@@ -208,7 +208,7 @@ struct FisheyeModel {
 
   template <typename T>
   static bool Project(const T* params, const T* p, T* uv) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::atan2;
     using std::sqrt;
     const double r2s = ScalarPart(p[0]) * ScalarPart(p[0]) + ScalarPart(p[1]) * ScalarPart(p[1]);
@@ -261,7 +261,7 @@ struct FisheyeModel {
   /// Unproject searches theta in [0, pi]; CameraModel rejects theta beyond the fold-back limit.
   template <typename T>
   static bool Unproject(const T* params, const T* uv, T* bearing) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::cos;
     using std::sin;
     using std::sqrt;
@@ -330,7 +330,7 @@ struct OmniModel {
 
   template <typename T>
   static bool Project(const T* params, const T* p, T* uv) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::sqrt;
     const double xi = ScalarPart(params[kIdxXi]);
     const double w = xi > 1.0 ? 1.0 / xi : xi;
@@ -343,7 +343,7 @@ struct OmniModel {
     const T x = p[0] / n / den;
     const T y = p[1] / n / den;
     T xd, yd;
-    camera_internal::DistortRadTan4(params + kIdxDist, x, y, &xd, &yd);
+    camera::internal::DistortRadTan4(params + kIdxDist, x, y, &xd, &yd);
     uv[0] = params[kIdxFx] * xd + params[kIdxSkew] * yd + params[kIdxCx];
     uv[1] = params[kIdxFy] * yd + params[kIdxCy];
     return true;
@@ -352,7 +352,7 @@ struct OmniModel {
   /// Undistorted unified-plane coordinates (x, y) of a pixel; false if Newton fails.
   template <typename T>
   static bool UnprojectNormalized(const T* params, const T* uv, T* xy) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     const T yd = (uv[1] - params[kIdxCy]) / params[kIdxFy];
     const T xd = (uv[0] - params[kIdxCx] - params[kIdxSkew] * yd) / params[kIdxFx];
     const T target[2] = {xd, yd};
@@ -361,10 +361,10 @@ struct OmniModel {
     const double ts[2] = {ScalarPart(xd), ScalarPart(yd)};
     double x0[2] = {ts[0], ts[1]};
     double jac[4];
-    if (!camera_internal::UndistortRadTan4(k, ts, x0, jac)) return false;
+    if (!camera::internal::UndistortRadTan4(k, ts, x0, jac)) return false;
     T fx[2];
-    camera_internal::DistortRadTan4(params + kIdxDist, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
-    camera_internal::ImplicitStep2(x0, jac, fx, target, xy);
+    camera::internal::DistortRadTan4(params + kIdxDist, T(x0[0]), T(x0[1]), &fx[0], &fx[1]);
+    camera::internal::ImplicitStep2(x0, jac, fx, target, xy);
     return true;
   }
 
@@ -376,7 +376,7 @@ struct OmniModel {
     const T& xi = params[kIdxXi];
     const T r2 = xy[0] * xy[0] + xy[1] * xy[1];
     const T disc = 1.0 + (1.0 - xi * xi) * r2;
-    if (!(camera_internal::ScalarPart(disc) >= 0.0)) return false;
+    if (!(camera::internal::ScalarPart(disc) >= 0.0)) return false;
     const T f = (xi + sqrt(disc)) / (1.0 + r2);
     bearing[0] = f * xy[0];
     bearing[1] = f * xy[1];
@@ -429,9 +429,9 @@ struct OCamModel {
 
   /// alpha(rho) = atan2(rho, -pol(rho)) in double, and its derivative.
   static double Alpha(const double* pol, int n, double rho, double* dalpha = nullptr) {
-    const double p = camera_internal::Polyval(pol, n, rho);
+    const double p = camera::internal::Polyval(pol, n, rho);
     if (dalpha) {
-      const double dp = camera_internal::PolyvalDeriv(pol, n, rho);
+      const double dp = camera::internal::PolyvalDeriv(pol, n, rho);
       *dalpha = (-p + rho * dp) / (rho * rho + p * p);
     }
     return std::atan2(rho, -p);
@@ -486,7 +486,7 @@ struct OCamModel {
     const int n_inv = static_cast<int>(params[kIdxNInv]);
     if (n_inv > 0) {
       // The toolbox's world2cam: theta = atan(z_ocam / norm) = atan2(-zn, nn).
-      rho = camera_internal::Polyval(params + kIdxInv, n_inv, std::atan2(-zn, nn));
+      rho = camera::internal::Polyval(params + kIdxInv, n_inv, std::atan2(-zn, nn));
     } else {
       rho = -pol[0] * std::atan2(nn, zn);  // linear model alpha ~ rho / -a0
     }
@@ -508,12 +508,12 @@ struct OCamModel {
     *rho_out = rho;
     // |g| = |(rho, pol)| |sin(angle error)|: accept angle errors below ~1e-11 rad.
     const double g = G(pol, n, nn, zn, rho, &dg);
-    return std::abs(g) <= 1e-11 * std::hypot(rho, camera_internal::Polyval(pol, n, rho));
+    return std::abs(g) <= 1e-11 * std::hypot(rho, camera::internal::Polyval(pol, n, rho));
   }
 
   template <typename T>
   static bool Project(const T* params, const T* p, T* uv) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::sqrt;
     const double* ps;
     [[maybe_unused]] double buf[std::is_same<T, double>::value ? 1 : kNumParams];
@@ -549,7 +549,7 @@ struct OCamModel {
         double dg;
         G(ps + kIdxPol, n, norm_s, zs, rho0, &dg);
         const T norm = sqrt(m_row * m_row + m_col * m_col);
-        const T g = rho0 * p[2] + camera_internal::Polyval(params + kIdxPol, n, T(rho0)) * norm;
+        const T g = rho0 * p[2] + camera::internal::Polyval(params + kIdxPol, n, T(rho0)) * norm;
         s = (rho0 - g / dg) / norm;
       }
       r_off = m_row * s;
@@ -563,7 +563,7 @@ struct OCamModel {
 
   template <typename T>
   static bool Unproject(const T* params, const T* uv, T* bearing) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::sqrt;
     const int n = static_cast<int>(ScalarPart(params[kIdxNPol]));
     if (n < 1 || n > kMaxPol) return false;
@@ -582,7 +582,7 @@ struct OCamModel {
     if (rs == 0.0) {
       z = params[kIdxPol];
     } else {
-      z = camera_internal::Polyval(params + kIdxPol, n, T(sqrt(m_row * m_row + m_col * m_col)));
+      z = camera::internal::Polyval(params + kIdxPol, n, T(sqrt(m_row * m_row + m_col * m_col)));
     }
     // OCam (m_row, m_col, z) -> OpenCV (m_col, m_row, -z)
     const T nn = sqrt(m_row * m_row + m_col * m_col + z * z);
@@ -615,7 +615,7 @@ struct EquirectModel {
 
   template <typename T>
   static bool Project(const T* params, const T* p, T* uv) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::atan2;
     using std::sqrt;
     const double xs = ScalarPart(p[0]), ys = ScalarPart(p[1]), zs = ScalarPart(p[2]);
@@ -635,7 +635,7 @@ struct EquirectModel {
   /// Fails when |lon| > pi or |lat| > pi/2.
   template <typename T>
   static bool Unproject(const T* params, const T* uv, T* bearing) {
-    using camera_internal::ScalarPart;
+    using camera::internal::ScalarPart;
     using std::cos;
     using std::sin;
     const T lon = (uv[0] - params[kIdxCx]) / params[kIdxFx];
@@ -688,4 +688,4 @@ inline bool UnprojectT(CameraType type, const T* params, const T* uv, T* bearing
                           [&](auto m) { return decltype(m)::Unproject(params, uv, bearing); });
 }
 
-}  // namespace scancam
+}  // namespace scancam::camera

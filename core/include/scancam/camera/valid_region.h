@@ -61,7 +61,7 @@
 
 #include "scancam/camera/camera_model.h"
 
-namespace scancam {
+namespace scancam::camera {
 
 struct ValidRegionOptions {
   double round_trip_px = 0.5;  ///< test 1: largest |Project(Unproject(p)) - p|, px
@@ -105,4 +105,4 @@ struct ValidRegion {
 ValidRegion FindValidRegion(const CameraModel& camera, const cv::Mat& image,
                             const ValidRegionOptions& options = {});
 
-}  // namespace scancam
+}  // namespace scancam::camera

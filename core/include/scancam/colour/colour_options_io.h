@@ -27,7 +27,7 @@ namespace scancam::colour {
 
 /// The range checks of every stored value (e.g. edge_fill >= 0, min_bearing_angle_deg in
 /// [0, 90), ground.up not zero). Empty when all are fine.
-std::vector<OptionProblem> ValidateColourOptions(const ColourOptions& options);
+std::vector<io::OptionProblem> ValidateColourOptions(const ColourOptions& options);
 
 /// The options as JSON text (every key, pretty-printed, trailing newline).
 std::string ColourOptionsJson(const ColourOptions& options);

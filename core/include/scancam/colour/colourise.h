@@ -147,15 +147,15 @@ struct Rgb8 {
 
 // Grid continuity (ContinuityOptions, ContinuityTest, DetectGridWrap, ContinuousNeighbours) is
 // scan-level: scancam/scan/continuity.h. Its names stay usable here.
-using scancam::ContinuityOptions;
-using scancam::ContinuityTest;
-using scancam::ContinuousNeighbours;
-using scancam::DetectGridWrap;
-using scancam::GridWrap;
+using scancam::scan::ContinuityOptions;
+using scancam::scan::ContinuityTest;
+using scancam::scan::ContinuousNeighbours;
+using scancam::scan::DetectGridWrap;
+using scancam::scan::GridWrap;
 
 /// One image to colour from.
 struct ColourView {
-  CameraModel camera;
+  camera::CameraModel camera;
   Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
   cv::Mat image;     ///< CV_8UC3 BGR (OpenCV order), camera.width() x camera.height()
   cv::Mat mask;      ///< optional CV_8UC1 of the same size: 0 = not usable (e.g. outside a
@@ -167,7 +167,7 @@ struct ColourView {
 enum class BlendMode { kBestView, kWeighted };
 
 struct ColourOptions {
-  ContinuityOptions continuity;
+  scan::ContinuityOptions continuity;
   /// The ground prior of the continuity test (test 3): when continuity.ground is unset and
   /// ground.enabled, Colourise estimates the plane (EstimateGround) and reports it in
   /// ColouredScan::ground. BuildTexturedMesh takes that plane from the ColouredScan, so that
@@ -254,7 +254,7 @@ struct ColouredScan {
   std::size_t cells = 0, valid = 0, coloured = 0, occluded = 0, out_of_view = 0;
   std::vector<ViewStats> views;
   /// The ground plane the continuity test used (given or estimated), if any.
-  std::optional<GroundPlane> ground;
+  std::optional<scan::GroundPlane> ground;
   /// Problems worth telling the user, e.g. an image that (nearly) no point projects into,
   /// with the likely cause (an inverted or wrong T_cam_scan).
   std::vector<std::string> warnings;

@@ -103,7 +103,7 @@ void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
 struct MeshOptions {
   /// Which neighbours may share a triangle. Its ground, when unset, is the coloured scan's
   /// (ColouredScan::ground: the mesh joins the far ground rings the colouring joined).
-  ContinuityOptions continuity;
+  scan::ContinuityOptions continuity;
   bool keep_untextured = true;  ///< keep faces no image sees completely (grey material)
   /// Close single-cell holes (one missing return, e.g. a dropout) whose four direct
   /// neighbours are valid and continuous around it, with two triangles.

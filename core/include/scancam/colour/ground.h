@@ -39,7 +39,7 @@
 namespace scancam::colour {
 
 // The plane itself (GroundPlane) is scan-level: scancam/scan/continuity.h (continuity test 3).
-using scancam::GroundPlane;
+using scancam::scan::GroundPlane;
 
 struct GroundOptions {
   bool enabled = true;  ///< false: no ground prior (Colourise does not estimate one)
@@ -55,12 +55,12 @@ struct GroundOptions {
 
 /// For messages: "plane 2.05 m below the scanner, tilted 0.5 deg from the up axis, 31 % of the
 /// points on it" (the scanner = origin_m).
-std::string DescribeGround(const GroundPlane& ground, const Eigen::Vector3d& origin_m,
+std::string DescribeGround(const scan::GroundPlane& ground, const Eigen::Vector3d& origin_m,
                            const Eigen::Vector3d& up = Eigen::Vector3d::UnitZ());
 
 /// The ground plane of `scan` (see the file comment), or nullopt when there is none.
 /// Throws scancam::Error when `up` is zero or not finite, or the options are out of range.
-std::optional<GroundPlane> EstimateGround(const OrderedScan& scan,
-                                          const GroundOptions& options = {});
+std::optional<scan::GroundPlane> EstimateGround(const OrderedScan& scan,
+                                                const GroundOptions& options = {});
 
 }  // namespace scancam::colour

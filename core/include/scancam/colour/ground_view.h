@@ -39,8 +39,8 @@ namespace scancam::colour {
 
 struct GroundViewOptions {
   GroundOptions ground;  ///< to estimate the plane when the colouring has none (no prior)
-  double band_m = ContinuityOptions().ground_tolerance_m;
-  double band_fraction = ContinuityOptions().ground_tolerance_fraction;
+  double band_m = scan::ContinuityOptions().ground_tolerance_m;
+  double band_fraction = scan::ContinuityOptions().ground_tolerance_fraction;
   double clearance_m = 0.3;
   double max_disc_px = 256.0;
   double band_min_range_m = 17.0;

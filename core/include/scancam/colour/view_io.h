@@ -44,16 +44,16 @@ struct ViewLoadOptions {
 
 /// ColourView::image's rule: reads `path` as 8-bit BGR and checks its size against `camera`
 /// before decoding (CheckImageSize). With an invalid (empty) camera the size is not checked.
-cv::Mat ReadViewImage(const std::string& path, const CameraModel& camera = {});
+cv::Mat ReadViewImage(const std::string& path, const camera::CameraModel& camera = {});
 
 /// ColourView::mask's rule: reads `path` as 8-bit grey; with a valid camera its size must be the
 /// camera's (checked before decoding).
-cv::Mat ReadViewMask(const std::string& path, const CameraModel& camera = {});
+cv::Mat ReadViewMask(const std::string& path, const camera::CameraModel& camera = {});
 
 /// The valid region a view is used with: the mask file when given (ReadViewMask), else
 /// FindValidRegion(camera, image) unless !options.auto_region (then empty: every pixel).
 /// `image` may be empty (the model's domain only). *how, when not null, says which in one line.
-cv::Mat ChooseViewRegion(const CameraModel& camera, const cv::Mat& image,
+cv::Mat ChooseViewRegion(const camera::CameraModel& camera, const cv::Mat& image,
                          const std::string& mask_path, const ViewLoadOptions& options = {},
                          std::string* how = nullptr);
 
@@ -69,7 +69,7 @@ ColourView LoadView(const ViewPaths& paths, const ViewLoadOptions& options = {},
 /// `overrides` win: overrides.camera / .image / .calib replace the file's camera, photo and
 /// pose; .mask as in LoadView. name = "FILE image N". Throws scancam::Error naming the file and
 /// the image (a visual-reference or cylindrical image cannot be a camera).
-ColourView LoadE57View(const std::string& e57_path, int image_index, const E57Pose& scan_pose,
+ColourView LoadE57View(const std::string& e57_path, int image_index, const io::E57Pose& scan_pose,
                        bool scan_pose_applied, const ViewPaths& overrides = {},
                        const ViewLoadOptions& options = {}, std::string* region_how = nullptr);
 

@@ -38,7 +38,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// A rigid pose: X_file = rotation * X_local + translation (identity when absent).
 struct E57Pose {
@@ -193,4 +193,4 @@ void WriteE57(const std::string& path, const OrderedScan& scan,
 /// E57Crc32c(page, 1020), big-endian.
 std::uint32_t E57Crc32c(const std::uint8_t* data, std::size_t n);
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-namespace scancam {
+namespace scancam::io {
 
 /// 4x4 row-major nested array of a rigid transform.
 nlohmann::json PoseToJson(const Eigen::Isometry3d& T);
@@ -48,4 +48,4 @@ const nlohmann::json& JsonField(const nlohmann::json& j, const std::string& key,
 /// A finite number at `field`, or throws naming the file and the field.
 double JsonNumber(const nlohmann::json& j, const std::string& file, const std::string& field);
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -20,7 +20,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// A KITTI scan as stored: points (sensor frame, metres) and reflectance, in file order.
 struct KittiCloud {
@@ -40,4 +40,4 @@ OrderedScan LoadKittiBin(const std::string& path, const std::string& grid = "aut
                          double grid_step_deg = 0.0, const Progress& progress = {},
                          std::string* note = nullptr);
 
-}  // namespace scancam
+}  // namespace scancam::io

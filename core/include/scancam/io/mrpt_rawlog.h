@@ -75,7 +75,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// One scan-like entry of a rawlog, with sizes as MRPT itself reports them.
 struct RawlogScanEntry {
@@ -116,4 +116,4 @@ std::string RawlogUncompressedBytes(const std::string& path);
 void WriteMrpt2DScanRawlog(const std::string& path, const RotatingScanData& data,
                            const std::string& sensor_label = "LASER2D");
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace scancam {
+namespace scancam::io {
 
 /// One option value out of range: the key (JSON path, "continuity.range_noise_m") and what is
 /// wrong in plain words ("must be >= 0, not -1").
@@ -30,4 +30,4 @@ void RequireOption(std::vector<OptionProblem>* problems, bool ok, const std::str
 /// Throws FileError "SOURCE: key 'K': MESSAGE" for the first problem (none: returns).
 void ThrowFirstProblem(const std::vector<OptionProblem>& problems, const std::string& source);
 
-}  // namespace scancam
+}  // namespace scancam::io

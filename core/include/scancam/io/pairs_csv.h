@@ -37,7 +37,7 @@
 
 #include "scancam/point_pair.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// Reads a pairs file (UTF-8 text; a byte that is not UTF-8 is an error naming line and column).
 /// Throws scancam::Error "FILE:LINE: what" on bad input.
@@ -51,4 +51,4 @@ std::vector<PointPair> ParsePairsCsv(const std::string& text, const std::string&
 void WritePairsCsv(const std::string& path, const std::vector<PointPair>& pairs);
 std::string FormatPairsCsv(const std::vector<PointPair>& pairs);
 
-}  // namespace scancam
+}  // namespace scancam::io

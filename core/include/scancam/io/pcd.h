@@ -41,7 +41,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 struct PcdLoadOptions {
   std::string mode = "auto";    ///< auto | organised | ring | recover-rings | spherical
@@ -61,4 +61,4 @@ OrderedScan LoadPcd(const std::string& path, const PcdLoadOptions& options = {},
 /// scancam::Error when the scan is inconsistent or the file cannot be written.
 void WriteOrganisedPcd(const std::string& path, const OrderedScan& scan);
 
-}  // namespace scancam
+}  // namespace scancam::io

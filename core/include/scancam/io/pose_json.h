@@ -11,7 +11,7 @@
 #include <Eigen/Geometry>
 #include <string>
 
-namespace scancam {
+namespace scancam::io {
 
 /// T_cam_scan from a calibration JSON (this tool's, or any JSON with a 4x4 "T_cam_scan"; also
 /// the simulator's ground_truth.json). Throws naming the file.
@@ -25,4 +25,4 @@ Eigen::Isometry3d ReadCalibrationPose(const std::string& path);
 /// colour::LoadExtrinsic also takes a KITTI calib.txt.
 Eigen::Isometry3d ReadExtrinsicJson(const std::string& path);
 
-}  // namespace scancam
+}  // namespace scancam::io

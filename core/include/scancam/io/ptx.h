@@ -50,7 +50,7 @@
 #include "scancam/output_file.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// One PTX scan exactly as in the file (cells in file order).
 struct PtxScan {
@@ -124,4 +124,4 @@ class PtxWriter {
 OrderedScan LoadPtx(const std::string& path, int scan_index, bool apply_pose,
                     const Progress& progress = {});
 
-}  // namespace scancam
+}  // namespace scancam::io

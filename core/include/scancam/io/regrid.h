@@ -36,7 +36,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 struct RegridOptions {
   /// Azimuth cell size in degrees; 0 = estimate (ChooseGridSteps for RegridSpherical;
@@ -173,4 +173,4 @@ AngularSteps ChooseGridSteps(const std::vector<Eigen::Vector3f>& points,
                              const Eigen::Vector3d& origin, const Eigen::Quaterniond& orientation,
                              const AngularSteps& requested, const AngularSteps& sensor = {});
 
-}  // namespace scancam
+}  // namespace scancam::io

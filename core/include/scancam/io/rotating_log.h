@@ -44,7 +44,7 @@
 #include "scancam/output_file.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 /// One sweep of the rotating 2D scanner, as measured (angles in radians, ranges in metres).
 struct RotatingScanData {
@@ -106,4 +106,4 @@ class RotatingLogWriter {
   bool intensity_ = false;
 };
 
-}  // namespace scancam
+}  // namespace scancam::io

@@ -19,7 +19,7 @@
 #include "scancam/ordered_scan.h"
 #include "scancam/progress.h"
 
-namespace scancam {
+namespace scancam::io {
 
 struct ScanLoadOptions {
   std::string format = "auto";  ///< auto | rotating | ptx | pcd | rawlog | kitti | e57
@@ -59,4 +59,4 @@ OrderedScan LoadScan(const std::string& path, const ScanLoadOptions& options = {
 /// The format "auto" resolves to for this path, or throws naming the file.
 std::string DetectScanFormat(const std::string& path);
 
-}  // namespace scancam
+}  // namespace scancam::io

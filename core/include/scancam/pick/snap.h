@@ -57,7 +57,7 @@
 #include "scancam/io/pairs_csv.h"
 #include "scancam/ordered_scan.h"
 
-namespace scancam {
+namespace scancam::pick {
 
 /// Options of a snap on the photo (defaults measured on the simulator, README "Snap to the
 /// feature").
@@ -123,4 +123,4 @@ void ApplyScanSnap(const SnapResult& snap, PointPair& pair);
 /// One line for people: "snapped 1.23 px (strength 0.0042)" or "kept: <why>".
 std::string DescribeSnap(const SnapResult& snap);
 
-}  // namespace scancam
+}  // namespace scancam::pick

@@ -65,7 +65,7 @@ struct AlignmentOptions {
 /// What scoring a pose needs, prepared once per scan and view.
 struct AlignmentData {
   AlignmentOptions options;
-  CameraModel camera;
+  camera::CameraModel camera;
   cv::Mat mask;                                    ///< CV_8UC1 or empty (every pixel usable)
   cv::Mat edge_field;                              ///< CV_32FC1, [0, 1]
   cv::Mat grey;                                    ///< CV_32FC1, grey level 0..255

@@ -55,7 +55,7 @@ namespace scancam::refine {
 struct PairPriorOptions {
   /// The noise model: sigma_px, sigma_cells, sigma_point_m and noise_prior_pairs (calibrate's
   /// defaults); the rest is not used.
-  CalibrateOptions noise;
+  solve::CalibrateOptions noise;
   double weight = 1.0;  ///< prior strength relative to the balance above; 0 = check only
   double accept_delta_chi2 = 12.59;  ///< chi-square(6) 95 %
   int resamples = 6;                 ///< split-half gradients for s

@@ -30,7 +30,7 @@ namespace scancam::refine {
 /// seed in [0, 2^31 - 1], steps > 0 with final <= initial, one level_min_step_deg per
 /// level_sigma_px level but the last, ...).
 /// Empty when all are fine.
-std::vector<OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& options);
+std::vector<io::OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptions& options);
 
 /// The options as JSON text (every stored key, pretty-printed, trailing newline).
 std::string DenseRefineOptionsJson(const DenseRefineOptions& options);

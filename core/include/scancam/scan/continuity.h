@@ -14,7 +14,7 @@
 
 #include "scancam/ordered_scan.h"
 
-namespace scancam {
+namespace scancam::scan {
 
 /// The ground plane of a scan (scan frame, metres):
 ///   height_m(p) = normal . p + offset_m = 0,
@@ -118,4 +118,4 @@ class ContinuityTest {
   std::shared_ptr<const Params> p_;
 };
 
-}  // namespace scancam
+}  // namespace scancam::scan

@@ -51,20 +51,20 @@ struct RenderOptions {
 };
 
 /// Renders the image of `camera` placed at T_world_cam (camera frame = OpenCV's). CV_8UC3 BGR.
-cv::Mat RenderImage(const Scene& scene, const CameraModel& camera,
+cv::Mat RenderImage(const Scene& scene, const camera::CameraModel& camera,
                     const Eigen::Isometry3d& T_world_cam, const RenderOptions& options,
                     const Progress& progress = {});
 
 /// True when the world point p (on a surface of the scene) is seen by the camera: the segment
 /// from the camera centre to p crosses no surface before p (within 1e-6 of the distance), and
 /// p projects (CameraModel::Project) into the image inside the mask. Sets *uv when given.
-bool VisibleFromCamera(const Scene& scene, const CameraModel& camera,
+bool VisibleFromCamera(const Scene& scene, const camera::CameraModel& camera,
                        const Eigen::Isometry3d& T_world_cam, const ImageMask& mask,
                        const Eigen::Vector3d& p_world, Eigen::Vector2d* uv = nullptr);
 
 /// The largest distance (px) between a sub-pixel position and the projection of the bearing the
 /// renderer interpolates for it, over samples_per_axis^2 cells spread over the image.
-double RenderBearingError(const CameraModel& camera, int samples_per_axis = 40);
+double RenderBearingError(const camera::CameraModel& camera, int samples_per_axis = 40);
 
 /// A 8-bit mask image (255 valid, 0 not) of `mask` for a width x height image, with pixel
 /// centres tested (no anti-aliasing).

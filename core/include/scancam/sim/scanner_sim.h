@@ -168,8 +168,8 @@ std::optional<Eigen::Vector3d> TruthPoint(const Scene& scene, const SimScanner& 
 
 /// The rotating scanner's log data (for WriteRotatingLog / ToOrderedScan) of a sample.
 /// With first_plane: the sample holds planes [first_plane, first_plane + sample.truth.rows).
-RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample,
-                                int first_plane = 0);
+io::RotatingScanData ToRotatingData(const RotatingScanner& scanner, const ScanSample& sample,
+                                    int first_plane = 0);
 
 /// An ordered scan of a sample from any scanner (point = origin + range * dir per beam).
 OrderedScan SampleToOrderedScan(const SimScanner& scanner, const ScanSample& sample,

@@ -117,14 +117,14 @@ struct PairTruth {
 
 struct Simulation {
   SimulateOptions options;
-  CameraModel camera;
+  camera::CameraModel camera;
   ImageMask mask;
   Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_world_scan = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
   std::shared_ptr<SimScanner> scanner;
   ScanSample sample;                         ///< ranges, intensities, truth (visible filled in)
-  std::optional<RotatingScanData> rotating;  ///< for the rotating scanner
+  std::optional<io::RotatingScanData> rotating;  ///< for the rotating scanner
   OrderedScan scan;                          ///< as the project's importers give it
   std::size_t valid_cells = 0;               ///< cells with a return
   cv::Mat image;                             ///< BGR
@@ -134,7 +134,7 @@ struct Simulation {
 };
 
 /// The camera of a preset ("omni", "pinhole", "fisheye", "equirect"); throws on another name.
-CameraModel PresetCamera(const std::string& preset);
+camera::CameraModel PresetCamera(const std::string& preset);
 /// Rays per pixel (n of n x n) a preset renders with by default: omni 4, pinhole and fisheye 3,
 /// equirect 2.
 int PresetSupersample(const std::string& preset);

@@ -29,8 +29,8 @@ namespace scancam::sim {
 struct SnapTrialOptions {
   double click_sigma_px = 1.5;     ///< click noise on the image, pixels per axis
   double click_sigma_cells = 1.0;  ///< click noise on the scan, cells per axis
-  SnapOptions image;
-  ScanSnapOptions scan;
+  pick::SnapOptions image;
+  pick::ScanSnapOptions scan;
   std::uint64_t seed = 1;  ///< of the click noise
 };
 
@@ -39,7 +39,7 @@ struct SnapTrialCorner {
   bool convex = false;
   Eigen::Vector2d uv_true, uv_click, uv_snapped;        ///< image pixels
   Eigen::Vector2d cell_true, cell_click, cell_snapped;  ///< scan (row, col)
-  SnapResult image_snap, scan_snap;
+  pick::SnapResult image_snap, scan_snap;
 };
 
 struct SnapTrial {

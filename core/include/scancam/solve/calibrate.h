@@ -68,7 +68,7 @@
 #include "scancam/solve/ransac_pose.h"
 #include "scancam/solve/refine.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 struct CalibrateOptions {
   std::string method = "ransac";  ///< paper | ransac | epnp | upnp
@@ -218,15 +218,16 @@ struct Calibration {
 
 /// Calibrates. Throws scancam::Error on unusable input (see file comment).
 Calibration Calibrate(const std::vector<PointPair>& pairs, const OrderedScan* scan,
-                      const CameraModel& camera, const CalibrateOptions& options = {});
+                      const camera::CameraModel& camera, const CalibrateOptions& options = {});
 
 /// Calibrates one rig from several scenes (one T_cam_scan; see the file comment). With one
 /// scene it is Calibrate. Pairs are numbered over all scenes in order (PairResult::scene
 /// says whose); errors name the scene's pairs source.
-Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes, const CameraModel& camera,
+Calibration CalibrateScenes(const std::vector<CalibrationScene>& scenes,
+                            const camera::CameraModel& camera,
                             const CalibrateOptions& options = {});
 
 /// A readable multi-line summary (what `scancam calibrate` prints).
 std::string FormatCalibrationSummary(const Calibration& c);
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -17,11 +17,11 @@
 #include "scancam/io/options_json.h"
 #include "scancam/solve/calibrate.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 /// The range checks of every stored value (known method and loss, thresholds and sigmas >= 0
 /// and not all sigmas 0, ...). Empty when all are fine.
-std::vector<OptionProblem> ValidateCalibrateOptions(const CalibrateOptions& options);
+std::vector<io::OptionProblem> ValidateCalibrateOptions(const CalibrateOptions& options);
 
 /// The options as JSON text (every stored key, pretty-printed, trailing newline).
 std::string CalibrateOptionsJson(const CalibrateOptions& options);
@@ -38,4 +38,4 @@ CalibrateOptions ReadCalibrateOptions(const std::string& path, const CalibrateOp
 /// Writes CalibrateOptionsJson to `path` atomically. Throws when it cannot.
 void WriteCalibrateOptions(const std::string& path, const CalibrateOptions& options);
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -10,7 +10,7 @@
 #include "scancam/io/pose_json.h"
 #include "scancam/solve/calibrate.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 /// The calibration as JSON: T_cam_scan (4x4 row-major), rotation_rpy_deg,
 /// translation_m, errors, parameter std (std.rotation_std_deg_cam_xyz, std.rotation_rpy_deg,
@@ -20,4 +20,4 @@ namespace scancam {
 /// result), method, and `inputs` (free-form: file names the caller adds).
 nlohmann::json CalibrationToJson(const Calibration& c, const nlohmann::json& inputs = {});
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -15,7 +15,7 @@
 
 #include "scancam/solve/calibrate.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 struct CalibrationSummary {
   std::string method;      ///< the solver of the initial pose (ransac | paper | epnp | upnp ...)
@@ -78,4 +78,4 @@ CalibrationSummary SummariseCalibration(const Calibration& c);
 /// The readable multi-line text `scancam calibrate` prints (FormatCalibrationSummary).
 std::string FormatSummaryText(const CalibrationSummary& s);
 
-}  // namespace scancam
+}  // namespace scancam::solve

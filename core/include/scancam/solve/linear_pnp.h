@@ -21,7 +21,7 @@
 #include <optional>
 #include <vector>
 
-namespace scancam {
+namespace scancam::solve {
 
 struct LinearPnpResult {
   Eigen::Isometry3d T_cam_scan = Eigen::Isometry3d::Identity();
@@ -48,4 +48,4 @@ std::optional<LinearPnpResult> LinearPnpQuanLan(const std::vector<Eigen::Vector3
 std::array<double, 5> QuanLanQuartic(double c12, double c13, double c23, double e12, double e13,
                                      double e23);
 
-}  // namespace scancam
+}  // namespace scancam::solve

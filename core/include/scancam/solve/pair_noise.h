@@ -28,14 +28,14 @@
 #include "scancam/point_pair.h"
 #include "scancam/solve/calibrate.h"
 
-namespace scancam {
+namespace scancam::solve {
 
 /// One scene's pairs: its scan (the cells refer to it; may be null when every pair gives
 /// x,y,z), its camera, and the pairs file's name for messages.
 struct PairNoiseScene {
   std::vector<PointPair> pairs;
   const OrderedScan* scan = nullptr;
-  const CameraModel* camera = nullptr;
+  const camera::CameraModel* camera = nullptr;
   std::string source = "pairs";
 };
 
@@ -67,7 +67,7 @@ class WeightedPairs {
   std::vector<Eigen::Matrix<double, 3, 2>> basis_;  // TangentBasis(b_i)
   std::vector<Eigen::Matrix2d> info_;               // S_i^-1
   std::vector<Eigen::Vector2d> pixel_;
-  std::vector<const CameraModel*> camera_;
+  std::vector<const camera::CameraModel*> camera_;
 };
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace scancam {
+namespace scancam::solve {
 
 enum class PoseSolver { kP3PKneip, kEPnP, kUPnP };
 
@@ -59,4 +59,4 @@ std::optional<RansacResult> RansacPose(const std::vector<Eigen::Vector3d>& beari
                                        const std::vector<Eigen::Vector3d>& p_scan,
                                        const RansacOptions& options = {});
 
-}  // namespace scancam
+}  // namespace scancam::solve

@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-namespace scancam {
+namespace scancam::solve {
 
 struct RefineOptions {
   std::string loss = "none";                                     ///< none | huber | cauchy
@@ -98,4 +98,4 @@ RefineResult RefinePose(const std::vector<Eigen::Vector3d>& bearing_cam,
                         const RefineOptions& options = {}, const std::vector<bool>& use = {},
                         const std::vector<Eigen::Matrix3d>& bearing_cov_rad2 = {});
 
-}  // namespace scancam
+}  // namespace scancam::solve

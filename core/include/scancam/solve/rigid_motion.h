@@ -9,7 +9,7 @@
 #include <optional>
 #include <vector>
 
-namespace scancam {
+namespace scancam::solve {
 
 /// Rigid transform mapping `src` onto `dst` (dst ~ R src + t). Needs >= 3 points
 /// that are not collinear; returns nullopt when they are (or sizes differ).
@@ -18,4 +18,4 @@ std::optional<Eigen::Isometry3d> RigidMotion(const std::vector<Eigen::Vector3d>&
                                              const std::vector<Eigen::Vector3d>& dst,
                                              const std::vector<double>& weights = {});
 
-}  // namespace scancam
+}  // namespace scancam::solve
