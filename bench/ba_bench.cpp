@@ -50,6 +50,7 @@ constexpr int kRows = 720, kCols = 1440;
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 using scancam::bench::RaySphere;
+using scancam::bench::ThreadScope;
 
 // Distance to the room and the objects along the unit beam b from the origin.
 double CastRay(const Eigen::Vector3d& b) {
@@ -114,14 +115,6 @@ const Data& GetData() {
   }();
   return data;
 }
-
-struct ThreadScope {
-  int saved;
-  explicit ThreadScope(int n) : saved(omp_get_max_threads()) {
-    if (n > 0) omp_set_num_threads(n);
-  }
-  ~ThreadScope() { omp_set_num_threads(saved); }
-};
 
 void Finish(benchmark::State& state, double rss_start) {
   const double peak = scancam::bench::PeakRssMiB();

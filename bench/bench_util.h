@@ -1,10 +1,12 @@
 // Helpers the benchmark programs share: ray casts for their synthetic scenes (from the origin
-// along a unit beam b; +infinity when missed), the peak memory of one call, and a console
-// reporter that keeps each benchmark's best items_per_second for the summary tables.
+// along a unit beam b; +infinity when missed), the peak memory of one call, an OpenMP
+// thread-count scope and a console reporter that keeps each benchmark's best items_per_second
+// for the summary tables.
 #pragma once
 
 #include <benchmark/benchmark.h>
 #include <malloc.h>
+#include <omp.h>
 
 #include <Eigen/Core>
 #include <algorithm>
@@ -18,6 +20,15 @@
 #include "peak_memory.h"
 
 namespace scancam::bench {
+
+/// OpenMP's thread count set to n (> 0) for the scope's life; n <= 0 keeps OpenMP's default.
+struct ThreadScope {
+  int saved;
+  explicit ThreadScope(int n) : saved(omp_get_max_threads()) {
+    if (n > 0) omp_set_num_threads(n);
+  }
+  ~ThreadScope() { omp_set_num_threads(saved); }
+};
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 

@@ -59,19 +59,12 @@ namespace sc = scancam::colour;
 constexpr int kRows = 2500, kCols = 4000;
 
 using Data = scancam::bench::RoomScene;
+using scancam::bench::ThreadScope;
 
 const Data& GetData() {
   static const Data data = scancam::bench::MakeRoomScene(kRows, kCols);
   return data;
 }
-
-struct ThreadScope {
-  int saved;
-  explicit ThreadScope(int n) : saved(omp_get_max_threads()) {
-    if (n > 0) omp_set_num_threads(n);
-  }
-  ~ThreadScope() { omp_set_num_threads(saved); }
-};
 
 std::map<std::string, double> g_peak_mib, g_cpu_ns;
 

@@ -804,34 +804,66 @@ void CalibrationSession::poseChanged() {
 void CalibrationSession::measureEdgeAlignment() {
   alignment_text_.clear();
   if (!colouringProblem().isEmpty() || edgeCells().empty()) return;
+  // Both measures run in a worker under one progress dialog (at tens of millions of points
+  // they take seconds); the worker gets its own copies and the visibility is lent to it.
+  const std::shared_ptr<const OrderedScan> scan = scan_;
+  const colour::ColourView view = colourView();
+  const cv::Mat edges = edgeCells();
+  cv::Mat edge_distance = image_edge_distance_;
+  std::optional<colour::ColouredScan> coloured = std::move(coloured_);
+  coloured_.reset();
+  QString edge_text, check_text;
   try {
-    if (image_edge_distance_.empty()) image_edge_distance_ = colour::ImageEdgeDistance(image_bgr_);
-    const colour::ColourView view = colourView();
-    const colour::EdgeAlignment a =
-        colour::MeasureEdgeAlignment(*scan_, view, view.T_cam_scan, edgeCells(),
-                                     image_edge_distance_, coloured_ ? &*coloured_ : nullptr, 0);
-    if (a.edge_points == 0) {
-      alignment_text_ = tr("no laser edge point is seen in the image: the pose is wrong");
-      return;
-    }
-    alignment_text_ = tr("%1 laser edge points seen; distance to the nearest image edge: "
-                         "median %2 px, %3 % within 2 px")
-                          .arg(a.edge_points)
-                          .arg(a.median_px, 0, 'f', 2)
-                          .arg(100.0 * a.within_2px, 0, 'f', 1);
+    runWithProgress(tr("Alignment check"), [&](const Progress& ui) {
+      std::tie(edge_text, check_text) =
+          RunInWorker<std::pair<QString, QString>>(ui, [&](const Progress& p) {
+            return MeasureAlignment(*scan, view, edges, coloured ? &*coloured : nullptr,
+                                    &edge_distance, p);
+          });
+    });
+  } catch (const Cancelled&) {
+    edge_text = tr("alignment not measured (cancelled)");
   } catch (const std::exception& e) {
-    alignment_text_ = tr("edge alignment not measured: %1").arg(e.what());
+    edge_text = tr("alignment not measured: %1").arg(e.what());
+  }
+  if (scan_ != scan) return;  // another scene became active meanwhile: its own figures stand
+  if (!coloured_) coloured_ = std::move(coloured);
+  if (image_edge_distance_.empty() && edge_distance.size() == image_bgr_.size())
+    image_edge_distance_ = edge_distance;
+  alignment_text_ = check_text.isEmpty() ? edge_text : edge_text + check_text;
+}
+
+std::pair<QString, QString> CalibrationSession::MeasureAlignment(
+    const OrderedScan& scan, const colour::ColourView& view, const cv::Mat& edge_cells,
+    const colour::ColouredScan* coloured, cv::Mat* image_edge_distance, const Progress& progress) {
+  QString edge_text, check_text;
+  progress(0.0, "edge alignment");
+  try {
+    if (image_edge_distance->empty()) *image_edge_distance = colour::ImageEdgeDistance(view.image);
+    const colour::EdgeAlignment a = colour::MeasureEdgeAlignment(
+        scan, view, view.T_cam_scan, edge_cells, *image_edge_distance, coloured, 0);
+    if (a.edge_points == 0)
+      return {tr("no laser edge point is seen in the image: the pose is wrong"), QString()};
+    edge_text = tr("%1 laser edge points seen; distance to the nearest image edge: "
+                   "median %2 px, %3 % within 2 px")
+                    .arg(a.edge_points)
+                    .arg(a.median_px, 0, 'f', 2)
+                    .arg(100.0 * a.within_2px, 0, 'f', 1);
+  } catch (const std::exception& e) {
+    edge_text = tr("edge alignment not measured: %1").arg(e.what());
   }
   // The check that ranks a right pose first (refine/alignment_check.h; NID of the scan's
   // intensity vs the image's grey level here and 0.5 deg / 5 cm away).
+  progress(0.5, "alignment check");
   try {
-    const colour::ColourView view = colourView();
     const refine::AlignmentCheck c =
-        refine::CheckAlignment(refine::PrepareAlignment(*scan_, view), view.T_cam_scan);
-    alignment_text_ += tr(". Alignment check: %1").arg(QString::fromStdString(c.verdict));
+        refine::CheckAlignment(refine::PrepareAlignment(scan, view), view.T_cam_scan);
+    check_text = tr(". Alignment check: %1").arg(QString::fromStdString(c.verdict));
   } catch (const std::exception& e) {
-    alignment_text_ += tr(". Alignment check not possible: %1").arg(e.what());
+    check_text = tr(". Alignment check not possible: %1").arg(e.what());
   }
+  progress(1.0, "alignment check");
+  return {edge_text, check_text};
 }
 
 QString CalibrationSession::exportModel(const QString& path) {

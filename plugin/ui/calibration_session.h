@@ -256,6 +256,14 @@ class CalibrationSession : public QObject {
   /// After the pose, camera, image or mask changed: visibility and edge alignment.
   void poseChanged();
   void measureEdgeAlignment();
+  // The edge alignment and the alignment check of one pose as the panel's two texts (runs in a
+  // worker: touches no member).
+  static std::pair<QString, QString> MeasureAlignment(const OrderedScan& scan,
+                                                      const colour::ColourView& view,
+                                                      const cv::Mat& edge_cells,
+                                                      const colour::ColouredScan* coloured,
+                                                      cv::Mat* image_edge_distance,
+                                                      const Progress& progress);
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   void checkImageSize();
   class PoseCommand;

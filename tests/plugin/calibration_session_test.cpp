@@ -18,6 +18,7 @@
 #include <iostream>
 
 #include "plugin_sim_fixture.h"
+#include "scancam/colour/overlay.h"
 #include "scancam/solve/calibration_summary.h"
 #include "ui/calibration_summary_html.h"
 #include "ui/pairs_model.h"
@@ -294,6 +295,35 @@ TEST(CalibrationSession, RejectedRefineKeepsThePoseAndSaysWhy) {
   const QString html = plugin::ui::RefinementSummaryHtml(r.result, false);
   EXPECT_TRUE(html.contains("The start pose is kept"));
   EXPECT_TRUE(html.contains(QString::fromStdString(r.result.reason).toHtmlEscaped()));
+}
+
+TEST(CalibrationSession, AlignmentIsMeasuredUnderTheProgressDialogAndKeepsTheVisibility) {
+  // At tens of millions of points the edge alignment and the alignment check take seconds: they
+  // run under the progress runner (CloudCompare's dialog), not silently on the GUI thread.
+  auto s = std::make_unique<CalibrationSession>();
+  s->setScan(Sim().scan, "sim scan",
+             [](const OrderedScan& scan) { return colour::BaEdgeCells(scan); });
+  s->loadCamera(Sim().camera);
+  s->loadImage(FreshImage("session_alignment"));
+  QStringList titles;
+  int progress_calls = 0;
+  s->setProgressRunner([&](const QString& title, const std::function<void(const Progress&)>& work) {
+    titles << title;
+    work(Progress([&](double, const std::string&) {
+      ++progress_calls;
+      return true;
+    }));
+  });
+  s->loadCalibration(PerturbedCalibration("session_alignment_pose", 0.0, 0.0));
+  EXPECT_TRUE(titles.contains("Visibility")) << titles.join(", ").toStdString();
+  EXPECT_TRUE(titles.contains("Alignment check")) << titles.join(", ").toStdString();
+  EXPECT_GT(progress_calls, 0);
+  EXPECT_TRUE(s->alignmentText().contains("laser edge points seen"))
+      << s->alignmentText().toStdString();
+  EXPECT_TRUE(s->alignmentText().contains("Alignment check:")) << s->alignmentText().toStdString();
+  // The visibility lent to the worker came back (the overlay and colouring use it).
+  ASSERT_TRUE(s->visibility().has_value());
+  EXPECT_EQ(s->visibility()->rgb.size(), Sim().scan->point_m.size());
 }
 
 }  // namespace

@@ -228,7 +228,7 @@ void StartChildBudget(std::size_t) {}
 // ASan calls this before it prints a report (symbolising the stack takes ~1 s): a report in
 // the decoding child ends the child at once. Elsewhere it does nothing.
 extern "C" void __asan_on_error() {
-  if (scancam::g_budget.active) scancam::EndChild(2);
+  if (scancam::io::g_budget.active) scancam::io::EndChild(2);
 }
 #endif
 
