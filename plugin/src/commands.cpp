@@ -18,6 +18,10 @@
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/refine/dense_refine.h"
+#include "scancam/refine/pair_prior.h"
+#include "scancam/refine/refine_options_io.h"
+#include "scancam/refine/refinement_report.h"
 #include "scancam/solve/calibrate.h"
 #include "scancam/solve/calibrate_options_io.h"
 #include "scancam/solve/calibration_json.h"
@@ -28,6 +32,7 @@ namespace {
 
 constexpr char kCalibKeyword[] = "SCANCAM_CALIB";
 constexpr char kColorizeKeyword[] = "SCANCAM_COLORIZE";
+constexpr char kRefineKeyword[] = "SCANCAM_REFINE";
 
 // Reads "-NAME value" options that follow a keyword, stopping at the first token that is not
 // one of `names` (the next CloudCompare command). Returns false after cmd.error().
@@ -204,12 +209,84 @@ struct ColorizeCommand : public ccCommandLineInterface::Command {
   }
 };
 
+struct RefineCommand : public ccCommandLineInterface::Command {
+  RefineCommand() : Command("ScanCam dense refinement", kRefineKeyword) {}
+
+  bool process(ccCommandLineInterface& cmd) override {
+    QMap<QString, QString> o;
+    if (!ReadOptions(
+            cmd, kRefineKeyword,
+            {"CAMERA", "IMAGE", "INIT", "OUT", "PAIRS", "MASK", "PARAMS", "GRID_STEP", "ORIGIN"},
+            &o) ||
+        !Require(cmd, kRefineKeyword, o, {"CAMERA", "IMAGE", "INIT", "OUT"}))
+      return false;
+    if (cmd.clouds().empty() || !cmd.clouds().back().pc)
+      return cmd.error(QString("-%1: no point cloud loaded (open the scan with -O before -%1)")
+                           .arg(kRefineKeyword));
+    try {
+      // The view as `scancam refine` loads it (colour/view_io.h: camera, image checked against
+      // it, a MASK file or the valid region found in the image), posed at -INIT.
+      std::string region_how;
+      scancam::refine::RefineScene scene;
+      scene.view =
+          scancam::colour::LoadView({o["CAMERA"].toStdString(), o["IMAGE"].toStdString(),
+                                     o["INIT"].toStdString(), o.value("MASK").toStdString()},
+                                    {}, &region_how);
+      const Eigen::Isometry3d start = scene.view.T_cam_scan;
+      if (!o.contains("MASK"))
+        cmd.print(QString("[ScanCam] no MASK: %1").arg(QString::fromStdString(region_how)));
+      // The options: defaults or the -PARAMS file the window's Refine options dialog saves.
+      scancam::refine::DenseRefineOptions options;
+      if (o.contains("PARAMS")) {
+        options = scancam::refine::ReadDenseRefineOptions(o["PARAMS"].toStdString());
+        cmd.print(QString("[ScanCam] refine options from %1").arg(o["PARAMS"]));
+      }
+      std::vector<scancam::refine::ScenePairs> pairs;
+      if (o.contains("PAIRS"))
+        pairs.push_back(
+            {scancam::io::ReadPairsCsv(o["PAIRS"].toStdString()), o["PAIRS"].toStdString()});
+      ccPointCloud& cloud = *cmd.clouds().back().pc;
+      const CloudScan cs = ScanOf(cmd, cloud, o);
+      if (!cs.scan->has_intensity())
+        cmd.warning(QString("[ScanCam] %1 has no intensity: only the depth-edge term aligns it "
+                            "(weaker)")
+                        .arg(cloud.getName()));
+      scene.scan = cs.scan.get();
+      const scancam::refine::PairPriorOptions pair_options;
+      scancam::refine::PairCheck check;
+      const Progress progress = ToProgress(cmd.progressDialog());
+      const scancam::refine::DenseRefineResult r =
+          pairs.empty() ? scancam::refine::DenseRefine({scene}, start, options, progress)
+                        : scancam::refine::RefineWithPairs({scene}, pairs, start, options,
+                                                           pair_options, &check, progress);
+      const scancam::refine::PairReport report =
+          pairs.empty() ? scancam::refine::PairReport{}
+                        : scancam::refine::PairReport{&check, &pair_options};
+      nlohmann::json inputs = {{"scans", {cmd.clouds().back().basename.toStdString()}},
+                               {"images", {o["IMAGE"].toStdString()}},
+                               {"cameras", {o["CAMERA"].toStdString()}},
+                               {"init", o["INIT"].toStdString()}};
+      if (o.contains("PAIRS")) inputs["pairs"] = {o["PAIRS"].toStdString()};
+      scancam::io::WriteJsonFile(
+          o["OUT"].toStdString(),
+          scancam::refine::RefinementToJson(r, start, options.starts, inputs, report));
+      for (const std::string& line : scancam::refine::RefinementSummaryLines(r, report))
+        cmd.print("[ScanCam] " + QString::fromStdString(line));
+      cmd.print("[ScanCam] wrote " + o["OUT"]);
+    } catch (const std::exception& e) {
+      return cmd.error(QString("-%1: %2").arg(kRefineKeyword, e.what()));
+    }
+    return true;
+  }
+};
+
 }  // namespace
 
 void RegisterCommands(ccCommandLineInterface* cmd) {
   if (!cmd) return;
   cmd->registerCommand(ccCommandLineInterface::Command::Shared(new CalibCommand));
   cmd->registerCommand(ccCommandLineInterface::Command::Shared(new ColorizeCommand));
+  cmd->registerCommand(ccCommandLineInterface::Command::Shared(new RefineCommand));
 }
 
 }  // namespace scancam::plugin

@@ -21,6 +21,16 @@
 //       and the file written is printed; with -AUTO_SAVE OFF nothing is written (save with
 //       -SAVE_CLOUDS). -SCANCAM_CALIB changes no cloud: it writes only -OUT, and prints it.
 //
+//   -SCANCAM_REFINE -CAMERA cam_file -IMAGE image_file -INIT start.json -OUT refined.json
+//                   [-PAIRS pairs.csv] [-MASK mask_image] [-PARAMS refine_options.json]
+//                   [-GRID_STEP deg] [-ORIGIN ZERO|BOX_CENTER]
+//       Dense refinement of T_cam_scan (refine/dense_refine.h) from -INIT (any calibration
+//       JSON) against the LAST loaded cloud, as `scancam refine` does for one scene: -PAIRS
+//       adds the picked pairs as a prior and a held-out check, -PARAMS reads the options file
+//       the window's Refine options dialog saves. Writes -OUT (refine/refinement_report.h: the
+//       calibrate schema plus "refinement"; a rejected refinement keeps the start and says
+//       why), prints the verdict and figures; changes no cloud.
+//
 //   The scan grid: a cloud read from an ordered format (PTX) keeps CloudCompare's scan grid,
 //   which is used as is (the scanner's frame). Other clouds are re-gridded about their
 //   ccGBLSensor (if any), else about -ORIGIN (default ZERO: the cloud's (0,0,0); BOX_CENTER:
