@@ -258,12 +258,9 @@ class CalibrationSession : public QObject {
   void measureEdgeAlignment();
   // The edge alignment and the alignment check of one pose as the panel's two texts (runs in a
   // worker: touches no member).
-  static std::pair<QString, QString> MeasureAlignment(const OrderedScan& scan,
-                                                      const colour::ColourView& view,
-                                                      const cv::Mat& edge_cells,
-                                                      const colour::ColouredScan* coloured,
-                                                      cv::Mat* image_edge_distance,
-                                                      const Progress& progress);
+  static std::pair<QString, QString> MeasureAlignment(
+      const OrderedScan& scan, const colour::ColourView& view, const cv::Mat& edge_cells,
+      const colour::ColouredScan* coloured, cv::Mat* image_edge_distance, const Progress& progress);
   void runWithProgress(const QString& title, const std::function<void(const Progress&)>& work);
   void checkImageSize();
   class PoseCommand;

@@ -1,9 +1,7 @@
 // Calibration entry point (solve/calibrate.h) and `scancam calibrate`: recovers
 // a known transform through real camera models, flags a wrong pair, refuses
 // unusable input with messages naming the file and line.
-#include "scancam/io/pairs_csv.h"
 #include "scancam/solve/calibrate.h"
-#include "scancam/solve/calibration_json.h"
 
 #include <gtest/gtest.h>
 
@@ -13,7 +11,9 @@
 #include "scancam/camera/camera_io.h"
 #include "scancam/error.h"
 #include "scancam/io/json_util.h"
+#include "scancam/io/pairs_csv.h"
 #include "scancam/rotation_rpy.h"
+#include "scancam/solve/calibration_json.h"
 #include "test_util.h"
 
 namespace scancam {

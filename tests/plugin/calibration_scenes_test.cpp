@@ -113,7 +113,7 @@ TEST(CalibrationScenes, RemovingASceneIsOneUndoStep) {
   EXPECT_EQ(s.sceneIndex(id2), -1);
   EXPECT_GE(scenes_changed.count(), 1);
   EXPECT_EQ(io::ReadPairsCsv(file2.toStdString()).size(), 2u);  // the file stays
-  EXPECT_THROW(s.removeScene(0), Error);                    // never the last scene
+  EXPECT_THROW(s.removeScene(0), Error);                        // never the last scene
   EXPECT_TRUE(s.undoStack()->undoText().startsWith("Remove scene 2"));
 
   s.undoStack()->undo();

@@ -30,8 +30,8 @@ inline int CeilPx(float x) { return -FloorPx(-x); }
 // per Colourise call by MakeColourParams, passed by const reference to every pass and kernel.
 struct ColourParams {
   scan::detail::ContParams cont;  // the continuity test, with the ground plane used
-  float max_offset = 128.f;      // 2 max_splat_px: neighbours farther in the image are not used
-  float max_splat = 64.f;        // max_splat_px
+  float max_offset = 128.f;       // 2 max_splat_px: neighbours farther in the image are not used
+  float max_splat = 64.f;         // max_splat_px
   float edge_fill = 2.f, isolated_fill = 1.f, strip_fill = 1.f, ground_fill = 1.f;
   float tol_abs = 0.f, tol_rel = 0.f, tol_slope = 0.f, tol_max = 0.f;  // the depth tolerance
   float backface_sin = 0.f;                                            // sin(backface_margin_deg)

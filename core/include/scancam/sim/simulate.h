@@ -123,11 +123,11 @@ struct Simulation {
   Eigen::Isometry3d T_world_scan = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
   std::shared_ptr<SimScanner> scanner;
-  ScanSample sample;                         ///< ranges, intensities, truth (visible filled in)
+  ScanSample sample;                             ///< ranges, intensities, truth (visible filled in)
   std::optional<io::RotatingScanData> rotating;  ///< for the rotating scanner
-  OrderedScan scan;                          ///< as the project's importers give it
-  std::size_t valid_cells = 0;               ///< cells with a return
-  cv::Mat image;                             ///< BGR
+  OrderedScan scan;                              ///< as the project's importers give it
+  std::size_t valid_cells = 0;                   ///< cells with a return
+  cv::Mat image;                                 ///< BGR
   std::vector<PointPair> pairs;
   std::vector<PairTruth> pair_truth;
   std::vector<std::string> warnings;  ///< e.g. fewer usable corners than pairs asked
