@@ -58,7 +58,7 @@ if [ "$do_build" = 1 ]; then
   export CCACHE_BASEDIR="$root" CCACHE_NOHASHDIR=1
   cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
         -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DSCANCAM_BUILD_FUZZERS=ON \
-        -DSCANCAM_BUILD_TESTS=OFF -DSCANCAM_BUILD_PLUGIN=OFF -DSCANCAM_BUILD_BENCH=OFF \
+        -DSCANCAM_FUZZ_COVERAGE=ON -DSCANCAM_BUILD_PLUGIN=OFF -DSCANCAM_BUILD_BENCH=OFF \
         -DSCANCAM_BUILD_TOOLS=OFF >/dev/null
   cmake --build "$build" -j"${SCANCAM_FUZZ_JOBS:-$(nproc)}" --target fuzzers
 fi

@@ -98,12 +98,12 @@ int RunRefine(const Args& args) {
                            {"seed", "--seed"}});
   refine::PairPriorOptions po;
   po.weight = args.get_double("--pairs-weight", po.weight);
-  if (!(po.weight >= 0.0 && po.weight <= 1e6)) throw Error("option --pairs-weight: must be >= 0");
   po.noise.sigma_px = args.get_double("--sigma-px", po.noise.sigma_px);
   po.noise.sigma_cells = args.get_double("--sigma-cells", po.noise.sigma_cells);
   po.noise.sigma_point_m = args.get_double("--sigma-point-m", po.noise.sigma_point_m);
-  ThrowFirstOptionProblem(solve::ValidateCalibrateOptions(po.noise),
-                          {{"sigma_px", "--sigma-px"},
+  ThrowFirstOptionProblem(refine::ValidatePairPriorOptions(po),
+                          {{"weight", "--pairs-weight"},
+                           {"sigma_px", "--sigma-px"},
                            {"sigma_cells", "--sigma-cells"},
                            {"sigma_point_m", "--sigma-point-m"}});
   // The pairs files first (small, fail fast).

@@ -9,6 +9,8 @@
 #include <QFileInfo>
 #include <QMap>
 #include <QStringList>
+#include <cmath>
+#include <map>
 
 #include "cc_progress.h"
 #include "cloud_adapter.h"
@@ -92,6 +94,34 @@ CloudScan ScanOf(ccCommandLineInterface& cmd, ccPointCloud& cloud,
                   .arg(o.z()));
   }
   return ScanOfUngriddedCloud(cloud, o, requested, ToProgress(cmd.progressDialog()));
+}
+
+// -NAME's value as a number (a plain error naming the option otherwise).
+double NumberOption(const QMap<QString, QString>& opts, const QString& name, double fallback) {
+  if (!opts.contains(name)) return fallback;
+  bool ok = false;
+  const double v = opts[name].toDouble(&ok);
+  if (!ok || !std::isfinite(v))
+    throw scancam::Error("-" + name.toStdString() + ": '" + opts[name].toStdString() +
+                         "' is not a number");
+  return v;
+}
+
+// The picked pairs' prior of -SCANCAM_REFINE: `scancam refine`'s --pairs-weight, --sigma-px,
+// --sigma-cells and --sigma-point-m, checked as there.
+scancam::refine::PairPriorOptions PairOptions(const QMap<QString, QString>& opts) {
+  scancam::refine::PairPriorOptions po;
+  po.weight = NumberOption(opts, "PAIRS_WEIGHT", po.weight);
+  po.noise.sigma_px = NumberOption(opts, "SIGMA_PX", po.noise.sigma_px);
+  po.noise.sigma_cells = NumberOption(opts, "SIGMA_CELLS", po.noise.sigma_cells);
+  po.noise.sigma_point_m = NumberOption(opts, "SIGMA_POINT_M", po.noise.sigma_point_m);
+  const std::map<std::string, std::string> option = {{"weight", "-PAIRS_WEIGHT"},
+                                                     {"sigma_px", "-SIGMA_PX"},
+                                                     {"sigma_cells", "-SIGMA_CELLS"},
+                                                     {"sigma_point_m", "-SIGMA_POINT_M"}};
+  for (const scancam::io::OptionProblem& p : scancam::refine::ValidatePairPriorOptions(po))
+    throw scancam::Error(option.at(p.key) + ": " + p.message);
+  return po;
 }
 
 struct CalibCommand : public ccCommandLineInterface::Command {
@@ -214,18 +244,20 @@ struct RefineCommand : public ccCommandLineInterface::Command {
 
   bool process(ccCommandLineInterface& cmd) override {
     QMap<QString, QString> o;
-    if (!ReadOptions(
-            cmd, kRefineKeyword,
-            {"CAMERA", "IMAGE", "INIT", "OUT", "PAIRS", "MASK", "PARAMS", "GRID_STEP", "ORIGIN"},
-            &o) ||
+    if (!ReadOptions(cmd, kRefineKeyword,
+                     {"CAMERA", "IMAGE", "INIT", "OUT", "PAIRS", "MASK", "PARAMS", "GRID_STEP",
+                      "ORIGIN", "PAIRS_WEIGHT", "SIGMA_PX", "SIGMA_CELLS", "SIGMA_POINT_M"},
+                     &o) ||
         !Require(cmd, kRefineKeyword, o, {"CAMERA", "IMAGE", "INIT", "OUT"}))
       return false;
     if (cmd.clouds().empty() || !cmd.clouds().back().pc)
       return cmd.error(QString("-%1: no point cloud loaded (open the scan with -O before -%1)")
                            .arg(kRefineKeyword));
     try {
-      // The view as `scancam refine` loads it (colour/view_io.h: camera, image checked against
-      // it, a MASK file or the valid region found in the image), posed at -INIT.
+      // The options first (fail fast): the pairs' prior, then the view as `scancam refine`
+      // loads it (colour/view_io.h: camera, image checked against it, a MASK file or the valid
+      // region found in the image), posed at -INIT.
+      const scancam::refine::PairPriorOptions pair_options = PairOptions(o);
       std::string region_how;
       scancam::refine::RefineScene scene;
       scene.view =
@@ -252,7 +284,6 @@ struct RefineCommand : public ccCommandLineInterface::Command {
                             "(weaker)")
                         .arg(cloud.getName()));
       scene.scan = cs.scan.get();
-      const scancam::refine::PairPriorOptions pair_options;
       scancam::refine::PairCheck check;
       const Progress progress = ToProgress(cmd.progressDialog());
       const scancam::refine::DenseRefineResult r =

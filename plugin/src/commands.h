@@ -22,11 +22,14 @@
 //       -SAVE_CLOUDS). -SCANCAM_CALIB changes no cloud: it writes only -OUT, and prints it.
 //
 //   -SCANCAM_REFINE -CAMERA cam_file -IMAGE image_file -INIT start.json -OUT refined.json
-//                   [-PAIRS pairs.csv] [-MASK mask_image] [-PARAMS refine_options.json]
+//                   [-PAIRS pairs.csv [-PAIRS_WEIGHT w] [-SIGMA_PX px] [-SIGMA_CELLS cells]
+//                   [-SIGMA_POINT_M m]] [-MASK mask_image] [-PARAMS refine_options.json]
 //                   [-GRID_STEP deg] [-ORIGIN ZERO|BOX_CENTER]
 //       Dense refinement of T_cam_scan (refine/dense_refine.h) from -INIT (any calibration
 //       JSON) against the LAST loaded cloud, as `scancam refine` does for one scene: -PAIRS
-//       adds the picked pairs as a prior and a held-out check, -PARAMS reads the options file
+//       adds the picked pairs as a prior and a held-out check (its strength and noise model:
+//       scancam refine's --pairs-weight, --sigma-px, --sigma-cells, --sigma-point-m, same
+//       defaults and checks), -PARAMS reads the options file
 //       the window's Refine options dialog saves. Writes -OUT (refine/refinement_report.h: the
 //       calibrate schema plus "refinement"; a rejected refinement keeps the start and says
 //       why), prints the verdict and figures; changes no cloud.

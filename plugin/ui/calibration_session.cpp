@@ -26,6 +26,7 @@
 #include "scancam/image_io.h"
 #include "scancam/io/json_util.h"
 #include "scancam/io/pairs_csv.h"
+#include "scancam/refine/refinement_report.h"
 #include "scancam/rotation_rpy.h"
 #include "scancam/solve/calibration_json.h"
 #include "ui/pairs_model.h"
@@ -681,6 +682,14 @@ void CalibrationSession::saveCalibration(const QString& path) const {
   if (!image_path_.isEmpty()) inputs["image"] = image_path_.toStdString();
   if (!autosave_path_.isEmpty()) inputs["pairs"] = autosave_path_.toStdString();
   if (!scan_name_.isEmpty()) inputs["scan"] = scan_name_.toStdString();
+  // The pose a refinement left (accepted, or the start it kept) is saved with the refinement's
+  // verdict and figures, in `scancam refine --out`'s schema; any other pose as a calibration.
+  if (refinement_ && SamePose(calibration_->T_cam_scan, refinement_->result.T_cam_scan)) {
+    scancam::io::WriteJsonFile(path.toStdString(),
+                               refine::RefinementToJson(refinement_->result, refinement_->start,
+                                                        refinement_->starts, inputs));
+    return;
+  }
   scancam::io::WriteJsonFile(path.toStdString(), solve::CalibrationToJson(*calibration_, inputs));
 }
 
@@ -717,7 +726,7 @@ const CalibrationSession::Refinement& CalibrationSession::refinePose() {
   if (scan_ != scan || image_bgr_.data != image.data || !calibration_ ||
       !SamePose(calibration_->T_cam_scan, before.T_cam_scan))
     throw Error("the scan, image or pose changed while refining: the result is not used");
-  refinement_ = Refinement{before.T_cam_scan, result};
+  refinement_ = Refinement{before.T_cam_scan, result, options.starts};
   if (result.accepted) {
     solve::Calibration after;
     after.T_cam_scan = result.T_cam_scan;

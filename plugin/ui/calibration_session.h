@@ -153,6 +153,7 @@ class CalibrationSession : public QObject {
   struct Refinement {
     Eigen::Isometry3d start = Eigen::Isometry3d::Identity();  ///< T_cam_scan refined from
     refine::DenseRefineResult result;
+    int starts = 0;  ///< DenseRefineOptions::starts of the run
   };
   /// Refines the current pose (see Refine above) and returns the refinement. Throws when
   /// colouringProblem() is not empty, Cancelled when the user cancels (nothing changes).

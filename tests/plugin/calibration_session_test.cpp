@@ -19,6 +19,7 @@
 
 #include "plugin_sim_fixture.h"
 #include "scancam/colour/overlay.h"
+#include "scancam/io/json_util.h"
 #include "scancam/solve/calibration_summary.h"
 #include "ui/calibration_summary_html.h"
 #include "ui/pairs_model.h"
@@ -215,8 +216,25 @@ TEST(CalibrationSession, RefineImprovesAPerturbedPoseAsOneUndoStep) {
   s->undoStack()->undo();
   EXPECT_EQ(s->pose()->matrix(), start.matrix());  // exactly the start pose
   EXPECT_EQ(s->calibration()->method, "loaded");
+  // Saved at the start pose: a plain calibration, no refinement figures.
+  const QString dir = QString::fromStdString(Sim().dir);
+  s->saveCalibration(dir + "/session_refine_undone.json");
+  EXPECT_FALSE(scancam::io::ReadJsonFile((dir + "/session_refine_undone.json").toStdString())
+                   .contains("refinement"));
   s->undoStack()->redo();
   EXPECT_EQ(s->pose()->matrix(), refined.matrix());
+  // Saved at the refined pose: `scancam refine --out`'s schema, verdict and start included, and
+  // it loads back to the same pose.
+  const QString saved = dir + "/session_refine_saved.json";
+  s->saveCalibration(saved);
+  const nlohmann::json j = scancam::io::ReadJsonFile(saved.toStdString());
+  ASSERT_TRUE(j.contains("refinement")) << j.dump(1);
+  EXPECT_EQ(j["refinement"]["verdict"], r.result.verdict);
+  EXPECT_EQ(j["refinement"]["accepted"], true);
+  EXPECT_EQ(j["refinement"]["evaluations"], r.result.evaluations);
+  EXPECT_EQ(j["method"], "dense refinement");
+  s->loadCalibration(saved);
+  EXPECT_TRUE(s->pose()->isApprox(refined, 1e-12));
   // The panel's text: verdict, reason, figures before and after, std.
   const QString html = plugin::ui::RefinementSummaryHtml(r.result, true);
   EXPECT_TRUE(html.contains(QString::fromStdString(r.result.verdict)));

@@ -2,7 +2,8 @@
 # Headless: the real CloudCompare (-SILENT, no X server) opens the simulator's PTX and refines a
 # calibration from the picked pairs with -SCANCAM_REFINE (a small -PARAMS file keeps it short);
 # the result must equal `scancam refine` on the same files and lie near the simulator's truth.
-# Then the error paths: a missing -INIT file, a bad -PARAMS key and no cloud loaded make
+# Then the error paths: a missing -INIT file, a bad -PARAMS key, a bad pair noise option
+# (-SIGMA_PX -1, -PAIRS_WEIGHT not a number) and no cloud loaded make
 # CloudCompare exit 1 with a message naming the problem, and write no -OUT.
 # Usage: cc_refine_test.sh SCANCAM_CLI PLUGIN.so CHECKER WORKDIR
 set -euo pipefail
@@ -59,6 +60,12 @@ printf '{"scancam": "refine options", "version": 1, "starts": 0}\n' > "$work/bad
 expect_error "bad -PARAMS" "starts" -O "$sim/scan.ptx" -SCANCAM_REFINE \
   -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" -INIT "$work/picks.json" \
   -PARAMS "$work/bad-params.json" -OUT "$work/bad.json"
+expect_error "bad -SIGMA_PX" "\-SIGMA_PX: must be >= 0" -O "$sim/scan.ptx" -SCANCAM_REFINE \
+  -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" -INIT "$work/picks.json" \
+  -PAIRS "$sim/pairs.csv" -SIGMA_PX -1 -OUT "$work/bad.json"
+expect_error "-PAIRS_WEIGHT not a number" "\-PAIRS_WEIGHT: 'heavy' is not a number" \
+  -O "$sim/scan.ptx" -SCANCAM_REFINE -CAMERA "$sim/camera.txt" -IMAGE "$sim/image.png" \
+  -INIT "$work/picks.json" -PAIRS "$sim/pairs.csv" -PAIRS_WEIGHT heavy -OUT "$work/bad.json"
 expect_error "no cloud" "no point cloud loaded" -SCANCAM_REFINE -CAMERA "$sim/camera.txt" \
   -IMAGE "$sim/image.png" -INIT "$work/picks.json" -OUT "$work/bad.json"
 echo "PASS"

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "scancam/error.h"
+#include "scancam/solve/calibrate_options_io.h"
 #include "scancam/solve/pair_noise.h"
 #include "scancam/solve/refine.h"
 
@@ -185,6 +186,16 @@ DenseRefineResult RefineWithPairs(const std::vector<RefineScene>& scenes,
   c.result = figures(r.T_cam_scan);
   if (check) *check = c;
   return r;
+}
+
+std::vector<io::OptionProblem> ValidatePairPriorOptions(const PairPriorOptions& options) {
+  std::vector<io::OptionProblem> problems;
+  io::RequireOption(&problems, options.weight >= 0.0 && options.weight <= 1e6, "weight",
+                    "must be between 0 and 1e6", options.weight);
+  for (const io::OptionProblem& p : solve::ValidateCalibrateOptions(options.noise))
+    if (p.key == "sigma_px" || p.key == "sigma_cells" || p.key == "sigma_point_m")
+      problems.push_back(p);
+  return problems;
 }
 
 }  // namespace scancam::refine

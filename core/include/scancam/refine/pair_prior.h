@@ -45,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "scancam/io/options_json.h"
 #include "scancam/point_pair.h"
 #include "scancam/progress.h"
 #include "scancam/refine/dense_refine.h"
@@ -83,6 +84,11 @@ struct PairCheck {
   bool passed = true;               ///< the held-out check (best against start)
   std::string reason;               ///< one line
 };
+
+/// The range checks of the options the front ends take (keys "weight": 0 to 1e6, and the
+/// noise model's "sigma_px", "sigma_cells", "sigma_point_m" as calibrate checks them). Empty
+/// when all are fine.
+std::vector<io::OptionProblem> ValidatePairPriorOptions(const PairPriorOptions& options);
 
 /// One scene's pairs (the k-th belongs to scenes[k]) and the file name for messages.
 struct ScenePairs {
