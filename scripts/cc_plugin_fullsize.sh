@@ -31,7 +31,7 @@ since() { echo "$(now) - $1" | bc; }
 # A visible progress dialog of the plugin (CloudCompare's ccProgressDialog, titled by the step).
 busy() {
   xdotool search --onlyvisible --name \
-    "^ScanCam: |^Scan view|^Laser edges|^Bearing-Angle|^Visibility|^Calibrat" >/dev/null 2>&1
+    "^ScanCam: |^Scan view|^Laser edges|^Bearing-Angle|^Visibility|^Calibrat|^Alignment check" >/dev/null 2>&1
 }
 # Screenshots every 0.5 s under the name PREFIX_N.png until no progress dialog has been seen
 # for 2 s (after one was seen, or 10 s without any); at most 300 s.

@@ -35,6 +35,9 @@ void RunWithCcProgress(QWidget* parent, const QString& title,
     return;
   }
   ccProgressDialog dlg(/*cancelButton=*/true, parent);
+  // Modal to its window (and the windows above it): ccProgressDialog lets the event loop run
+  // while the work goes on, and nothing the user clicks or types may change what the work reads.
+  dlg.setWindowModality(Qt::WindowModal);
   dlg.setMethodTitle(title);
   dlg.setAutoClose(false);
   dlg.start();

@@ -11,6 +11,7 @@
 #include <QIcon>
 #include <QMainWindow>
 #include <QMessageBox>
+#include <optional>
 
 #include "cc_compat.h"
 #include "cc_progress.h"
@@ -305,10 +306,13 @@ void qScanCam::openCalibration() {
   w->setAttribute(Qt::WA_DeleteOnClose);
   w->setTitleBase(tr("ScanCam calibration: %1").arg(cloud->getName()));
   w->setWindowIcon(getIcon());
+  // The progress dialogs are the window's children: shown over it (parented to CloudCompare's
+  // main window they opened behind the calibration window, which covers the main window).
   QWidget* main_window = m_app->getMainWindow();
-  w->setProgressRunner([main_window](const QString& title,
-                                     const std::function<void(const scancam::Progress&)>& work) {
-    scancam::plugin::RunWithCcProgress(main_window, title, work);
+  w->setProgressRunner([w, main_window](const QString& title,
+                                        const std::function<void(const scancam::Progress&)>& work) {
+    scancam::plugin::RunWithCcProgress(w->isVisible() ? static_cast<QWidget*>(w) : main_window,
+                                       title, work);
   });
   connect(w, &scancam::plugin::ui::CalibrationWindow::logMessage, this,
           [this](const QString& text, int level) {
@@ -409,44 +413,54 @@ void qScanCam::applyColours() {
   timer.start();
   const double cpu0 = CpuSeconds();
   double colouring_s = 0.0;
+  // The window's visibility pass (after every pose, image, mask or camera change) is this very
+  // colouring: the same Colourise of the same scan and view with the default options. Reused
+  // when it is there for this scan (it is not after a cancelled pass).
+  const std::optional<scancam::colour::ColouredScan>& seen = window_->session()->visibility();
+  const bool reuse = seen && window_->session()->scan() == activeSceneCloud()->scan.scan;
   // One progress dialog for both steps: the colouring (cancellable) and the writing into the
-  // cloud (cloud_adapter.h ApplyColours).
+  // cloud (cloud_adapter.h ApplyColours); over the window (see openWindow).
   scancam::plugin::RunWithCcProgress(
-      m_app->getMainWindow(), tr("ScanCam: colouring"), [&](const scancam::Progress& p) {
-        coloured =
-            scancam::colour::Colourise(*activeSceneCloud()->scan.scan, {view}, {},
-                                       scancam::Progress([&p](double f, const std::string& s) {
-                                         p(0.8 * f, s);
-                                         return true;
-                                       }));
+      window_->isVisible() ? static_cast<QWidget*>(window_) : m_app->getMainWindow(),
+      tr("ScanCam: colouring"), [&](const scancam::Progress& p) {
+        if (!reuse)
+          coloured =
+              scancam::colour::Colourise(*activeSceneCloud()->scan.scan, {view}, {},
+                                         scancam::Progress([&p](double f, const std::string& s) {
+                                           p(0.8 * f, s);
+                                           return true;
+                                         }));
         colouring_s = Seconds(timer);
-        st = scancam::plugin::ApplyColours(*cloud, activeSceneCloud()->scan, coloured,
+        st = scancam::plugin::ApplyColours(*cloud, activeSceneCloud()->scan,
+                                           reuse ? *seen : coloured,
                                            scancam::Progress([&p](double f, const std::string& s) {
                                              p(0.8 + 0.2 * f, s);
                                              return true;
                                            }));
       });
+  const scancam::colour::ColouredScan& used = reuse ? *seen : coloured;
   const double written_s = Seconds(timer);
   cloud->prepareDisplayForRefresh_recursive();
   m_app->refreshAll();
   m_app->updateUI();
-  log(QString("Apply colours: %1 s, CPU %6 s, for %2 points (colouring %3 s, writing into the "
-              "cloud %4 s, display refresh %5 s)")
+  log(QString("Apply colours: %1 s, CPU %6 s, for %2 points (colouring %3 s%7, writing into "
+              "the cloud %4 s, display refresh %5 s)")
           .arg(Seconds(timer), 0, 'f', 2)
           .arg(cloud->size())
           .arg(colouring_s, 0, 'f', 2)
           .arg(written_s - colouring_s, 0, 'f', 2)
           .arg(Seconds(timer) - written_s, 0, 'f', 2)
-          .arg(CpuSeconds() - cpu0, 0, 'f', 2),
+          .arg(CpuSeconds() - cpu0, 0, 'f', 2)
+          .arg(reuse ? QString(": the visibility pass's result") : QString()),
       scancam::plugin::ui::CalibrationWindow::kInfo);
   window_->setRestoreAvailable(true);
   if (restore_action_) restore_action_->setEnabled(true);
   // The ground first: the window's status line keeps the last message, which should be the
   // colouring summary.
-  if (coloured.ground)
+  if (used.ground)
     window_->reportInfo(QString("Ground (joins far rings for the occlusion test): %1")
                             .arg(QString::fromStdString(scancam::colour::DescribeGround(
-                                *coloured.ground, activeSceneCloud()->scan.scan->origin_m))));
+                                *used.ground, activeSceneCloud()->scan.scan->origin_m))));
   const QString msg =
       QString("Coloured %1: %2 points from the image, %3 occluded, %4 out of view%5")
           .arg(cloud->getName())
@@ -459,7 +473,7 @@ void qScanCam::applyColours() {
   window_->reportInfo(msg + (st.stored_original
                                  ? QString(" (original colours kept: Restore colours)")
                                  : QString()));
-  for (const std::string& w : coloured.warnings)
+  for (const std::string& w : used.warnings)
     window_->reportInfo(QString::fromStdString(w),
                         scancam::plugin::ui::CalibrationWindow::kWarning);
 }
