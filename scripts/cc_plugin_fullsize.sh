@@ -13,6 +13,8 @@
 #   SIM_DIR     a `scancam simulate --camera pinhole` folder (camera.yaml, image.png, pairs.csv)
 #   CLOUD_FILE  its scan as CloudCompare opens it with the grid (the PTX, or a BIN saved from it)
 # Screenshots go to WORK/shots. The display is the first free one from $CC_GUI_FIRST_DISPLAY.
+# CC_FULLSIZE_OPEN_ONLY=1 stops once the window has opened (the window's figures are in the
+# status bar of 2_opened.png); CC_LOAD_WAIT_S the seconds given to CloudCompare to load.
 set -euo pipefail
 sim="$1"; cloud="$2"; plugin="$3"; work="$4"
 source "$(dirname "${BASH_SOURCE[0]}")/cc_gui_session.sh"
@@ -65,6 +67,10 @@ xdotool windowmove "$win" 150 0
 xdotool windowsize "$win" 1400 850
 sleep 2
 import -window root "$work/shots/2_opened.png"
+if [ "${CC_FULLSIZE_OPEN_ONLY:-0}" = 1 ]; then
+  echo "== CC_FULLSIZE_OPEN_ONLY=1: stopping after the window opened (2_opened.png)"
+  exit 0
+fi
 
 echo "== the +45 deg BA tab (its picture is made when shown)"
 xdotool windowactivate --sync "$win"

@@ -39,23 +39,72 @@ void CheckPercentile(double p) {
     throw Error("percentile " + std::to_string(p) + " is not in [0, 100]");
 }
 
-// Nearest-rank percentiles of the finite values, several from one copy of the data.
+// A float's bits as an unsigned key that sorts as the float does (negative values' bits
+// inverted, positive values' sign bit set); -0 and +0 share +0's key, as they compare equal.
+inline std::uint32_t SortKey(float v) {
+  std::uint32_t b;
+  std::memcpy(&b, &v, sizeof b);
+  if (b == 0x80000000u) b = 0u;
+  return (b & 0x80000000u) ? ~b : (b | 0x80000000u);
+}
+
+// Nearest-rank percentiles of the finite values (the value at rank round(p / 100 * (n - 1))
+// of the sorted finite values), exactly, without copying the data: a count of the values'
+// sortable keys by their top 12 bits (sign, exponent, 3 mantissa bits), then the values of
+// the bins holding the wanted ranks gathered and selected with nth_element. Rows in parallel.
 std::vector<float> Percentiles(const cv::Mat& image, const std::vector<double>& ps) {
   for (double p : ps) CheckPercentile(p);
-  std::vector<float> values;
-  values.reserve(image.total());
-  for (int r = 0; r < image.rows; ++r) {
-    const float* p = image.ptr<float>(r);
-    for (int c = 0; c < image.cols; ++c)
-      if (std::isfinite(p[c])) values.push_back(p[c]);
-  }
   std::vector<float> out(ps.size(), kNaN);
-  if (values.empty()) return out;
-  for (std::size_t j = 0; j < ps.size(); ++j) {
-    const auto k = static_cast<std::ptrdiff_t>(
-        std::llround(ps[j] / 100.0 * static_cast<double>(values.size() - 1)));
-    std::nth_element(values.begin(), values.begin() + k, values.end());
-    out[j] = values[static_cast<std::size_t>(k)];
+  if (image.empty()) return out;
+  constexpr int kShift = 20;
+  constexpr std::size_t kBins = std::size_t(1) << (32 - kShift);
+  std::vector<std::uint64_t> hist(kBins, 0);
+#pragma omp parallel
+  {
+    std::vector<std::uint64_t> h(kBins, 0);
+#pragma omp for schedule(static)
+    for (int r = 0; r < image.rows; ++r) {
+      const float* p = image.ptr<float>(r);
+      for (int c = 0; c < image.cols; ++c)
+        if (std::isfinite(p[c])) ++h[SortKey(p[c]) >> kShift];
+    }
+#pragma omp critical
+    for (std::size_t i = 0; i < kBins; ++i) hist[i] += h[i];
+  }
+  std::uint64_t count = 0;
+  for (std::uint64_t c : hist) count += c;
+  if (count == 0) return out;
+  // Per percentile: its bin and its rank among that bin's values.
+  std::vector<std::pair<std::uint32_t, std::uint64_t>> where;
+  std::vector<std::uint32_t> bins;  // distinct bins to gather
+  for (double p : ps) {
+    std::uint64_t rank = static_cast<std::uint64_t>(std::llround(p / 100.0 * double(count - 1)));
+    std::uint32_t bin = 0;
+    while (rank >= hist[bin]) rank -= hist[bin++];  // ends: rank < count
+    where.emplace_back(bin, rank);
+    if (std::find(bins.begin(), bins.end(), bin) == bins.end()) bins.push_back(bin);
+  }
+  for (const std::uint32_t bin : bins) {
+    std::vector<float> values;
+    values.reserve(hist[bin]);
+#pragma omp parallel
+    {
+      std::vector<float> mine;
+#pragma omp for schedule(static) nowait
+      for (int r = 0; r < image.rows; ++r) {
+        const float* p = image.ptr<float>(r);
+        for (int c = 0; c < image.cols; ++c)
+          if (std::isfinite(p[c]) && (SortKey(p[c]) >> kShift) == bin) mine.push_back(p[c]);
+      }
+#pragma omp critical
+      values.insert(values.end(), mine.begin(), mine.end());
+    }
+    for (std::size_t j = 0; j < ps.size(); ++j) {
+      if (where[j].first != bin) continue;
+      const auto k = static_cast<std::ptrdiff_t>(where[j].second);
+      std::nth_element(values.begin(), values.begin() + k, values.end());
+      out[j] = values[static_cast<std::size_t>(k)];
+    }
   }
   return out;
 }
@@ -689,8 +738,38 @@ cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options) {
   const bool flat = !(hi > lo);  // also true when there is no finite value
   const float scale = flat ? 0.f : 255.f / (hi - lo);
 
+  const auto grey_of = [&](float v) -> uchar {
+    if (options.equalize) return equalized(v);
+    if (flat) return 128;
+    float t = std::clamp((v - lo) * scale, 0.f, 255.f);
+    if (options.gamma != 1.0) t = 255.f * static_cast<float>(std::pow(t / 255.0, options.gamma));
+    return static_cast<uchar>(std::lround(t));
+  };
+  if (options.colormap != Colormap::kJet) {
+    // Grey: the picture in one pass (rows in parallel).
+    cv::Mat view(image.size(), options.alpha ? CV_8UC4 : CV_8UC3);
+    const cv::Vec4b invalid_bgra(kInvalidViewBgr[0], kInvalidViewBgr[1], kInvalidViewBgr[2], 255);
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < image.rows; ++r) {
+      const float* p = image.ptr<float>(r);
+      auto* out3 = view.ptr<cv::Vec3b>(r);
+      auto* out4 = view.ptr<cv::Vec4b>(r);
+      for (int c = 0; c < image.cols; ++c) {
+        const float v = p[c];
+        const bool finite = std::isfinite(v);
+        const uchar g = finite ? grey_of(v) : 0;
+        if (options.alpha) {
+          out4[c] = finite ? cv::Vec4b(g, g, g, 255) : invalid_bgra;
+        } else {
+          out3[c] = finite ? cv::Vec3b(g, g, g) : kInvalidViewBgr;
+        }
+      }
+    }
+    return view;
+  }
   cv::Mat grey(image.size(), CV_8UC1);
   cv::Mat invalid(image.size(), CV_8UC1);
+#pragma omp parallel for schedule(static)
   for (int r = 0; r < image.rows; ++r) {
     const float* p = image.ptr<float>(r);
     uchar* g = grey.ptr<uchar>(r);
@@ -698,27 +777,13 @@ cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options) {
     for (int c = 0; c < image.cols; ++c) {
       const float v = p[c];
       bad[c] = std::isfinite(v) ? 0 : 255;
-      if (!std::isfinite(v)) {
-        g[c] = 0;
-      } else if (options.equalize) {
-        g[c] = equalized(v);
-      } else if (flat) {
-        g[c] = 128;
-      } else {
-        float t = std::clamp((v - lo) * scale, 0.f, 255.f);
-        if (options.gamma != 1.0)
-          t = 255.f * static_cast<float>(std::pow(t / 255.0, options.gamma));
-        g[c] = static_cast<uchar>(std::lround(t));
-      }
+      g[c] = std::isfinite(v) ? grey_of(v) : 0;
     }
   }
   cv::Mat view;
-  if (options.colormap == Colormap::kJet) {
-    cv::applyColorMap(grey, view, cv::COLORMAP_JET);
-  } else {
-    cv::cvtColor(grey, view, cv::COLOR_GRAY2BGR);
-  }
+  cv::applyColorMap(grey, view, cv::COLORMAP_JET);
   view.setTo(kInvalidViewBgr, invalid);
+  if (options.alpha) cv::cvtColor(view, view, cv::COLOR_BGR2BGRA);
   return view;
 }
 

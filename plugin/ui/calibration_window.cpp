@@ -63,6 +63,14 @@ namespace {
 // An 8-bit BGR (or grey) picture as an RGB32 QImage, the format ImageView draws (one
 // conversion, no intermediate copies: a 50 M-cell picture is 200 MB).
 QImage BgrToRgb32(const cv::Mat& bgr) {
+  if (bgr.type() == CV_8UC4 && bgr.step[0] % 4 == 0) {
+    // BGRA (MakeView with ViewOptions::alpha): RGB32's own layout, shared, not copied; the
+    // picture keeps the matrix alive.
+    auto* keep = new cv::Mat(bgr);
+    return QImage(
+        keep->data, keep->cols, keep->rows, static_cast<int>(keep->step[0]), QImage::Format_RGB32,
+        [](void* m) { delete static_cast<cv::Mat*>(m); }, keep);
+  }
   QImage img(bgr.cols, bgr.rows, QImage::Format_RGB32);
   if (img.isNull())
     throw Error("not enough memory for a picture of " + std::to_string(bgr.cols) + " x " +
@@ -214,7 +222,7 @@ void CalibrationWindow::reportError(const QString& text) {
 
 bool CalibrationWindow::setScan(std::shared_ptr<const OrderedScan> scan, const QString& name) {
   return guarded(tr("Scan %1").arg(name), [&] {
-    CalibrationSession::CheckScanUsable(scan.get(), name);
+    // The session checks the scan (CheckScanUsable) before it changes anything.
     // Only what the window shows at once is made here: the edges (overlay, alignment), the
     // angles (true aspect, ticks) and the pictures of the other tabs when first needed.
     session_->setScan(scan, name, edgeCellsSource());
@@ -305,6 +313,7 @@ QImage CalibrationWindow::makeScanPicture(int i, const Progress& progress) {
   }
   if (values.empty()) return QImage();
   progress(0.6, "picture");
+  opt.alpha = !act_ticks_->isChecked();  // the ticks are drawn on BGR
   cv::Mat view = MakeView(values, opt);
   values.release();
   if (aspect_) view = aspect_->Resample(view);

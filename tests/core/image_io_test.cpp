@@ -3,12 +3,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <vector>
 
 #include "scancam/error.h"
 #include "test_util.h"
@@ -171,6 +173,79 @@ TEST(View, FixedRangeFlatAndEmpty) {
   opt.fixed_range = false;
   opt.low_percentile = 120;
   EXPECT_THROW(MakeView(Ramp(), opt), Error);
+}
+
+// The percentiles are a radix selection on the values' bits: they must equal the nearest-rank
+// value of the sorted finite values, for any mix of signs, zeros of both signs, duplicates,
+// subnormals, infinities and NaN, and any percentile.
+TEST(View, PercentilesEqualTheSortedValuesNearestRank) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int rows = 1 + static_cast<int>(rng() % 60), cols = 1 + static_cast<int>(rng() % 70);
+    cv::Mat img(rows, cols, CV_32FC1);
+    std::vector<float> finite;
+    for (int r = 0; r < rows; ++r) {
+      for (int c = 0; c < cols; ++c) {
+        float v = 0.f;
+        switch (rng() % 10) {
+          case 0:
+            v = std::nanf("");
+            break;
+          case 1:
+            v = (rng() % 2) ? std::numeric_limits<float>::infinity()
+                            : -std::numeric_limits<float>::infinity();
+            break;
+          case 2:
+            v = (rng() % 2) ? 0.f : -0.f;
+            break;
+          case 3:
+            v = std::numeric_limits<float>::denorm_min() * float(rng() % 5 + 1) *
+                ((rng() % 2) ? 1.f : -1.f);
+            break;
+          case 4:
+            v = float(rng() % 3);
+            break;  // duplicates
+          default:
+            v = std::ldexp(float(rng() % 100000) / 100000.f, int(rng() % 40) - 20) *
+                ((rng() % 3) ? 1.f : -1.f);
+        }
+        img.at<float>(r, c) = v;
+        if (std::isfinite(v)) finite.push_back(v);
+      }
+    }
+    std::sort(finite.begin(), finite.end());
+    for (double p : {0.0, 1.0, 2.5, 33.3, 50.0, 97.5, 99.0, 100.0, double(rng() % 1000) / 10.0}) {
+      const float got = PercentileOfFinite(img, p);
+      if (finite.empty()) {
+        EXPECT_TRUE(std::isnan(got));
+        continue;
+      }
+      const auto k = static_cast<std::size_t>(
+          std::llround(p / 100.0 * static_cast<double>(finite.size() - 1)));
+      EXPECT_EQ(got, finite[k]) << "trial " << trial << " p " << p;  // -0 == +0
+    }
+  }
+  // A whole-image NaN has no percentile.
+  EXPECT_TRUE(
+      std::isnan(PercentileOfFinite(cv::Mat(4, 4, CV_32FC1, cv::Scalar(std::nan(""))), 50)));
+}
+
+TEST(View, AlphaIsTheSamePictureWithAnOpaqueFourthChannel) {
+  for (const Colormap map : {Colormap::kGrey, Colormap::kJet}) {
+    ViewOptions opt;
+    opt.colormap = map;
+    const cv::Mat bgr = MakeView(Ramp(), opt);
+    opt.alpha = true;
+    const cv::Mat bgra = MakeView(Ramp(), opt);
+    ASSERT_EQ(bgra.type(), CV_8UC4);
+    std::vector<cv::Mat> planes;
+    cv::split(bgra, planes);
+    EXPECT_EQ(cv::countNonZero(planes[3] != 255), 0);
+    planes.pop_back();
+    cv::Mat merged;
+    cv::merge(planes, merged);
+    EXPECT_EQ(cv::norm(merged, bgr, cv::NORM_INF), 0.0);
+  }
 }
 
 TEST(View, PngRoundTripIsLossless) {

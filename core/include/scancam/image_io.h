@@ -102,14 +102,17 @@ struct ViewOptions {
   /// Linear stretch only: the stretched fraction t in [0, 1] is shown as 255 t^gamma
   /// (gamma < 1 lifts the dark values, e.g. 0.6 for lidar intensity; 1 = linear).
   double gamma = 1.0;
+  /// A BGRA picture (CV_8UC4, alpha 255) instead of BGR: the memory layout of a 32-bit
+  /// picture such as Qt's RGB32, used without a conversion.
+  bool alpha = false;
 };
 
 /// The value range [low, high] a view maps to [0, 255] (percentiles of the finite values,
 /// or the fixed range). NaN, NaN when the image has no finite value.
 cv::Vec2f ViewRange(const cv::Mat& image, const ViewOptions& options = {});
 
-/// An 8-bit BGR view (CV_8UC3) of a CV_32FC1 image, as described at the top of this file
-/// (linear stretch, or ViewOptions::equalize).
+/// An 8-bit BGR view (CV_8UC3; BGRA, CV_8UC4, with ViewOptions::alpha) of a CV_32FC1 image,
+/// as described at the top of this file (linear stretch, or ViewOptions::equalize).
 /// Throws scancam::Error on a wrong type or bad percentiles.
 cv::Mat MakeView(const cv::Mat& image, const ViewOptions& options = {});
 

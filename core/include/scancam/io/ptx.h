@@ -78,10 +78,11 @@ PtxScan ReadPtxScan(const std::string& path, int scan_index = 0, const Progress&
 OrderedScan PtxToOrderedScan(const PtxScan& scan, bool apply_pose, const std::string& source);
 
 /// The grid of a PTX scan of `columns` x `rows` (grid convention above: rows = C, cols = R),
-/// every cell invalid and without intensity, for a caller that fills point_m (and intensity)
-/// with the file's numbers in file order ("0 0 0" = no return, every cell written) and then
-/// calls FinishPtxGrid: the same scan as PtxToOrderedScan without a PtxScan copy (e.g. a
-/// gridded cloud already in memory, plugin/src/cloud_adapter.h).
+/// without intensity, its arrays allocated but their values unset, for a caller that writes
+/// every cell's point_m (and intensity) with the file's numbers in file order ("0 0 0" = no
+/// return) and then calls FinishPtxGrid, which sets every range and beam: the same scan as
+/// PtxToOrderedScan without a PtxScan copy (e.g. a gridded cloud already in memory,
+/// plugin/src/cloud_adapter.h).
 OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source);
 /// Makes such a grid an ordered scan in place: ranges and beams of the returns, beams of the
 /// no-return cells (see the top of this file), then the pose when `apply_pose`.
