@@ -70,12 +70,16 @@ open_scancam_window() {
   win=""
   for _ in $(seq 120); do
     xdotool mousemove 175 138 click 1
-    sleep 0.3
+    # CloudCompare redraws its 3D view when the selection changes: with a large cloud in
+    # software OpenGL that takes seconds, and a click meanwhile waits (CC_SELECT_WAIT_S).
+    sleep "${CC_SELECT_WAIT_S:-0.3}"
     cc_click_time="$(date +%s.%N)"
     xdotool mousemove 1219 61 click 1
     # Wait for the window before clicking again: openbox may place it under that spot, and a
     # second click there would press its "Camera file..." button (a modal dialog then blocks).
-    for _ in $(seq 15); do
+    # 12 s: a 50 M-point cloud's grid takes seconds before the window is created (a second
+    # click then would also restart the caller's clock, cc_click_time).
+    for _ in $(seq 60); do
       win="$(xdotool search --onlyvisible --name "ScanCam calibration" 2>/dev/null | tail -1)" || true
       [ -z "$win" ] || return 0
       sleep 0.2

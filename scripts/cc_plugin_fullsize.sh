@@ -38,14 +38,20 @@ busy() {
 # Screenshots every 0.5 s under the name PREFIX_N.png until no progress dialog has been seen
 # for 2 s (after one was seen, or 10 s without any); at most 300 s.
 shots_while_busy() {
-  local prefix="$1" n=0 idle=0 seen=0
-  for _ in $(seq 600); do
+  local prefix="$1" n=0 idle=0 seen=0 polls_per_half_s=1
+  [ "${CC_FULLSIZE_SHOTS:-1}" = 1 ] || polls_per_half_s=5
+  for _ in $(seq $((600 * polls_per_half_s))); do
     if busy; then seen=1; idle=0; else idle=$((idle + 1)); fi
-    [ $seen = 1 ] && [ $idle -ge 4 ] && return 0
-    [ $seen = 0 ] && [ $idle -ge 20 ] && return 0
-    import -window root "$work/shots/${prefix}_$(printf %03d $n).png" 2>/dev/null || true
-    n=$((n + 1))
-    sleep 0.5
+    # 2 s without a dialog after one, 10 s when none came (polls of 0.5 s, or 0.1 s)
+    [ $seen = 1 ] && [ $idle -ge $((4 * polls_per_half_s)) ] && return 0
+    [ $seen = 0 ] && [ $idle -ge $((20 * polls_per_half_s)) ] && return 0
+    if [ "${CC_FULLSIZE_SHOTS:-1}" = 1 ]; then
+      import -window root "$work/shots/${prefix}_$(printf %03d $n).png" 2>/dev/null || true
+      n=$((n + 1))
+      sleep 0.5
+    else
+      sleep 0.1
+    fi
   done
   fail "a progress dialog stayed for 300 s"
 }
