@@ -2,7 +2,10 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
+#include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -304,12 +307,13 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   const Levels train_levels = with_prior(subset(train_half));
   const Objective& train = train_levels.objective.back();
 
-  // Searches from the start and random starts.
+  // Searches from the start, random starts and the extra starts: independent, so in parallel
+  // (each with its own evaluation budget and count; the same ends on any number of threads).
   std::mt19937_64 rng(o.seed);
   std::normal_distribution<double> g;
   const int starts = std::max(1, o.starts);
-  std::vector<SearchResult> ends;
   const int budget_per_start = std::max(50, o.max_evaluations / (starts + 2));
+  std::vector<Eigen::Isometry3d> from;
   for (int k = 0; k < starts; ++k) {
     Eigen::Isometry3d s = start;
     if (k > 0) {
@@ -320,13 +324,50 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       d.tail<3>() = dir * o.start_spread_m;
       s = Apply(d, start);
     }
-    ends.push_back(SimplexSearch(train_levels, s, o.initial_step_deg, o.initial_step_m, o,
-                                 res.evaluations + budget_per_start, progress,
-                                 0.05 + 0.75 * k / starts, 0.05 + 0.75 * (k + 1) / starts));
+    from.push_back(s);
   }
-  for (const Eigen::Isometry3d& s : o.extra_starts)  // e.g. the picked pairs' own solve
-    ends.push_back(SimplexSearch(train_levels, s, o.initial_step_deg, o.initial_step_m, o,
-                                 res.evaluations + budget_per_start, progress, 0.8, 0.8));
+  for (const Eigen::Isometry3d& s : o.extra_starts) from.push_back(s);  // e.g. the pairs' solve
+  const int searches = static_cast<int>(from.size());
+  std::vector<SearchResult> ends(from.size());
+  std::vector<int> used(from.size(), 0);
+  {
+    // Progress from several threads: one at a time, never backwards.
+    std::mutex progress_mutex;
+    double progress_done = 0.05;
+    std::exception_ptr failure;
+    std::atomic<bool> stop{false};
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int k = 0; k < searches; ++k) {
+      if (stop.load()) continue;
+      try {
+        Levels mine = train_levels;  // the data is shared (read only); the count is this search's
+        for (Objective& F : mine.objective) F.evaluations = &used[static_cast<std::size_t>(k)];
+        const double p0 = 0.05 + 0.75 * k / searches, p1 = 0.05 + 0.75 * (k + 1) / searches;
+        const Progress report([&](double f, const std::string& stage) {
+          if (stop.load()) return false;
+          const std::lock_guard<std::mutex> lock(progress_mutex);
+          // This search's share of the whole, added to what the others reached.
+          progress_done = std::max(progress_done, std::min(p1, f));
+          try {
+            progress(progress_done, stage);
+          } catch (const Cancelled&) {
+            stop = true;
+            return false;
+          }
+          return true;
+        });
+        ends[static_cast<std::size_t>(k)] =
+            SimplexSearch(mine, from[static_cast<std::size_t>(k)], o.initial_step_deg,
+                          o.initial_step_m, o, budget_per_start, report, p0, p1);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        if (!failure) failure = std::current_exception();
+        stop = true;
+      }
+    }
+    if (failure) std::rethrow_exception(failure);
+  }
+  for (const int n : used) res.evaluations += n;
   for (SearchResult& e : ends) e.f = train(e.T);  // all on the finest level
   // Basin hopping: restarts near the best end (a third of the start spread), kept when better.
   {
