@@ -205,17 +205,59 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   const int cell = std::max(1, o.occlusion_cell_px);
   const int gw = (W + cell - 1) / cell, gh = (H + cell - 1) / cell;
   const std::size_t n = d.all_points.size();
-  // Scratch reused between calls (a refinement scores thousands of poses).
-  thread_local std::vector<Eigen::Vector2f> uv, euv;
-  thread_local std::vector<std::uint8_t> ok, eok;
-  thread_local std::vector<float> dist, zbuf;
+  const std::size_t m = d.edge_points.size();
+  // The points in fixed chunks: chunks run in parallel and their partial sums are added in
+  // chunk order, so the score is the same on any number of threads.
+  constexpr std::size_t kChunk = 1024;
+  const auto chunks_of = [](std::size_t count) {
+    return static_cast<std::ptrdiff_t>((count + kChunk - 1) / kChunk);
+  };
+  const bool parallel = n + m >= 2 * kChunk;
+  // Scratch reused between calls (a refinement scores thousands of poses); the calling
+  // thread's, shared with the chunks' threads.
+  thread_local std::vector<Eigen::Vector2f> uv_s, euv_s;
+  thread_local std::vector<std::uint8_t> ok_s, eok_s;
+  thread_local std::vector<float> dist_s, zbuf_s;
+  thread_local std::vector<double> partial_s;
+  std::vector<Eigen::Vector2f>& uv = uv_s;
+  std::vector<Eigen::Vector2f>& euv = euv_s;
+  std::vector<std::uint8_t>& ok = ok_s;
+  std::vector<std::uint8_t>& eok = eok_s;
+  std::vector<float>& dist = dist_s;
+  std::vector<float>& zbuf = zbuf_s;
+  std::vector<double>& partial = partial_s;
   uv.resize(n);
   ok.resize(n);
-  d.camera.ProjectBatch(T_cam_scan, d.all_points.data(), n, uv.data(), ok.data());
-  dist.assign(n, 0.f);
-  zbuf.assign(static_cast<std::size_t>(gw) * gh, std::numeric_limits<float>::infinity());
+  dist.resize(n);
+  euv.resize(m);
+  eok.resize(m);
   const Eigen::Matrix3f R = T_cam_scan.linear().cast<float>();
   const Eigen::Vector3f t = T_cam_scan.translation().cast<float>();
+  // Projections and distances (per point: the same on any thread).
+  const std::ptrdiff_t nc = chunks_of(n), mc = chunks_of(m);
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::ptrdiff_t c = 0; c < nc + mc; ++c) {
+    if (c < nc) {
+      const std::size_t i0 = static_cast<std::size_t>(c) * kChunk, i1 = std::min(n, i0 + kChunk);
+      d.camera.ProjectBatch(T_cam_scan, d.all_points.data() + i0, i1 - i0, uv.data() + i0,
+                            ok.data() + i0);
+      for (std::size_t i = i0; i < i1; ++i)
+        dist[i] = ok[i] ? (R * d.all_points[i] + t).norm() : 0.f;
+    } else {
+      const std::size_t i0 = static_cast<std::size_t>(c - nc) * kChunk,
+                        i1 = std::min(m, i0 + kChunk);
+      d.camera.ProjectBatch(T_cam_scan, d.edge_points.data() + i0, i1 - i0, euv.data() + i0,
+                            eok.data() + i0);
+    }
+  }
+  // The depth grid is infinite between calls: only the cells a call wrote are reset at its end
+  // (a whole grid per call was 0.5 MB of writes at 1920 x 1200).
+  thread_local std::vector<std::size_t> touched_s;
+  std::vector<std::size_t>& touched = touched_s;
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  if (zbuf.size() != static_cast<std::size_t>(gw) * gh)
+    zbuf.assign(static_cast<std::size_t>(gw) * gh, kInf);
+  touched.clear();
   auto cell_of = [&](const Eigen::Vector2f& p) {
     const int x = std::clamp(static_cast<int>(p.x() + 0.5f) / cell, 0, gw - 1);
     const int y = std::clamp(static_cast<int>(p.y() + 0.5f) / cell, 0, gh - 1);
@@ -228,64 +270,90 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   };
   for (std::size_t i = 0; i < n; ++i) {
     if (!ok[i]) continue;
-    dist[i] = (R * d.all_points[i] + t).norm();
-    float& z = zbuf[cell_of(uv[i])];
-    z = std::min(z, dist[i]);
+    const std::size_t k = cell_of(uv[i]);
+    if (zbuf[k] == kInf) touched.push_back(k);
+    zbuf[k] = std::min(zbuf[k], dist[i]);
   }
   auto visible = [&](const Eigen::Vector2f& p, float r) {
     const float z = zbuf[cell_of(p)];
     return r <= z + std::max<float>(o.occlusion_tolerance_m, o.occlusion_tolerance_fraction * z);
   };
-  // NID over the seen points with intensity.
+  // Per chunk: the joint histogram (bins x bins), its total, the seen count, and for the edge
+  // points' chunks the edge sum and count.
   const int bins = std::max(2, o.nid_bins);
-  if (!d.intensity_bin.empty()) {
-    std::vector<double> joint(static_cast<std::size_t>(bins) * bins, 0.0);
-    double total = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (!ok[i] || d.intensity_bin[i] == 255 || !in_mask(uv[i]) || !visible(uv[i], dist[i]))
-        continue;
-      ++s.visible;
-      const float g = Bilinear(d.grey, uv[i].x(), uv[i].y());
-      const float x = std::clamp(g / 256.f * bins - 0.5f, 0.f, float(bins - 1));
-      const int b0 = std::min(static_cast<int>(x), bins - 2);
-      const float w1 = x - float(b0);
-      const double w = o.nid_gradient_floor < 0.0
-                           ? 1.0
-                           : o.nid_gradient_floor + Bilinear(d.edge_field, uv[i].x(), uv[i].y());
-      double* row = &joint[static_cast<std::size_t>(d.intensity_bin[i]) * bins];
-      row[b0] += w * (1.0 - w1);
-      row[b0 + 1] += w * w1;
-      total += w;
-    }
-    if (total > 0.0) {
-      std::vector<double> pi(bins, 0.0), pg(bins, 0.0);
-      for (int a = 0; a < bins; ++a) {
-        for (int b = 0; b < bins; ++b) {
-          pi[a] += joint[a * bins + b];
-          pg[b] += joint[a * bins + b];
-        }
+  const bool with_nid = !d.intensity_bin.empty();
+  const std::size_t stride = static_cast<std::size_t>(bins) * bins + 2;
+  partial.assign(static_cast<std::size_t>(nc + mc) * stride, 0.0);
+#pragma omp parallel for schedule(static) if (parallel)
+  for (std::ptrdiff_t c = 0; c < nc + mc; ++c) {
+    double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+    if (c < nc) {
+      const std::size_t i0 = static_cast<std::size_t>(c) * kChunk, i1 = std::min(n, i0 + kChunk);
+      double& total = part[stride - 2];
+      double& seen = part[stride - 1];
+      for (std::size_t i = i0; i < i1; ++i) {
+        if (!ok[i] || (with_nid && d.intensity_bin[i] == 255) || !in_mask(uv[i]) ||
+            !visible(uv[i], dist[i]))
+          continue;
+        seen += 1.0;
+        if (!with_nid) continue;
+        const float g = Bilinear(d.grey, uv[i].x(), uv[i].y());
+        const float x = std::clamp(g / 256.f * bins - 0.5f, 0.f, float(bins - 1));
+        const int b0 = std::min(static_cast<int>(x), bins - 2);
+        const float w1 = x - float(b0);
+        const double w = o.nid_gradient_floor < 0.0
+                             ? 1.0
+                             : o.nid_gradient_floor + Bilinear(d.edge_field, uv[i].x(), uv[i].y());
+        double* row = part + static_cast<std::size_t>(d.intensity_bin[i]) * bins;
+        row[b0] += w * (1.0 - w1);
+        row[b0 + 1] += w * w1;
+        total += w;
       }
-      const double hj = Entropy(joint, total);
-      const double mi = Entropy(pi, total) + Entropy(pg, total) - hj;
-      s.nid = hj > 0.0 ? (hj - mi) / hj : 1.0;
+    } else {
+      const std::size_t i0 = static_cast<std::size_t>(c - nc) * kChunk,
+                        i1 = std::min(m, i0 + kChunk);
+      double& sum = part[stride - 2];
+      double& count = part[stride - 1];
+      for (std::size_t i = i0; i < i1; ++i) {
+        if (!eok[i] || !in_mask(euv[i])) continue;
+        const float r = (R * d.edge_points[i] + t).norm();
+        if (!visible(euv[i], r)) continue;
+        sum += Bilinear(d.edge_field, euv[i].x(), euv[i].y());
+        count += 1.0;
+      }
     }
-  } else {
-    for (std::size_t i = 0; i < n; ++i)
-      s.visible += ok[i] && in_mask(uv[i]) && visible(uv[i], dist[i]);
+  }
+  for (const std::size_t k : touched) zbuf[k] = kInf;
+  // NID over the seen points with intensity.
+  std::vector<double> joint(static_cast<std::size_t>(bins) * bins, 0.0);
+  double total = 0.0, seen = 0.0;
+  for (std::ptrdiff_t c = 0; c < nc; ++c) {
+    const double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+    for (std::size_t k = 0; k < joint.size(); ++k) joint[k] += part[k];
+    total += part[stride - 2];
+    seen += part[stride - 1];
+  }
+  s.visible = static_cast<decltype(s.visible)>(seen);
+  if (with_nid && total > 0.0) {
+    std::vector<double> pi(bins, 0.0), pg(bins, 0.0);
+    for (int a = 0; a < bins; ++a) {
+      for (int b = 0; b < bins; ++b) {
+        pi[a] += joint[a * bins + b];
+        pg[b] += joint[a * bins + b];
+      }
+    }
+    const double hj = Entropy(joint, total);
+    const double mi = Entropy(pi, total) + Entropy(pg, total) - hj;
+    s.nid = hj > 0.0 ? (hj - mi) / hj : 1.0;
   }
   // Edge term.
-  const std::size_t m = d.edge_points.size();
-  euv.resize(m);
-  eok.resize(m);
-  d.camera.ProjectBatch(T_cam_scan, d.edge_points.data(), m, euv.data(), eok.data());
-  double sum = 0.0;
-  for (std::size_t i = 0; i < m; ++i) {
-    if (!eok[i] || !in_mask(euv[i])) continue;
-    const float r = (R * d.edge_points[i] + t).norm();
-    if (!visible(euv[i], r)) continue;
-    sum += Bilinear(d.edge_field, euv[i].x(), euv[i].y());
-    ++s.edge_visible;
+  double sum = 0.0, count = 0.0;
+  for (std::ptrdiff_t c = nc; c < nc + mc; ++c) {
+    const double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+    sum += part[stride - 2];
+    count += part[stride - 1];
   }
+  s.edge_visible = static_cast<decltype(s.edge_visible)>(count);
   s.edge = s.edge_visible ? sum / double(s.edge_visible) : 0.0;
   s.combined = s.edge - o.nid_weight * s.nid;
   return s;
