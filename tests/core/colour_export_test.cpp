@@ -28,6 +28,7 @@
 #include "scancam/colour/colourise.h"
 #include "scancam/colour/export.h"
 #include "scancam/error.h"
+#include "scancam/io/ptx.h"
 #include "scancam/scan/continuity.h"
 #include "test_util.h"
 
@@ -171,6 +172,64 @@ TEST(ColouredPly, RoundTripThroughPcl) {
   WriteColouredPly(path, s.scan, s.coloured, only);
   ASSERT_EQ(pcl::io::loadPLYFile(path, cloud), 0);
   EXPECT_EQ(static_cast<std::size_t>(cloud.width) * cloud.height, s.coloured.coloured);
+}
+
+// The coloured PTX is written in parts through PtxWriter (no whole-scan copy): the same bytes
+// as a whole PtxScan built the way the writer did before (PtxFromOrderedScan of the scan, or of
+// a copy moved to the scanner frame with the pose in the header; RGB of the coloured cells,
+// the uncoloured colour or dropped points), with intensities (one not finite) and a
+// registered scan.
+TEST(ColouredPtx, WrittenInPartsEqualsTheWholeScanWriter) {
+  const Scene& sc = GetScene();
+  for (const bool registered : {false, true}) {
+    for (const bool drop : {false, true}) {
+      OrderedScan scan = sc.scan;
+      scan.intensity.assign(scan.size(), 0.f);
+      for (std::size_t i = 0; i < scan.size(); ++i) scan.intensity[i] = 0.001f * float(i % 997);
+      scan.intensity[5] = std::numeric_limits<float>::quiet_NaN();
+      if (registered) {
+        scan.origin_m = Eigen::Vector3d(10.25, -3.5, 1.125);
+        for (std::size_t i = 0; i < scan.size(); ++i)
+          if (scan.valid(i)) scan.point_m[i] += scan.origin_m.cast<float>();
+      }
+      ExportOptions opt;
+      opt.drop_uncoloured = drop;
+      // The reference: the whole-scan construction.
+      OrderedScan local = scan;
+      Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+      if (registered) {
+        for (std::size_t i = 0; i < local.size(); ++i)
+          if (local.valid(i)) local.point_m[i] -= scan.origin_m.cast<float>();
+        local.origin_m.setZero();
+        pose.block<3, 1>(0, 3) = scan.origin_m;
+      }
+      io::PtxScan ptx = io::PtxFromOrderedScan(local, pose);
+      ptx.rgb.assign(ptx.size(), {0, 0, 0});
+      std::size_t dropped = 0;
+      for (std::size_t i = 0; i < scan.size(); ++i) {
+        if (!scan.valid(i)) continue;
+        const bool col = sc.coloured.state[i] == PointState::kColoured;
+        if (drop && !col) {
+          ptx.xyz[i] = Eigen::Vector3f::Zero();
+          ptx.intensity[i] = 0.f;
+          ++dropped;
+          continue;
+        }
+        const Rgb8 c = col ? sc.coloured.rgb[i] : opt.uncoloured_rgb;
+        ptx.rgb[i] = {c.r, c.g, c.b};
+      }
+      if (drop) {
+        ASSERT_GT(dropped, 0u);
+      }
+      const std::string dir = test::TempDir();
+      io::WritePtx(dir + "/whole.ptx", {ptx});
+      WriteColouredPtx(dir + "/parts.ptx", scan, sc.coloured, opt);
+      const std::string want = test::ReadFile(dir + "/whole.ptx");
+      ASSERT_GT(want.size(), 1000u);
+      EXPECT_EQ(test::ReadFile(dir + "/parts.ptx"), want)
+          << "registered " << registered << " drop " << drop;
+    }
+  }
 }
 
 TEST(ColouredPcd, OrganisedRoundTripThroughPcl) {

@@ -126,31 +126,45 @@ void WriteColouredPly(const std::string& path, const OrderedScan& scan,
 void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
                       const ColouredScan& coloured, const ExportOptions& options) {
   CheckSizes(scan, coloured, path);
-  io::PtxScan ptx;
-  if (scan.origin_m == Eigen::Vector3d::Zero()) {
-    ptx = io::PtxFromOrderedScan(scan);
-  } else {  // points in a registered frame: the scanner frame in the file, the pose in the header
-    OrderedScan local = scan;
-    for (std::size_t i = 0; i < local.size(); ++i)
-      if (local.valid(i)) local.point_m[i] -= scan.origin_m.cast<float>();
-    local.origin_m.setZero();
-    Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
-    pose.block<3, 1>(0, 3) = scan.origin_m;
-    ptx = io::PtxFromOrderedScan(local, pose);
-  }
-  ptx.rgb.assign(ptx.size(), {0, 0, 0});
-  for (std::size_t i = 0; i < scan.size(); ++i) {  // PTX file order = the grid's index
-    if (!scan.valid(i)) continue;
-    const bool col = coloured.state[i] == PointState::kColoured;
-    if (options.drop_uncoloured && !col) {
-      ptx.xyz[i] = Eigen::Vector3f::Zero();
-      ptx.intensity[i] = 0.f;
-      continue;
+  CheckScan(scan, scan.source.empty() ? std::string("scan") : scan.source);
+  // Points in a registered frame: the scanner frame in the file, the pose in the header.
+  const bool registered = scan.origin_m != Eigen::Vector3d::Zero();
+  const Eigen::Vector3f origin = scan.origin_m.cast<float>();
+  Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
+  pose.block<3, 1>(0, 3) = scan.origin_m;
+  io::PtxScan header;
+  header.columns = scan.rows;
+  header.rows = scan.cols;
+  header.transform = pose;
+  header.scanner_position = pose.block<3, 1>(0, 3);
+  header.scanner_axes = pose.block<3, 3>(0, 0);
+  // Written in parts of 1 M cells (PTX file order = the grid's index): no whole-scan copy.
+  io::PtxWriter writer(path);
+  writer.BeginScan(header);
+  constexpr std::size_t kPart = std::size_t(1) << 20;
+  io::PtxScan part;
+  for (std::size_t k0 = 0; k0 < scan.size(); k0 += kPart) {
+    const std::size_t k1 = std::min(scan.size(), k0 + kPart);
+    part.xyz.assign(k1 - k0, Eigen::Vector3f::Zero());
+    part.intensity.assign(k1 - k0, 0.f);
+    part.rgb.assign(k1 - k0, {0, 0, 0});
+    for (std::size_t i = k0; i < k1; ++i) {
+      const std::size_t j = i - k0;
+      if (scan.has_intensity() && std::isfinite(scan.intensity[i]))
+        part.intensity[j] = scan.intensity[i];
+      if (!scan.valid(i)) continue;
+      const bool col = coloured.state[i] == PointState::kColoured;
+      if (options.drop_uncoloured && !col) {
+        part.intensity[j] = 0.f;
+        continue;
+      }
+      part.xyz[j] = registered ? Eigen::Vector3f(scan.point_m[i] - origin) : scan.point_m[i];
+      const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
+      part.rgb[j] = {c.r, c.g, c.b};
     }
-    const Rgb8 c = col ? coloured.rgb[i] : options.uncoloured_rgb;
-    ptx.rgb[i] = {c.r, c.g, c.b};
+    writer.AppendPoints(part);
   }
-  io::WritePtx(path, {ptx});
+  writer.Commit();
 }
 
 void WriteColouredPcd(const std::string& path, const OrderedScan& scan,
