@@ -132,15 +132,9 @@ void WriteColouredPtx(const std::string& path, const OrderedScan& scan,
   const Eigen::Vector3f origin = scan.origin_m.cast<float>();
   Eigen::Matrix4d pose = Eigen::Matrix4d::Identity();
   pose.block<3, 1>(0, 3) = scan.origin_m;
-  io::PtxScan header;
-  header.columns = scan.rows;
-  header.rows = scan.cols;
-  header.transform = pose;
-  header.scanner_position = pose.block<3, 1>(0, 3);
-  header.scanner_axes = pose.block<3, 3>(0, 0);
   // Written in parts of 1 M cells (PTX file order = the grid's index): no whole-scan copy.
   io::PtxWriter writer(path);
-  writer.BeginScan(header);
+  writer.BeginScan(io::PtxHeaderOf(scan, pose));
   constexpr std::size_t kPart = std::size_t(1) << 20;
   io::PtxScan part;
   for (std::size_t k0 = 0; k0 < scan.size(); k0 += kPart) {

@@ -575,6 +575,16 @@ OrderedScan PtxToOrderedScan(const PtxScan& ptx, bool apply_pose, const std::str
   return scan;
 }
 
+PtxScan PtxHeaderOf(const OrderedScan& scan, const Eigen::Matrix4d& transform) {
+  PtxScan ptx;
+  ptx.columns = scan.rows;
+  ptx.rows = scan.cols;
+  ptx.transform = transform;
+  ptx.scanner_position = transform.block<3, 1>(0, 3);
+  ptx.scanner_axes = transform.block<3, 3>(0, 0);
+  return ptx;
+}
+
 PtxScan PtxFromOrderedScan(const OrderedScan& scan, const Eigen::Matrix4d& transform) {
   CheckScan(scan, scan.source.empty() ? std::string("scan") : scan.source);
   if (scan.origin_m != Eigen::Vector3d::Zero()) {
@@ -582,12 +592,7 @@ PtxScan PtxFromOrderedScan(const OrderedScan& scan, const Eigen::Matrix4d& trans
                 ": a PTX scan's points are in the scanner frame, with the scanner at (0, 0, 0); "
                 "this scan's origin is elsewhere");
   }
-  PtxScan ptx;
-  ptx.columns = scan.rows;
-  ptx.rows = scan.cols;
-  ptx.transform = transform;
-  ptx.scanner_position = transform.block<3, 1>(0, 3);
-  ptx.scanner_axes = transform.block<3, 3>(0, 0);
+  PtxScan ptx = PtxHeaderOf(scan, transform);
   ptx.xyz.resize(scan.size());
   ptx.intensity.resize(scan.size(), 0.f);
   for (std::size_t k = 0; k < scan.size(); ++k) {

@@ -88,6 +88,11 @@ OrderedScan EmptyPtxGrid(int columns, int rows, const std::string& source);
 /// no-return cells (see the top of this file), then the pose when `apply_pose`.
 void FinishPtxGrid(OrderedScan& scan, const Eigen::Matrix4d& transform, bool apply_pose);
 
+/// The header of the PTX scan of an ordered scan (columns = scan rows, rows = scan cols, as
+/// above), `transform` as the pose (scanner position and axes from it); point arrays empty.
+/// For PtxWriter::BeginScan, and PtxFromOrderedScan's header.
+PtxScan PtxHeaderOf(const OrderedScan& scan, const Eigen::Matrix4d& transform);
+
 /// Builds a PTX scan from an ordered scan whose points are in its scanner frame (rows = PTX
 /// columns, cols = PTX rows, as above; invalid cells become "0 0 0"; intensity 0 when the scan
 /// has none). `transform` is written as the header pose (scanner position and axes from it).
