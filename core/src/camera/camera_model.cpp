@@ -8,6 +8,7 @@
 #include <limits>
 #include <locale>
 #include <sstream>
+#include <type_traits>
 
 #include "scancam/camera/camera_projector.h"
 #include "scancam/error.h"
@@ -476,24 +477,51 @@ std::optional<Eigen::Vector3d> CameraModel::Unproject(const Eigen::Vector2d& px)
 
 namespace {
 
-// One model's batch loop: the model's Project is inlined, so the loop body has no switch.
-template <typename Model>
-void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs, double w, double h,
-               const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Eigen::Vector3f* pts,
-               std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
-  const double* prm = params.data();
+// One model's batch loop: `project` (the model's Project) is inlined, so the loop body has no
+// switch.
+template <typename ProjectFn>
+void BatchLoopWith(ProjectFn project, double cos_max, bool all_dirs, double w, double h,
+                   const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Eigen::Vector3f* pts,
+                   std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
   const float fnan = std::numeric_limits<float>::quiet_NaN();
 #pragma omp parallel for if (n >= 65536) schedule(static, 4096)
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p = R * pts[i].cast<double>() + t;
     bool ok = WithinFieldOfView(p, cos_max, all_dirs);
     double px[2] = {0.0, 0.0};
-    if (ok) ok = Model::Project(prm, p.data(), px);
+    if (ok) ok = project(p.data(), px);
     ok = ok && PixelOnImage(px[0], px[1], w, h);
     uv[i] = ok ? Eigen::Vector2f(static_cast<float>(px[0]), static_cast<float>(px[1]))
                : Eigen::Vector2f(fnan, fnan);
     valid[i] = ok ? 1 : 0;
   }
+}
+
+template <typename Model>
+void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs, double w, double h,
+               const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Eigen::Vector3f* pts,
+               std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
+  const double* prm = params.data();
+  if constexpr (std::is_same_v<Model, PinholeModel>) {
+    // A pinhole without distortion (a rectified image, as KITTI's): DistortRadTan8 is then the
+    // identity (every coefficient 0), so skipping it gives the same pixels, bit for bit.
+    if (std::all_of(prm + PinholeModel::kIdxDist, prm + PinholeModel::kNumParams,
+                    [](double k) { return k == 0.0; })) {
+      BatchLoopWith(
+          [prm](const double* p, double* px) {
+            if (!(p[2] > 0.0)) return false;
+            const double x = p[0] / p[2];
+            const double y = p[1] / p[2];
+            px[0] = prm[PinholeModel::kIdxFx] * x + prm[PinholeModel::kIdxCx];
+            px[1] = prm[PinholeModel::kIdxFy] * y + prm[PinholeModel::kIdxCy];
+            return true;
+          },
+          cos_max, all_dirs, w, h, R, t, pts, n, uv, valid);
+      return;
+    }
+  }
+  BatchLoopWith([prm](const double* p, double* px) { return Model::Project(prm, p, px); }, cos_max,
+                all_dirs, w, h, R, t, pts, n, uv, valid);
 }
 
 }  // namespace

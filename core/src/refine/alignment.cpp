@@ -216,85 +216,126 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   // Scratch reused between calls (a refinement scores thousands of poses); the calling
   // thread's, shared with the chunks' threads.
   thread_local std::vector<Eigen::Vector2f> uv_s, euv_s;
-  thread_local std::vector<std::uint8_t> ok_s, eok_s;
+  thread_local std::vector<std::uint8_t> ok_s, eok_s, use_s;
   thread_local std::vector<float> dist_s, zbuf_s;
+  thread_local std::vector<std::uint32_t> cell_s, ecell_s;
   thread_local std::vector<double> partial_s;
-  std::vector<Eigen::Vector2f>& uv = uv_s;
-  std::vector<Eigen::Vector2f>& euv = euv_s;
-  std::vector<std::uint8_t>& ok = ok_s;
-  std::vector<std::uint8_t>& eok = eok_s;
-  std::vector<float>& dist = dist_s;
-  std::vector<float>& zbuf = zbuf_s;
-  std::vector<double>& partial = partial_s;
-  uv.resize(n);
-  ok.resize(n);
-  dist.resize(n);
-  euv.resize(m);
-  eok.resize(m);
+  thread_local std::vector<std::size_t> touched_s;
+  thread_local std::vector<int> col_of_s, row_of_s;
+  uv_s.resize(n);
+  ok_s.resize(n);
+  use_s.resize(n);
+  dist_s.resize(n);
+  cell_s.resize(n);
+  euv_s.resize(m);
+  eok_s.resize(m);
+  ecell_s.resize(m);
+  // Plain pointers: the loops below keep them in registers (a thread_local vector is looked
+  // up again on every access).
+  Eigen::Vector2f* const uv = uv_s.data();
+  Eigen::Vector2f* const euv = euv_s.data();
+  std::uint8_t* const ok = ok_s.data();
+  std::uint8_t* const eok = eok_s.data();  // projected onto a usable pixel
+  std::uint8_t* const use = use_s.data();  // projected onto a usable pixel, with intensity
+  float* const dist = dist_s.data();
+  std::uint32_t* const cell_at = cell_s.data();  // each point's depth grid cell
+  std::uint32_t* const ecell_at = ecell_s.data();
   const Eigen::Matrix3f R = T_cam_scan.linear().cast<float>();
   const Eigen::Vector3f t = T_cam_scan.translation().cast<float>();
-  // Projections and distances (per point: the same on any thread).
+  // A pixel coordinate's depth grid column and row, clamp(int(x + 0.5) / cell, 0, gw - 1), by
+  // table (projected points lie within half a pixel of the image).
+  std::vector<int>& col_of = col_of_s;
+  std::vector<int>& row_of = row_of_s;
+  thread_local int tables_for[3] = {-1, -1, -1};  // W, H, cell of the tables
+  if (tables_for[0] != W || tables_for[1] != H || tables_for[2] != cell) {
+    tables_for[0] = W;
+    tables_for[1] = H;
+    tables_for[2] = cell;
+    col_of.resize(static_cast<std::size_t>(W) + 1);
+    row_of.resize(static_cast<std::size_t>(H) + 1);
+    for (int x = 0; x <= W; ++x) col_of[x] = std::min(x / cell, gw - 1);
+    for (int y = 0; y <= H; ++y) row_of[y] = std::min(y / cell, gh - 1);
+  }
+  const int* const cols = col_of.data();
+  const int* const rows = row_of.data();
+  auto cell_of = [&](const Eigen::Vector2f& p) {
+    const int x = std::clamp(static_cast<int>(p.x() + 0.5f), 0, W);
+    const int y = std::clamp(static_cast<int>(p.y() + 0.5f), 0, H);
+    return static_cast<std::uint32_t>(rows[y] * gw + cols[x]);
+  };
+  const std::uint8_t* const mask_data = d.mask.empty() ? nullptr : d.mask.ptr<std::uint8_t>(0);
+  const std::size_t mask_step = d.mask.empty() ? 0 : d.mask.step[0];
+  auto in_mask = [&](const Eigen::Vector2f& p) {
+    if (!mask_data) return true;
+    const int x = static_cast<int>(p.x() + 0.5f), y = static_cast<int>(p.y() + 0.5f);
+    return x >= 0 && y >= 0 && x < W && y < H &&
+           mask_data[static_cast<std::size_t>(y) * mask_step + x] != 0;
+  };
+  const bool with_nid = !d.intensity_bin.empty();
+  const std::uint8_t* const ibin = with_nid ? d.intensity_bin.data() : nullptr;
+  // Projections, distances, grid cells and which points count (per point: the same on any
+  // thread).
   const std::ptrdiff_t nc = chunks_of(n), mc = chunks_of(m);
 #pragma omp parallel for schedule(static) if (parallel)
   for (std::ptrdiff_t c = 0; c < nc + mc; ++c) {
     if (c < nc) {
       const std::size_t i0 = static_cast<std::size_t>(c) * kChunk, i1 = std::min(n, i0 + kChunk);
-      d.camera.ProjectBatch(T_cam_scan, d.all_points.data() + i0, i1 - i0, uv.data() + i0,
-                            ok.data() + i0);
-      for (std::size_t i = i0; i < i1; ++i)
-        dist[i] = ok[i] ? (R * d.all_points[i] + t).norm() : 0.f;
+      const Eigen::Vector3f* const pts = d.all_points.data();
+      d.camera.ProjectBatch(T_cam_scan, pts + i0, i1 - i0, uv + i0, ok + i0);
+      for (std::size_t i = i0; i < i1; ++i) {
+        if (!ok[i]) {
+          dist[i] = 0.f;
+          use[i] = 0;
+          continue;
+        }
+        dist[i] = (R * pts[i] + t).norm();
+        cell_at[i] = cell_of(uv[i]);
+        use[i] = (!with_nid || ibin[i] != 255) && in_mask(uv[i]);
+      }
     } else {
       const std::size_t i0 = static_cast<std::size_t>(c - nc) * kChunk,
                         i1 = std::min(m, i0 + kChunk);
-      d.camera.ProjectBatch(T_cam_scan, d.edge_points.data() + i0, i1 - i0, euv.data() + i0,
-                            eok.data() + i0);
+      d.camera.ProjectBatch(T_cam_scan, d.edge_points.data() + i0, i1 - i0, euv + i0, eok + i0);
+      for (std::size_t i = i0; i < i1; ++i) {
+        eok[i] = eok[i] && in_mask(euv[i]);
+        if (eok[i]) ecell_at[i] = cell_of(euv[i]);
+      }
     }
   }
   // The depth grid is infinite between calls: only the cells a call wrote are reset at its end
   // (a whole grid per call was 0.5 MB of writes at 1920 x 1200).
-  thread_local std::vector<std::size_t> touched_s;
   std::vector<std::size_t>& touched = touched_s;
   constexpr float kInf = std::numeric_limits<float>::infinity();
-  if (zbuf.size() != static_cast<std::size_t>(gw) * gh)
-    zbuf.assign(static_cast<std::size_t>(gw) * gh, kInf);
+  if (zbuf_s.size() != static_cast<std::size_t>(gw) * gh)
+    zbuf_s.assign(static_cast<std::size_t>(gw) * gh, kInf);
+  float* const zbuf = zbuf_s.data();
   touched.clear();
-  auto cell_of = [&](const Eigen::Vector2f& p) {
-    const int x = std::clamp(static_cast<int>(p.x() + 0.5f) / cell, 0, gw - 1);
-    const int y = std::clamp(static_cast<int>(p.y() + 0.5f) / cell, 0, gh - 1);
-    return static_cast<std::size_t>(y) * gw + x;
-  };
-  auto in_mask = [&](const Eigen::Vector2f& p) {
-    if (d.mask.empty()) return true;
-    const int x = static_cast<int>(p.x() + 0.5f), y = static_cast<int>(p.y() + 0.5f);
-    return x >= 0 && y >= 0 && x < W && y < H && d.mask.at<std::uint8_t>(y, x) != 0;
-  };
   for (std::size_t i = 0; i < n; ++i) {
     if (!ok[i]) continue;
-    const std::size_t k = cell_of(uv[i]);
+    const std::uint32_t k = cell_at[i];
     if (zbuf[k] == kInf) touched.push_back(k);
     zbuf[k] = std::min(zbuf[k], dist[i]);
   }
-  auto visible = [&](const Eigen::Vector2f& p, float r) {
-    const float z = zbuf[cell_of(p)];
-    return r <= z + std::max<float>(o.occlusion_tolerance_m, o.occlusion_tolerance_fraction * z);
+  const float tol_m = static_cast<float>(o.occlusion_tolerance_m);
+  const float tol_fraction = static_cast<float>(o.occlusion_tolerance_fraction);
+  auto visible = [&](std::uint32_t k, float r) {
+    const float z = zbuf[k];
+    return r <= z + std::max<float>(tol_m, tol_fraction * z);
   };
   // Per chunk: the joint histogram (bins x bins), its total, the seen count, and for the edge
   // points' chunks the edge sum and count.
   const int bins = std::max(2, o.nid_bins);
-  const bool with_nid = !d.intensity_bin.empty();
   const std::size_t stride = static_cast<std::size_t>(bins) * bins + 2;
-  partial.assign(static_cast<std::size_t>(nc + mc) * stride, 0.0);
+  partial_s.assign(static_cast<std::size_t>(nc + mc) * stride, 0.0);
+  double* const partial = partial_s.data();
 #pragma omp parallel for schedule(static) if (parallel)
   for (std::ptrdiff_t c = 0; c < nc + mc; ++c) {
-    double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+    double* part = partial + static_cast<std::size_t>(c) * stride;
     if (c < nc) {
       const std::size_t i0 = static_cast<std::size_t>(c) * kChunk, i1 = std::min(n, i0 + kChunk);
-      double& total = part[stride - 2];
-      double& seen = part[stride - 1];
+      double total = 0.0, seen = 0.0;
       for (std::size_t i = i0; i < i1; ++i) {
-        if (!ok[i] || (with_nid && d.intensity_bin[i] == 255) || !in_mask(uv[i]) ||
-            !visible(uv[i], dist[i]))
-          continue;
+        if (!use[i] || !visible(cell_at[i], dist[i])) continue;
         seen += 1.0;
         if (!with_nid) continue;
         const float g = Bilinear(d.grey, uv[i].x(), uv[i].y());
@@ -304,23 +345,26 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
         const double w = o.nid_gradient_floor < 0.0
                              ? 1.0
                              : o.nid_gradient_floor + Bilinear(d.edge_field, uv[i].x(), uv[i].y());
-        double* row = part + static_cast<std::size_t>(d.intensity_bin[i]) * bins;
+        double* row = part + static_cast<std::size_t>(ibin[i]) * bins;
         row[b0] += w * (1.0 - w1);
         row[b0 + 1] += w * w1;
         total += w;
       }
+      part[stride - 2] = total;
+      part[stride - 1] = seen;
     } else {
       const std::size_t i0 = static_cast<std::size_t>(c - nc) * kChunk,
                         i1 = std::min(m, i0 + kChunk);
-      double& sum = part[stride - 2];
-      double& count = part[stride - 1];
+      double sum = 0.0, count = 0.0;
       for (std::size_t i = i0; i < i1; ++i) {
-        if (!eok[i] || !in_mask(euv[i])) continue;
+        if (!eok[i]) continue;
         const float r = (R * d.edge_points[i] + t).norm();
-        if (!visible(euv[i], r)) continue;
+        if (!visible(ecell_at[i], r)) continue;
         sum += Bilinear(d.edge_field, euv[i].x(), euv[i].y());
         count += 1.0;
       }
+      part[stride - 2] = sum;
+      part[stride - 1] = count;
     }
   }
   for (const std::size_t k : touched) zbuf[k] = kInf;
@@ -328,7 +372,7 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   std::vector<double> joint(static_cast<std::size_t>(bins) * bins, 0.0);
   double total = 0.0, seen = 0.0;
   for (std::ptrdiff_t c = 0; c < nc; ++c) {
-    const double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+    const double* part = partial + static_cast<std::size_t>(c) * stride;
     for (std::size_t k = 0; k < joint.size(); ++k) joint[k] += part[k];
     total += part[stride - 2];
     seen += part[stride - 1];
@@ -349,7 +393,7 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   // Edge term.
   double sum = 0.0, count = 0.0;
   for (std::ptrdiff_t c = nc; c < nc + mc; ++c) {
-    const double* part = partial.data() + static_cast<std::size_t>(c) * stride;
+    const double* part = partial + static_cast<std::size_t>(c) * stride;
     sum += part[stride - 2];
     count += part[stride - 1];
   }

@@ -51,16 +51,30 @@ struct Objective {
   int* evaluations = nullptr;
   const std::function<double(const Eigen::Isometry3d&)>* prior = nullptr;  // options.prior
   double operator()(const Eigen::Isometry3d& T) const {
+    if (evaluations) ++*evaluations;
+    return Value(T);
+  }
+  /// The objective, not counted (Evaluate counts for its callers).
+  double Value(const Eigen::Isometry3d& T) const {
     double f = 0.0;
     for (const AlignmentData& d : scenes) {
       const AlignmentScore s = ScoreAlignment(d, T);
       f += s.nid - edge_weight * s.edge;
     }
-    if (evaluations) ++*evaluations;
     f /= static_cast<double>(std::max<std::size_t>(1, scenes.size()));
     return prior && *prior ? f + (*prior)(T) : f;
   }
 };
+
+// F at every pose, the poses in parallel (each value the same as F(T) alone), counted in F.
+std::vector<double> Evaluate(const Objective& F, const std::vector<Eigen::Isometry3d>& poses) {
+  std::vector<double> f(poses.size());
+#pragma omp parallel for schedule(dynamic, 1)
+  for (std::ptrdiff_t k = 0; k < static_cast<std::ptrdiff_t>(poses.size()); ++k)
+    f[static_cast<std::size_t>(k)] = F.Value(poses[static_cast<std::size_t>(k)]);
+  if (F.evaluations) *F.evaluations += static_cast<int>(poses.size());
+  return f;
+}
 
 // A copy of `d` whose grey image and edge field are smoothed by a Gaussian of sigma_px (a
 // coarser level of the search: a wider, smoother basin).
@@ -215,6 +229,56 @@ SearchResult SimplexSearch(const Levels& L, const Eigen::Isometry3d& from, doubl
                        p0 + 0.8 * (p1 - p0), p1);
 }
 
+// Simplex searches from every pose of `from`, in parallel: they are independent (each its own
+// budget of `budget` evaluations and its own count, in `used`), so their ends are the same on
+// any number of threads. Progress: search k reports within the k-th share of [p0, p1]; a
+// cancel stops every search and is rethrown here.
+std::vector<SearchResult> ParallelSearches(const Levels& levels,
+                                           const std::vector<Eigen::Isometry3d>& from,
+                                           double scale_deg, double scale_m,
+                                           const DenseRefineOptions& o, int budget,
+                                           const Progress& progress, double p0, double p1,
+                                           std::vector<int>* used) {
+  const int searches = static_cast<int>(from.size());
+  std::vector<SearchResult> ends(from.size());
+  used->assign(from.size(), 0);
+  // Progress from several threads: one at a time, never backwards.
+  std::mutex progress_mutex;
+  double progress_done = p0;
+  std::exception_ptr failure;
+  std::atomic<bool> stop{false};
+#pragma omp parallel for schedule(dynamic, 1)
+  for (int k = 0; k < searches; ++k) {
+    if (stop.load()) continue;
+    try {
+      Levels mine = levels;  // the data is shared (read only); the count is this search's
+      for (Objective& F : mine.objective) F.evaluations = &(*used)[static_cast<std::size_t>(k)];
+      const double q0 = p0 + (p1 - p0) * k / searches, q1 = p0 + (p1 - p0) * (k + 1) / searches;
+      const Progress report([&](double f, const std::string& stage) {
+        if (stop.load()) return false;
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        // This search's share of the whole, added to what the others reached.
+        progress_done = std::max(progress_done, std::min(q1, f));
+        try {
+          progress(progress_done, stage);
+        } catch (const Cancelled&) {
+          stop = true;
+          return false;
+        }
+        return true;
+      });
+      ends[static_cast<std::size_t>(k)] = SimplexSearch(
+          mine, from[static_cast<std::size_t>(k)], scale_deg, scale_m, o, budget, report, q0, q1);
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      if (!failure) failure = std::current_exception();
+      stop = true;
+    }
+  }
+  if (failure) std::rethrow_exception(failure);
+  return ends;
+}
+
 std::string AxisWords(int i) {
   static const char* names[6] = {
       "rotation about the camera's x axis (tilt up/down)",
@@ -327,64 +391,44 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     from.push_back(s);
   }
   for (const Eigen::Isometry3d& s : o.extra_starts) from.push_back(s);  // e.g. the pairs' solve
-  const int searches = static_cast<int>(from.size());
-  std::vector<SearchResult> ends(from.size());
-  std::vector<int> used(from.size(), 0);
-  {
-    // Progress from several threads: one at a time, never backwards.
-    std::mutex progress_mutex;
-    double progress_done = 0.05;
-    std::exception_ptr failure;
-    std::atomic<bool> stop{false};
-#pragma omp parallel for schedule(dynamic, 1)
-    for (int k = 0; k < searches; ++k) {
-      if (stop.load()) continue;
-      try {
-        Levels mine = train_levels;  // the data is shared (read only); the count is this search's
-        for (Objective& F : mine.objective) F.evaluations = &used[static_cast<std::size_t>(k)];
-        const double p0 = 0.05 + 0.75 * k / searches, p1 = 0.05 + 0.75 * (k + 1) / searches;
-        const Progress report([&](double f, const std::string& stage) {
-          if (stop.load()) return false;
-          const std::lock_guard<std::mutex> lock(progress_mutex);
-          // This search's share of the whole, added to what the others reached.
-          progress_done = std::max(progress_done, std::min(p1, f));
-          try {
-            progress(progress_done, stage);
-          } catch (const Cancelled&) {
-            stop = true;
-            return false;
-          }
-          return true;
-        });
-        ends[static_cast<std::size_t>(k)] =
-            SimplexSearch(mine, from[static_cast<std::size_t>(k)], o.initial_step_deg,
-                          o.initial_step_m, o, budget_per_start, report, p0, p1);
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        if (!failure) failure = std::current_exception();
-        stop = true;
-      }
-    }
-    if (failure) std::rethrow_exception(failure);
-  }
+  std::vector<int> used;
+  std::vector<SearchResult> ends =
+      ParallelSearches(train_levels, from, o.initial_step_deg, o.initial_step_m, o,
+                       budget_per_start, progress, 0.05, 0.8, &used);
   for (const int n : used) res.evaluations += n;
-  for (SearchResult& e : ends) e.f = train(e.T);  // all on the finest level
+  {  // all on the finest level
+    std::vector<Eigen::Isometry3d> ends_T;
+    for (const SearchResult& e : ends) ends_T.push_back(e.T);
+    const std::vector<double> f = Evaluate(train, ends_T);
+    for (std::size_t e = 0; e < ends.size(); ++e) ends[e].f = f[e];
+  }
   // Basin hopping: restarts near the best end (a third of the start spread), kept when better.
   {
     auto b = std::min_element(ends.begin(), ends.end(),
                               [](const auto& x, const auto& y) { return x.f < y.f; });
     SearchResult hop_best = *b;
-    for (int k = 0; k < o.hops && res.evaluations < o.max_evaluations; ++k) {
-      const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
-      const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
-      Vec6 d;
-      d.head<3>() = axis * o.start_spread_deg / 3.0;
-      d.tail<3>() = dir * o.start_spread_m / 3.0;
-      SearchResult r = SimplexSearch(train_levels, Apply(d, hop_best.T), o.initial_step_deg / 4,
-                                     o.initial_step_m / 4, o,
-                                     res.evaluations + budget_per_start / 2, progress, 0.8, 0.8);
-      r.f = train(r.T);
-      if (r.f < hop_best.f) hop_best = r;
+    // In rounds of two restarts from the best so far, the two in parallel (rounds of a fixed
+    // size, not one restart per thread: the same result on any number of threads).
+    for (int k = 0; k < o.hops && res.evaluations < o.max_evaluations; k += 2) {
+      std::vector<Eigen::Isometry3d> hop_from;
+      for (int j = k; j < std::min(o.hops, k + 2); ++j) {
+        const Eigen::Vector3d axis = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+        const Eigen::Vector3d dir = Eigen::Vector3d(g(rng), g(rng), g(rng)).normalized();
+        Vec6 d;
+        d.head<3>() = axis * o.start_spread_deg / 3.0;
+        d.tail<3>() = dir * o.start_spread_m / 3.0;
+        hop_from.push_back(Apply(d, hop_best.T));
+      }
+      const std::vector<SearchResult> r =
+          ParallelSearches(train_levels, hop_from, o.initial_step_deg / 4, o.initial_step_m / 4, o,
+                           budget_per_start / 2, progress, 0.8, 0.8, &used);
+      for (const int n : used) res.evaluations += n;
+      std::vector<Eigen::Isometry3d> ends_T;
+      for (const SearchResult& e : r) ends_T.push_back(e.T);
+      const std::vector<double> f = Evaluate(train, ends_T);
+      for (std::size_t j = 0; j < r.size(); ++j) {
+        if (f[j] < hop_best.f) hop_best = {r[j].T, f[j]};
+      }
     }
     ends.push_back(hop_best);
   }
@@ -405,8 +449,11 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   if (o.inner_margin_px >= 0.0) {
     anchors = {best.T};
     const Levels fin = with_prior(subset(train_half));
-    for (SearchResult& e : ends) e.f = fin.objective.back()(e.T);
-    best.f = fin.objective.back()(best.T);
+    std::vector<Eigen::Isometry3d> poses = {best.T};
+    for (const SearchResult& e : ends) poses.push_back(e.T);
+    const std::vector<double> f = Evaluate(fin.objective.back(), poses);
+    best.f = f[0];
+    for (std::size_t e = 0; e < ends.size(); ++e) ends[e].f = f[e + 1];
   }
   // ... and on the held-out half (the uncertainty's spread: ends it ranks with the best).
   std::vector<double> end_held(ends.size());
@@ -414,9 +461,11 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   {
     anchors = {best.T};
     const Levels held_fin = subset(held_half);
-    for (std::size_t e = 0; e < ends.size(); ++e)
-      end_held[e] = held_fin.objective.back()(ends[e].T);
-    best_held = held_fin.objective.back()(best.T);
+    std::vector<Eigen::Isometry3d> poses = {best.T};
+    for (const SearchResult& e : ends) poses.push_back(e.T);
+    const std::vector<double> f = Evaluate(held_fin.objective.back(), poses);
+    best_held = f[0];
+    for (std::size_t e = 0; e < ends.size(); ++e) end_held[e] = f[e + 1];
   }
   // The start and the best compared on the points inside the image from both.
   anchors = {start, best.T};
@@ -458,25 +507,45 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
                        .finished();
     const Levels full_levels = subset([](std::uint32_t, const Eigen::Vector3f&) { return true; });
     const Objective& F = full_levels.objective.back();
-    auto at = [&](const Objective& G, const Vec6& d) { return G(Apply(d, best.T)); };
-    Eigen::Matrix<double, 6, 6> H;
-    const double f0 = at(F, Vec6::Zero());
+    // The curvature's poses, evaluated in parallel: f0, then per (i, j >= i) the diagonal's
+    // +-e_i or the four corners +-e_i +-e_j.
+    std::vector<Vec6> steps = {Vec6::Zero()};
     for (int i = 0; i < 6; ++i) {
       for (int j = i; j < 6; ++j) {
         Vec6 ei = Vec6::Zero(), ej = Vec6::Zero();
         ei[i] = h[i];
         ej[j] = h[j];
+        if (i == j) {
+          steps.push_back(ei);
+          steps.push_back(-ei);
+        } else {
+          steps.push_back(ei + ej);
+          steps.push_back(ei - ej);
+          steps.push_back(ej - ei);
+          steps.push_back(-ei - ej);
+        }
+      }
+    }
+    std::vector<Eigen::Isometry3d> poses;
+    for (const Vec6& d : steps) poses.push_back(Apply(d, best.T));
+    const std::vector<double> fv = Evaluate(F, poses);
+    Eigen::Matrix<double, 6, 6> H;
+    const double f0 = fv[0];
+    std::size_t next = 1;
+    for (int i = 0; i < 6; ++i) {
+      for (int j = i; j < 6; ++j) {
         double v;
         if (i == j) {
-          v = (at(F, ei) - 2.0 * f0 + at(F, -ei)) / (h[i] * h[i]);
+          v = (fv[next] - 2.0 * f0 + fv[next + 1]) / (h[i] * h[i]);
+          next += 2;
         } else {
-          v = (at(F, ei + ej) - at(F, ei - ej) - at(F, ej - ei) + at(F, -ei - ej)) /
-              (4.0 * h[i] * h[j]);
+          v = (fv[next] - fv[next + 1] - fv[next + 2] + fv[next + 3]) / (4.0 * h[i] * h[j]);
+          next += 4;
         }
         H(i, j) = H(j, i) = v;
       }
-      progress(0.8 + 0.1 * (i + 1) / 6.0, "uncertainty");
     }
+    progress(0.9, "uncertainty");
     Eigen::Matrix<double, 6, 6> G = Eigen::Matrix<double, 6, 6>::Zero();
     // The halves are made of image blocks (uncertainty_blocks_u x _v at the best pose), not of
     // single tiles: errors shared by neighbouring points (a structure the measure misreads,
@@ -504,12 +573,19 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       const Levels B = subset([&](std::uint32_t t, const Eigen::Vector3f& p) {
         return blocks > 1 ? in_a[block_of(p)] == 0 : (Mix(t ^ seed_k) & 1) == 1;
       });
-      Vec6 g;
+      std::vector<Eigen::Isometry3d> pm;  // +e_i, -e_i for i = 0..5
       for (int i = 0; i < 6; ++i) {
         Vec6 e = Vec6::Zero();
         e[i] = h[i];
-        const double ga = (at(A.objective.back(), e) - at(A.objective.back(), -e)) / (2 * h[i]);
-        const double gb = (at(B.objective.back(), e) - at(B.objective.back(), -e)) / (2 * h[i]);
+        pm.push_back(Apply(e, best.T));
+        pm.push_back(Apply(-e, best.T));
+      }
+      const std::vector<double> fa = Evaluate(A.objective.back(), pm);
+      const std::vector<double> fb = Evaluate(B.objective.back(), pm);
+      Vec6 g;
+      for (int i = 0; i < 6; ++i) {
+        const double ga = (fa[2 * i] - fa[2 * i + 1]) / (2 * h[i]);
+        const double gb = (fb[2 * i] - fb[2 * i + 1]) / (2 * h[i]);
         g[i] = ga - gb;
       }
       G += g * g.transpose() / (4.0 * o.resamples);
@@ -557,17 +633,17 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     // the pose by H^-1 g_nid (and the edge term the other way): where the two measures
     // disagree, the pose they settle on is uncertain by that much.
     Vec6 g_nid;
-    auto nid_at = [&](const Vec6& d) {
-      double v = 0.0;
-      for (const AlignmentData& sd : F.scenes) v += ScoreAlignment(sd, Apply(d, best.T)).nid;
-      ++res.evaluations;
-      return v / static_cast<double>(std::max<std::size_t>(1, F.scenes.size()));
-    };
-    for (int i = 0; i < 6; ++i) {
+    std::vector<double> nid_pm(12);  // at +e_i, -e_i for i = 0..5, in parallel
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int k = 0; k < 12; ++k) {
       Vec6 e = Vec6::Zero();
-      e[i] = h[i];
-      g_nid[i] = (nid_at(e) - nid_at(-e)) / (2 * h[i]);
+      e[k / 2] = k % 2 == 0 ? h[k / 2] : -h[k / 2];
+      double v = 0.0;
+      for (const AlignmentData& sd : F.scenes) v += ScoreAlignment(sd, Apply(e, best.T)).nid;
+      nid_pm[k] = v / static_cast<double>(std::max<std::size_t>(1, F.scenes.size()));
     }
+    res.evaluations += 12;
+    for (int i = 0; i < 6; ++i) g_nid[i] = (nid_pm[2 * i] - nid_pm[2 * i + 1]) / (2 * h[i]);
     const Vec6 pull = Hinv * g_nid;
     res.tension_covariance_cam = pull * pull.transpose();
     res.covariance_cam = C + S + Fl + res.tension_covariance_cam;
