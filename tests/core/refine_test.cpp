@@ -6,6 +6,7 @@
 //   - never worse: started at the truth, the result stays at it (or the start is kept);
 //   - the CLI writes calibrate's schema plus the refinement's figures and refuses bad input.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <Eigen/Geometry>
 #include <filesystem>
@@ -212,6 +213,34 @@ TEST(DenseRefine, StartedAtTheTruthItStaysThere) {
   if (!r.accepted) {
     EXPECT_TRUE(r.T_cam_scan.isApprox(s.sim.T_cam_scan)) << "the start is kept";
   }
+}
+
+// The searches from the starts, the restarts near the best (two at a time, the second
+// speculatively) and the uncertainty's evaluations run in parallel, and each evaluation's points
+// in chunks: the result must not depend on the number of threads, to the last bit.
+TEST(DenseRefine, TheSameResultOnOneAndOnTwoThreads) {
+  const LidarScene& s = Lidar();
+  std::mt19937 rng(3);
+  const Eigen::Isometry3d start = Perturb(s.sim.T_cam_scan, 2.0, 0.2, &rng);
+  refine::DenseRefineOptions o;
+  o.starts = 2;
+  o.hops = 3;  // a speculative pair, then one alone
+  o.resamples = 2;
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const refine::DenseRefineResult a = refine::DenseRefine({{&s.sim.scan, s.view}}, start, o);
+  omp_set_num_threads(2);
+  const refine::DenseRefineResult b = refine::DenseRefine({{&s.sim.scan, s.view}}, start, o);
+  omp_set_num_threads(threads);
+  EXPECT_TRUE(a.T_best.matrix() == b.T_best.matrix()) << a.T_best.matrix() << "\n"
+                                                      << b.T_best.matrix();
+  EXPECT_TRUE(a.T_cam_scan.matrix() == b.T_cam_scan.matrix());
+  EXPECT_EQ(a.evaluations, b.evaluations);
+  EXPECT_EQ(a.train_best, b.train_best);
+  EXPECT_EQ(a.heldout_best, b.heldout_best);
+  EXPECT_TRUE(a.covariance_cam == b.covariance_cam);
+  EXPECT_EQ(a.verdict, b.verdict);
+  EXPECT_LT(AngleDeg(a.T_cam_scan, s.sim.T_cam_scan), 0.2) << "it also refines";
 }
 
 TEST(DenseRefine, AStartThatSeesNothingIsAClearError) {
