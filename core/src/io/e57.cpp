@@ -162,7 +162,7 @@ OrderedScan LoadE57(const std::string& path, const E57LoadOptions& options,
     // A grid far larger than the points could fill is refused before it is allocated (a
     // terrestrial scan fills most of its grid; 8 cells per point bounds the memory a small
     // hostile file can ask for: the record count is itself bounded by the section's size).
-    if (rows * cols > (4ull << 20) && rows * cols / 8 > info.record_count) {
+    if (rows * cols > kFreeGridCells && rows * cols / 8 > info.record_count) {
       throw FileError(path, "",
                       scan_name + ": a grid of " + std::to_string(rows) + " x " +
                           std::to_string(cols) + " cells for " + std::to_string(info.record_count) +
