@@ -3,7 +3,8 @@
 // so that mutations reach the XML, the compressed vectors and the blobs instead of stopping at
 // the page checks (those are covered by tests/core/io_e57_test.cpp). Then: the file's structure
 // (ReadE57Info), scan 0 through LoadScan (grid or re-gridding; an accepted scan must satisfy
-// CheckScan) and image 0's blob extracted.
+// CheckScan), or, for an unordered cloud of more than 512 records, every record decoded and
+// counted; and image 0's blob extracted.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -27,16 +28,34 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } catch (const scancam::Error&) {
     return 0;  // bad input, reported as it should be
   }
-  try {
-    scancam::io::ScanLoadOptions options;
-    options.format = "e57";
-    const scancam::OrderedScan scan = scancam::io::LoadScan(path, options);
+  // An unordered cloud of more than kRegridPoints records: every record decoded, not re-gridded.
+  // (Re-gridding mutated clouds is fuzz_pcd's and fuzz_kitti's work, 1 M executions each; an
+  // E57 only hands it points. Re-gridding clouds of 512-4096 points under ASan + coverage took
+  // three quarters of this harness's time: its corpus replayed in 19.9 s, now 4.4 s.)
+  constexpr std::uint64_t kRegridPoints = 512;
+  if (!info.scans.empty() && !info.scans[0].has_grid_index &&
+      info.scans[0].record_count > kRegridPoints) {
     try {
-      scancam::CheckScan(scan, path);
-    } catch (const scancam::Error& e) {
-      scancam::fuzz::Fail(std::string("the importer accepted an inconsistent scan: ") + e.what());
+      std::uint64_t records = 0;
+      scancam::io::ReadE57Points(
+          path, 0, [&](const scancam::io::E57Point*, std::size_t n) { records += n; });
+      if (records != info.scans[0].record_count)
+        scancam::fuzz::Fail("the reader streamed " + std::to_string(records) + " records of " +
+                            std::to_string(info.scans[0].record_count));
+    } catch (const scancam::Error&) {
     }
-  } catch (const scancam::Error&) {
+  } else {
+    try {
+      scancam::io::ScanLoadOptions options;
+      options.format = "e57";
+      const scancam::OrderedScan scan = scancam::io::LoadScan(path, options);
+      try {
+        scancam::CheckScan(scan, path);
+      } catch (const scancam::Error& e) {
+        scancam::fuzz::Fail(std::string("the importer accepted an inconsistent scan: ") + e.what());
+      }
+    } catch (const scancam::Error&) {
+    }
   }
   if (!info.images.empty()) {
     try {

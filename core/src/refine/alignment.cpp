@@ -283,8 +283,7 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
       const Eigen::Vector3f* const pts = d.all_points.data();
       d.camera.ProjectBatch(T_cam_scan, pts + i0, i1 - i0, uv + i0, ok + i0);
       for (std::size_t i = i0; i < i1; ++i) {
-        if (!ok[i]) {
-          dist[i] = 0.f;
+        if (!ok[i]) {  // dist and cell_at unset: every later pass skips the point by ok / use
           use[i] = 0;
           continue;
         }

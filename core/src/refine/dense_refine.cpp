@@ -432,10 +432,12 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       for (const SearchResult& e : r) ends_T.push_back(e.T);
       const std::vector<double> f = Evaluate(train, ends_T);  // counts both
       for (const int n : used) res.evaluations += n;
+      // The count restart k alone would have left: one at a time, k + 1 runs only below budget.
+      const int after_k = r.size() < 2 ? res.evaluations : res.evaluations - used[1] - 1;
       const bool improved = f[0] < hop_best.f;
       if (improved) hop_best = {r[0].T, f[0]};
       ++k;
-      if (r.size() < 2 || improved || res.evaluations - used[1] - 1 >= o.max_evaluations)
+      if (r.size() < 2 || improved || after_k >= o.max_evaluations)
         continue;  // k + 1 runs (again) from the new best, or not at all
       if (f[1] < hop_best.f) hop_best = {r[1].T, f[1]};
       ++k;
