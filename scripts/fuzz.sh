@@ -85,7 +85,10 @@ for h in "${harnesses[@]}"; do
   limit=(-max_total_time="$seconds")
   [ -n "$runs" ] && limit=(-runs="$runs")
   log="$fdir/logs/$h.log"
-  before=$(ls "$art" | wc -l)
+  # Findings of this run: the reproducers written after it started (moving older ones away
+  # while it runs does not change the count).
+  marker="$fdir/logs/$h.started"
+  touch "$marker"
   start=$(date +%s.%N)
   rc=0
   "${nice_cmd[@]}" "$bin" "${limit[@]}" "${seed_opt[@]}" "${keep_going[@]}" -timeout=10 -rss_limit_mb=2048 \
@@ -97,7 +100,7 @@ for h in "${harnesses[@]}"; do
   [ -n "$execs" ] || execs=$(sed -n 's/^#\([0-9]*\)[: \t].*/\1/p' "$log" | tail -1)
   [ -n "$execs" ] || execs=0
   rate=$(awk -v n="$execs" -v s="$secs" 'BEGIN { printf "%.0f", (s > 0 ? n / s : 0) }')
-  found=$(( $(ls "$art" | wc -l) - before ))
+  found=$(find "$art" -maxdepth 1 -type f -newer "$marker" | wc -l)
   if [ "$rc" = 0 ] && [ "$found" = 0 ]; then
     result="clean"
   else

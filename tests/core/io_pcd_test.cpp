@@ -558,6 +558,16 @@ TEST(Pcd, BadInputsNameFileAndPlace) {
       {"noxyz.pcd",
        "FIELDS a b c\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
        {"noxyz.pcd", "no x, y and z"}},
+      // Fuzzing finding #15: a second FIELDS / SIZE / TYPE left the first COUNT (4 values for 8
+      // fields), read past its end when the point size was summed.
+      {"twice.pcd",
+       "FIELDS x y z i\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+       "FIELDS x y z i a b c d\nSIZE 4 4 4 4 4 4 4 4\nTYPE F F F F F F F F\n"
+       "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA binary\n",
+       {"twice.pcd:5", "FIELDS given a second time (first on line 1)"}},
+      {"count.pcd",
+       "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nCOUNT 1 1 1\nWIDTH 1\nDATA ascii\n",
+       {"count.pcd:5", "COUNT given a second time"}},
   };
   for (const Case& c : cases) {
     const std::string path = dir + "/" + c.name;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <map>
 
 #include "io_util.h"
 #include "scancam/error.h"
@@ -61,6 +62,7 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
   std::vector<std::string_view> tok;
   bool seen_fields = false, seen_size = false, seen_type = false;
   int fields_line = 0;
+  std::map<std::string, int> key_line;  // a key given twice is refused (fuzzing finding #15)
   while (lines.Next(line)) {
     const int ln = lines.line_number();
     // Binary bytes in the header: not a PCD file (or a damaged one).
@@ -76,6 +78,11 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
     if (tok.empty() || tok[0].front() == '#') continue;
     const std::string key(tok[0]);
     const std::size_t nv = tok.size() - 1;
+    if (const auto [it, first] = key_line.emplace(key, ln); !first) {
+      Fail(path, ln,
+           key + " given a second time (first on line " + std::to_string(it->second) +
+               "); a PCD header has each keyword once");
+    }
     auto need = [&](std::size_t n) {
       if (nv != n) {
         Fail(path, ln,
@@ -170,8 +177,9 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
     Fail(path, h.data_line, "header lacks FIELDS, SIZE or TYPE");
   }
   if (h.count.empty()) h.count.assign(h.fields.size(), 1);
-  if (h.size.size() != h.fields.size() || h.type.size() != h.fields.size()) {
-    Fail(path, fields_line, "FIELDS, SIZE and TYPE have different lengths");
+  if (h.size.size() != h.fields.size() || h.type.size() != h.fields.size() ||
+      h.count.size() != h.fields.size()) {
+    Fail(path, fields_line, "FIELDS, SIZE, TYPE and COUNT have different lengths");
   }
   for (std::size_t i = 0; i < h.fields.size(); ++i) {
     if (h.type[i] == 'F' && h.size[i] != 4 && h.size[i] != 8) {
