@@ -60,9 +60,10 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
   io::detail::LineReader lines(head);
   std::string_view line;
   std::vector<std::string_view> tok;
-  bool seen_fields = false, seen_size = false, seen_type = false;
-  int fields_line = 0;
-  std::map<std::string, int> key_line;  // a key given twice is refused (fuzzing finding #15)
+  // The line of each keyword; a keyword given twice is refused (fuzzing finding #15), so each
+  // of FIELDS, SIZE, TYPE and COUNT is set once.
+  std::map<std::string, int> key_line;
+  auto seen = [&](const char* key) { return key_line.count(key) > 0; };
   while (lines.Next(line)) {
     const int ln = lines.line_number();
     // Binary bytes in the header: not a PCD file (or a damaged one).
@@ -102,15 +103,11 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
       continue;
     } else if (key == "FIELDS") {
       if (nv == 0) Fail(path, ln, "FIELDS: no field names");
-      h.fields.clear();
       for (std::size_t i = 1; i < tok.size(); ++i) h.fields.emplace_back(tok[i]);
-      seen_fields = true;
-      fields_line = ln;
     } else if (key == "SIZE" || key == "COUNT") {
-      if (!seen_fields) Fail(path, ln, key + " before FIELDS");
+      if (!seen("FIELDS")) Fail(path, ln, key + " before FIELDS");
       need(h.fields.size());
       std::vector<int>& out = key == "SIZE" ? h.size : h.count;
-      out.clear();
       for (std::size_t i = 1; i < tok.size(); ++i) {
         const long long v = integer(tok[i], 1);
         if (key == "SIZE" && v != 1 && v != 2 && v != 4 && v != 8) {
@@ -121,11 +118,9 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
         if (v > 1000000) Fail(path, ln, key + " " + std::to_string(v) + " is implausibly large");
         out.push_back(static_cast<int>(v));
       }
-      if (key == "SIZE") seen_size = true;
     } else if (key == "TYPE") {
-      if (!seen_fields) Fail(path, ln, "TYPE before FIELDS");
+      if (!seen("FIELDS")) Fail(path, ln, "TYPE before FIELDS");
       need(h.fields.size());
-      h.type.clear();
       for (std::size_t i = 1; i < tok.size(); ++i) {
         if (tok[i].size() != 1 || (tok[i][0] != 'I' && tok[i][0] != 'U' && tok[i][0] != 'F')) {
           Fail(path, ln,
@@ -134,7 +129,6 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
         }
         h.type.push_back(tok[i][0]);
       }
-      seen_type = true;
     } else if (key == "WIDTH") {
       need(1);
       h.width = integer(tok[1], 0);
@@ -173,9 +167,10 @@ PcdHeader ParseHeader(const std::string& path, std::size_t file_size) {
   if (h.data.empty()) {
     throw FileError(path, "", "no DATA line in the header (truncated or not a PCD file)");
   }
-  if (!seen_fields || !seen_size || !seen_type) {
+  if (!seen("FIELDS") || !seen("SIZE") || !seen("TYPE")) {
     Fail(path, h.data_line, "header lacks FIELDS, SIZE or TYPE");
   }
+  const int fields_line = key_line["FIELDS"];
   if (h.count.empty()) h.count.assign(h.fields.size(), 1);
   if (h.size.size() != h.fields.size() || h.type.size() != h.fields.size() ||
       h.count.size() != h.fields.size()) {
