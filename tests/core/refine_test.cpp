@@ -148,6 +148,22 @@ TEST(DenseRefine, RotatingScannerComesBackFromTwoDegreesAndTwentyCentimetres) {
   EXPECT_LE(ErrorInSigmas(r, s.sim.T_cam_scan), 3.0);
 }
 
+// kitti-000000 (../shared/datasets): the scan, the photo and KITTI's calibration.
+struct KittiFrame {
+  colour::ColourView view;
+  OrderedScan scan;
+  Eigen::Isometry3d reference;
+};
+KittiFrame LoadKitti() {
+  const std::string dir = test::SharedDataset("kitti-000000/");
+  KittiFrame k;
+  k.view.image = ReadImage(dir + "image_2.png");
+  k.view.camera = camera::LoadCameraForImage(dir + "calib.txt", dir + "image_2.png");
+  k.scan = io::LoadScan(dir + "velodyne.bin");
+  k.reference = colour::LoadExtrinsic(dir + "calib.txt");
+  return k;
+}
+
 // kitti-000000 started at KITTI's calibration. Both halves of the scan prefer a pose about
 // 0.5 deg / 12 cm away, where NID on this frame is lower (docs/refine.md). Whether the result
 // moves there hangs on the searches' spread: the GCC build keeps the start (the starts end
@@ -158,19 +174,39 @@ TEST(DenseRefine, RotatingScannerComesBackFromTwoDegreesAndTwentyCentimetres) {
 // 10-15 times too small to cover the search's best).
 TEST(DenseRefine, KittiStartedAtTheReferenceStaysAndItsStdCoversTheSearchsBest) {
   SCANCAM_REQUIRE_SHARED();
-  const std::string dir = test::SharedDataset("kitti-000000/");
-  colour::ColourView view;
-  view.image = ReadImage(dir + "image_2.png");
-  view.camera = camera::LoadCameraForImage(dir + "calib.txt", dir + "image_2.png");
-  const OrderedScan scan = io::LoadScan(dir + "velodyne.bin");
-  const Eigen::Isometry3d reference = colour::LoadExtrinsic(dir + "calib.txt");
-  const refine::DenseRefineResult r = refine::DenseRefine({{&scan, view}}, reference);
+  const KittiFrame k = LoadKitti();
+  const Eigen::Isometry3d& reference = k.reference;
+  const refine::DenseRefineResult r = refine::DenseRefine({{&k.scan, k.view}}, reference);
   std::cout << "from the reference: " << r.verdict << ", " << AngleDeg(r.T_cam_scan, reference)
             << " deg, " << OffsetM(r.T_cam_scan, reference) << " m off it\n";
   EXPECT_LT(AngleDeg(r.T_cam_scan, reference), 1.0) << r.reason;
   EXPECT_LT(OffsetM(r.T_cam_scan, reference), 0.20) << r.reason;
   EXPECT_LE(ErrorInSigmas(r, reference), 3.0) << r.reason;
   EXPECT_LT(r.sampling_rotation_std_deg_cam_xyz.maxCoeff(), r.rotation_std_deg_cam_xyz.maxCoeff());
+}
+
+// kitti-000000 started 1.5 deg / 18 cm off KITTI's calibration (the benchmark's start): the
+// search ends in a valley of near-equal objectives (docs/refine.md: 0.13-0.97 deg off over 10
+// starts), so a result farther than issue 16's 0.3 deg / 8 cm from the reference must not be
+// called "converged" (the verdict once judged by the local std alone called this one, 0.97 deg
+// / 16 cm off, converged), and the reported std must cover its error.
+TEST(DenseRefine, KittiFromOffTheReferenceIsNotCalledConvergedWhenItIsOff) {
+  SCANCAM_REQUIRE_SHARED();
+  const KittiFrame k = LoadKitti();
+  const Eigen::Isometry3d& reference = k.reference;
+  std::mt19937 rng(1);
+  const Eigen::Isometry3d start = Perturb(reference, 1.5, 0.18, &rng);
+  const refine::DenseRefineResult r = refine::DenseRefine({{&k.scan, k.view}}, start);
+  const double deg = AngleDeg(r.T_cam_scan, reference), m = OffsetM(r.T_cam_scan, reference);
+  std::cout << "from 1.5 deg / 18 cm off: " << r.verdict << " (" << r.reason << "), " << deg
+            << " deg, " << m << " m off the reference\n";
+  if (deg > 0.3 || m > 0.08) {
+    EXPECT_NE(r.verdict, "converged") << r.reason;
+  }
+  if (r.verdict == "ambiguous") {
+    EXPECT_FALSE(r.unconstrained.empty());
+  }
+  EXPECT_LE(ErrorInSigmas(r, reference), 3.0) << r.reason;
 }
 
 // Intensity per laser (AlignmentOptions::intensity_per_row): a laser twice as bright as the

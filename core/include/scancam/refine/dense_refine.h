@@ -47,8 +47,8 @@
 // Verdict: "diverged" when the held-out half rejects the result, or when starts that end
 // within diverged_objective of the best objective lie more than diverged_deg / diverged_m from
 // it (two equally good, different answers); then the start is returned. Else "ambiguous" when
-// a local std exceeds ambiguous_std_deg / ambiguous_std_m (the objective is flat along that
-// direction, named in `unconstrained`), else "converged"; both return the result.
+// a reported std (the sum above) exceeds ambiguous_std_deg / ambiguous_std_m (the data do not
+// pin that direction, named in `unconstrained`), else "converged"; both return the result.
 #pragma once
 
 #include <Eigen/Geometry>
