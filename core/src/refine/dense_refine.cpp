@@ -709,7 +709,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
           worst < 3 ? "%.2f deg (converged: <= %.2f deg)" : "%.3f m (converged: <= %.3f m)",
           worst_sd, worst < 3 ? o.ambiguous_std_deg : o.ambiguous_std_m);
       res.reason = "the scene constrains the " + res.unconstrained + " poorly: std " + sd_text +
-                   "; another scene of the rig or picked pairs would pin it";
+                   "; a further scene of the rig (a second scan and photo) would constrain it";
     } else {
       res.verdict = "converged";
       res.reason = "the held-out half confirms it; " + std::to_string(res.starts_agreeing) +
