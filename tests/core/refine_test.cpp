@@ -185,11 +185,12 @@ TEST(DenseRefine, KittiStartedAtTheReferenceStaysAndItsStdCoversTheSearchsBest) 
   EXPECT_LT(r.sampling_rotation_std_deg_cam_xyz.maxCoeff(), r.rotation_std_deg_cam_xyz.maxCoeff());
 }
 
-// kitti-000000 started 1.5 deg / 18 cm off KITTI's calibration (the benchmark's start): the
-// search ends in a valley of near-equal objectives (docs/refine.md: 0.13-0.97 deg off over 10
-// starts), so a result farther than issue 16's 0.3 deg / 8 cm from the reference must not be
-// called "converged" (the verdict once judged by the local std alone called this one, 0.97 deg
-// / 16 cm off, converged), and the reported std must cover its error.
+// kitti-000000 started 1.5 deg / 18 cm off KITTI's calibration (the benchmark's start; here
+// without the valid-region mask the CLI and the benchmark add): the search ends in a valley of
+// near-equal objectives (docs/refine.md: 0.13-0.97 deg off over 10 starts), so a result farther
+// than issue 16's 0.3 deg / 8 cm from the reference must not be called "converged" (judged by
+// the local std alone, the GCC build called this one, 0.57 deg / 10 cm off, converged), and
+// the reported std must cover its error.
 TEST(DenseRefine, KittiFromOffTheReferenceIsNotCalledConvergedWhenItIsOff) {
   SCANCAM_REQUIRE_SHARED();
   const KittiFrame k = LoadKitti();

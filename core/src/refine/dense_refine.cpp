@@ -687,7 +687,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
                  " starts agree)";
   } else {
     // The reported (total) std decides: the local part alone called results 1 deg off
-    // "converged" on kitti-000000 (docs/refine.md, "The verdict").
+    // "converged" on kitti-000000 (docs/refine.md, "Fifth pass").
     int worst = -1;
     double worst_ratio = 1.0, worst_sd = 0.0;
     for (int i = 0; i < 6; ++i) {
