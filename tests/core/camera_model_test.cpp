@@ -605,6 +605,46 @@ TEST(CameraModelBatch, MatchesSinglePointProjection) {
   }
 }
 
+// OCam's batch projection takes the radius from a table of the root finder's own roots
+// (camera_model.h): over rays covering the whole field of view (the axis, every angle out to
+// beyond the model's limit, every azimuth), the same rays must be visible as in Project, at
+// the same pixel to float precision (1e-4 px at these pixel sizes; almost all bit for bit).
+TEST(CameraModelBatch, OCamTableMatchesTheRootFinder) {
+  for (const camera::CameraModel& cam :
+       {OCam(), camera::CameraModel::OCam(OCamParamsExample(), 1600, 1200, "ocam wide")}) {
+    SCOPED_TRACE(cam.Describe());
+    std::vector<Eigen::Vector3f> pts = {{0, 0, 1}, {0, 0, -1}, {1e-20f, 0, 1}, {0, 0, 0}};
+    const double a_max = cam.model_max_angle_rad() + 0.05;
+    for (int i = 0; i <= 4000; ++i) {
+      const double a = a_max * i / 4000.0;
+      for (int k = 0; k < 24; ++k) {
+        const double az = 2 * M_PI * k / 24 + 0.1 * i;
+        const double r = 0.5 + 30.0 * ((i * 24 + k) % 97) / 97.0;  // distance: any
+        pts.emplace_back(static_cast<float>(r * std::sin(a) * std::cos(az)),
+                         static_cast<float>(r * std::sin(a) * std::sin(az)),
+                         static_cast<float>(r * std::cos(a)));
+      }
+    }
+    std::vector<Eigen::Vector2f> uv(pts.size());
+    std::vector<std::uint8_t> valid(pts.size());
+    cam.ProjectBatch(Eigen::Isometry3d::Identity(), pts.data(), pts.size(), uv.data(),
+                     valid.data());
+    int n_valid = 0, n_equal = 0;
+    double worst = 0.0;
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const auto ref = cam.Project(pts[i].cast<double>());
+      ASSERT_EQ(valid[i] != 0, ref.has_value()) << i;
+      if (!ref) continue;
+      ++n_valid;
+      worst = std::max(worst, (uv[i].cast<double>() - *ref).norm());
+      n_equal += uv[i] == ref->cast<float>();
+    }
+    EXPECT_GT(n_valid, 40000);
+    EXPECT_LT(worst, 1e-4);
+    EXPECT_GT(n_equal, 0.99 * n_valid) << "worst " << worst;
+  }
+}
+
 // A pinhole without distortion (a rectified image, as KITTI's) takes a shorter path in the
 // batch projection (the distortion polynomial skipped): the pixels must be those of the
 // general model, bit for bit, including points behind, beside and far off the image.

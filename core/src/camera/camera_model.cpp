@@ -11,6 +11,7 @@
 #include <type_traits>
 
 #include "scancam/camera/camera_projector.h"
+#include "scancam/camera/ocam_radius_table.h"
 #include "scancam/error.h"
 #include "scancam/image_io.h"
 
@@ -48,6 +49,44 @@ double FirstFailure(const F& ok, double x_end, int steps) {
 }
 
 }  // namespace
+
+std::shared_ptr<const OCamRadiusTable> OCamRadiusTable::Build(const double* params) {
+  using M = OCamModel;
+  const int n = static_cast<int>(params[M::kIdxNPol]);
+  const double* pol = params + M::kIdxPol;
+  const double rho_max = params[M::kIdxRhoMax];
+  if (n < 1 || n > M::kMaxPol || !(pol[0] < 0.0) || !(rho_max > 0.0)) return nullptr;
+  auto q_of = [&](double rho, double* dq_drho) {
+    const double P = internal::Polyval(pol, n, rho), dP = internal::PolyvalDeriv(pol, n, rho);
+    const double L = std::hypot(rho, P), N = L - P;
+    const double dN = (rho + P * dP) / L - dP;
+    *dq_drho = (N - rho * dN) / (N * N);
+    return rho / N;
+  };
+  double dq_max;
+  const double q_max = q_of(rho_max, &dq_max);
+  if (!(q_max > 0.0) || !std::isfinite(q_max)) return nullptr;
+  const std::size_t count = static_cast<std::size_t>(std::ceil(q_max / 1e-3)) + 1;
+  if (count > (std::size_t{1} << 16)) return nullptr;  // a ray near the back: rare lenses
+  auto table = std::make_shared<OCamRadiusTable>();
+  const double h = q_max / static_cast<double>(count - 1);
+  table->inv_h = 1.0 / h;
+  table->knots.resize(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    double rho = 0.0;
+    if (k + 1 == count) {
+      rho = rho_max;
+    } else if (k > 0) {
+      const double q = static_cast<double>(k) * h, den = 1.0 + q * q;
+      if (!M::SolveRho(params, 2.0 * q / den, (1.0 - q * q) / den, &rho)) return nullptr;
+    }
+    double dq_drho;
+    q_of(rho, &dq_drho);
+    if (!(dq_drho > 0.0) || !std::isfinite(dq_drho)) return nullptr;
+    table->knots[k] = {rho, h / dq_drho};
+  }
+  return table;
+}
 
 const char* CameraTypeName(CameraType type) {
   return VisitCameraModel(type, [](auto m) { return decltype(m)::kName; });
@@ -433,6 +472,7 @@ void CameraModel::Init() {
       cos_max_angle_ = std::cos(max_angle_rad_);
     }
   }
+  if (type_ == CameraType::kOCam) ocam_table_ = OCamRadiusTable::Build(params_.data());
 }
 
 bool CameraModel::WithinFov(const Eigen::Vector3d& p) const {
@@ -536,6 +576,14 @@ void CameraModel::ProjectBatch(const Eigen::Isometry3d& T_cam_src, const Eigen::
   const Eigen::Matrix3d R = T_cam_src.linear();
   const Eigen::Vector3d t = T_cam_src.translation();
   const bool all_dirs = max_angle_rad_ >= M_PI;
+  if (type_ == CameraType::kOCam && ocam_table_) {  // the root finding tabulated
+    const double* prm = params_.data();
+    const OCamRadiusTable& table = *ocam_table_;
+    BatchLoopWith([prm, &table](const double* p, double* px) { return table.Project(prm, p, px); },
+                  cos_max_angle_, all_dirs, width_, height_, R, t, points,
+                  static_cast<std::ptrdiff_t>(n), uv, valid);
+    return;
+  }
   VisitCameraModel(type_, [&](auto m) {
     BatchLoop<decltype(m)>(params_, cos_max_angle_, all_dirs, width_, height_, R, t, points,
                            static_cast<std::ptrdiff_t>(n), uv, valid);

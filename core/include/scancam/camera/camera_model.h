@@ -32,6 +32,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -69,6 +70,8 @@ struct OCamParams {
   std::vector<double> pol;           ///< direct polynomial a0 a1 ... (a0 < 0), 1..12 coefficients
   std::vector<double> invpol;        ///< inverse polynomial (theta -> rho), 0..32 coefficients
 };
+
+struct OCamRadiusTable;  // ocam_radius_table.h
 
 class CameraModel;
 
@@ -147,6 +150,8 @@ class CameraModel {
   double max_angle_rad() const { return max_angle_rad_; }
   /// The model's own limit (fold-back / behind the camera), ignoring the image, rad.
   double model_max_angle_rad() const { return model_max_angle_rad_; }
+  /// OCam: the projection radius tabulated for batches (ocam_radius_table.h); else nullptr.
+  const OCamRadiusTable* ocam_radius_table() const { return ocam_table_.get(); }
 
   /// True when px lies on the image: -0.5 <= u < width - 0.5 and -0.5 <= v < height - 0.5.
   bool InImage(const Eigen::Vector2d& px) const {
@@ -165,7 +170,9 @@ class CameraModel {
 
   /// Batch: uv[i] = Project(T_cam_src * points[i]) for i < n, valid[i] = 1 where it is visible
   /// (and uv[i] is then set; else uv[i] is NaN, valid[i] = 0). Points with NaN coordinates are
-  /// invalid. OpenMP-parallel, no allocation per point; meant for colouring 10^7 points.
+  /// invalid. OCam: the radius from ocam_radius_table() (within float precision of Project;
+  /// valid[i] by Project's own test). OpenMP-parallel, no allocation per point; meant for colouring
+  /// 10^7 points.
   void ProjectBatch(const Eigen::Isometry3d& T_cam_src, const Eigen::Vector3f* points,
                     std::size_t n, Eigen::Vector2f* uv, std::uint8_t* valid) const;
   /// Batch in double, points already in the camera frame; resizes the outputs.
@@ -197,6 +204,8 @@ class CameraModel {
   double max_angle_rad_ = 0.0;
   double cos_max_angle_ = 1.0;  // cos(max_angle_rad_)
   double r_max_ = 0.0;          // pinhole / omni: max undistorted radius; fisheye: theta_max
+  // OCam: the projection radius tabulated against the half-angle tangent (ProjectBatch).
+  std::shared_ptr<const OCamRadiusTable> ocam_table_;
 };
 
 /// Throws scancam::Error when an image of width x height does not match the camera's image size

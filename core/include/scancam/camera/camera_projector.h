@@ -10,6 +10,8 @@
 //   - (Project only) the pixel lies on the image: -0.5 <= u < width - 0.5,
 //     -0.5 <= v < height - 0.5 (OpenCV convention: (0, 0) is the centre of the top-left
 //     pixel).
+// OCam's radius comes from the camera's table (ocam_radius_table.h: within float precision of
+// Project, the same rays valid) instead of a root finding per point.
 // The rule lives here (WithinFieldOfView, PixelOnImage; CameraModel's projections and batch
 // use them too); loops that evaluate a model in another precision (the colouring's
 // float pinhole lanes) take its constants (params(), cos_max(), all_dirs(), width(),
@@ -21,9 +23,11 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <type_traits>
 
 #include "scancam/camera/camera_model.h"
 #include "scancam/camera/models.h"
+#include "scancam/camera/ocam_radius_table.h"
 
 namespace scancam::camera {
 
@@ -51,7 +55,8 @@ class ModelProjector {
         cos_max_(std::cos(camera.max_angle_rad())),
         all_dirs_(camera.max_angle_rad() >= M_PI),
         width_(camera.width()),
-        height_(camera.height()) {}
+        height_(camera.height()),
+        ocam_table_(camera.ocam_radius_table()) {}
 
   /// The field-of-view test (camera frame, metres).
   bool WithinFov(const Eigen::Vector3d& p_cam) const {
@@ -60,9 +65,17 @@ class ModelProjector {
   /// True when pixel (u, v) lies on the image (CameraModel::InImage).
   bool InImage(double u, double v) const { return PixelOnImage(u, v, width_, height_); }
   /// CameraModel::ProjectUnbounded: uv (pixels) may lie outside the image.
+  /// OCam: the radius from CameraModel::ocam_radius_table() (within float precision).
   bool ProjectUnbounded(const Eigen::Vector3d& p_cam, double uv[2]) const {
-    return WithinFov(p_cam) && Model::Project(params_, p_cam.data(), uv) && std::isfinite(uv[0]) &&
-           std::isfinite(uv[1]);
+    if (!WithinFov(p_cam)) return false;
+    bool ok;
+    if constexpr (std::is_same_v<Model, OCamModel>) {
+      ok = ocam_table_ ? ocam_table_->Project(params_, p_cam.data(), uv)
+                       : Model::Project(params_, p_cam.data(), uv);
+    } else {
+      ok = Model::Project(params_, p_cam.data(), uv);
+    }
+    return ok && std::isfinite(uv[0]) && std::isfinite(uv[1]);
   }
   /// CameraModel::Project: uv (pixels) on the image.
   bool Project(const Eigen::Vector3d& p_cam, double uv[2]) const {
@@ -82,6 +95,7 @@ class ModelProjector {
   double cos_max_;
   bool all_dirs_;
   int width_, height_;
+  const OCamRadiusTable* ocam_table_;  // OCam only
 };
 
 /// Calls f(ModelProjector<Model>(camera)) for the camera's model: one visit per batch.
