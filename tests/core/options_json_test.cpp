@@ -292,6 +292,7 @@ TEST(DenseRefineOptionsJson, RoundTripKeepsEveryValue) {
   o.reanchor_rounds = 1;
   o.search_on_all_points = true;
   o.polish_on_all_points = true;
+  o.search_max_points = 12345;
   o.resamples = 4;
   o.curvature_step_deg = 0.3;
   o.curvature_step_m = 0.03;
@@ -329,6 +330,7 @@ TEST(DenseRefineOptionsJson, RoundTripKeepsEveryValue) {
   EXPECT_EQ(b.level_sigma_px, o.level_sigma_px);
   EXPECT_EQ(b.level_min_step_deg, o.level_min_step_deg);
   EXPECT_TRUE(b.polish_on_all_points);
+  EXPECT_EQ(b.search_max_points, 12345);
   EXPECT_EQ(b.alignment.tile_cols, 12);
   EXPECT_TRUE(b.alignment.edge_distance_field);
   // Keys absent from a file keep the base's values.

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
@@ -85,6 +86,25 @@ AlignmentData Smoothed(const AlignmentData& d, double sigma_px) {
     cv::GaussianBlur(d.grey, out.grey, cv::Size(), sigma_px);
     cv::GaussianBlur(d.edge_field, out.edge_field, cv::Size(), sigma_px);
   }
+  return out;
+}
+
+// `d` with about max_points of its points (DenseRefineOptions::search_max_points): every k-th
+// by a hash of the coordinates, the depth buffer's cell scaled by sqrt(k); `d` itself when it
+// has no more than max_points (or max_points is 0).
+AlignmentData Thinned(const AlignmentData& d, int max_points) {
+  const std::size_t n = d.all_points.size();
+  if (max_points <= 0 || n <= static_cast<std::size_t>(max_points)) return d;
+  const std::uint64_t k = (n + max_points - 1) / static_cast<std::size_t>(max_points);
+  auto keep = [k](std::uint32_t, const Eigen::Vector3f& p) {
+    std::uint32_t b[3];
+    std::memcpy(b, p.data(), sizeof b);
+    const std::uint64_t h = Mix((std::uint64_t{b[0]} << 32 | b[1]) ^ Mix(b[2]));
+    return h % k == 0;
+  };
+  AlignmentData out = SubsetAlignment(d, keep);
+  out.options.occlusion_cell_px = std::max(
+      1, static_cast<int>(std::lround(d.options.occlusion_cell_px * std::sqrt(double(k)))));
   return out;
 }
 
@@ -371,6 +391,10 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   };
   const Levels train_levels = with_prior(subset(train_half));
   const Objective& train = train_levels.objective.back();
+  // The searches' levels: the training half thinned (search_max_points).
+  Levels search_levels = train_levels;
+  for (Objective& F : search_levels.objective)
+    for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points);
 
   // Searches from the start, random starts and the extra starts: independent, so in parallel
   // (each with its own evaluation budget and count; the same ends on any number of threads).
@@ -394,7 +418,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   for (const Eigen::Isometry3d& s : o.extra_starts) from.push_back(s);  // e.g. the pairs' solve
   std::vector<int> used;
   std::vector<SearchResult> ends =
-      ParallelSearches(train_levels, from, o.initial_step_deg, o.initial_step_m, o,
+      ParallelSearches(search_levels, from, o.initial_step_deg, o.initial_step_m, o,
                        budget_per_start, progress, 0.05, 0.8, &used);
   for (const int n : used) res.evaluations += n;
   {  // all on the finest level
@@ -427,7 +451,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       std::vector<Eigen::Isometry3d> hop_from = {Apply(offsets[k], hop_best.T)};
       if (k + 1 < o.hops) hop_from.push_back(Apply(offsets[k + 1], hop_best.T));
       const std::vector<SearchResult> r =
-          ParallelSearches(train_levels, hop_from, o.initial_step_deg / 4, o.initial_step_m / 4, o,
+          ParallelSearches(search_levels, hop_from, o.initial_step_deg / 4, o.initial_step_m / 4, o,
                            budget_per_start / 2, progress, 0.8, 0.8, &used);
       std::vector<Eigen::Isometry3d> ends_T;
       for (const SearchResult& e : r) ends_T.push_back(e.T);
@@ -458,10 +482,14 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     best = SimplexSearch(L, best.T, o.initial_step_deg / 4, o.initial_step_m / 4, o,
                          res.evaluations + budget_per_start, progress, 0.8, 0.8);
   }
-  // Every end scored on the same points as the best (the agreement check below compares them).
+  // Every end scored on the same points as the best (the agreement check below compares them),
+  // thinned as the searches were: an end is the minimum of that objective, which on every
+  // point differs from the best's by the thinning's own noise.
   if (o.inner_margin_px >= 0.0) {
     anchors = {best.T};
-    const Levels fin = with_prior(subset(train_half));
+    Levels fin = with_prior(subset(train_half));
+    for (Objective& F : fin.objective)
+      for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points);
     std::vector<Eigen::Isometry3d> poses = {best.T};
     for (const SearchResult& e : ends) poses.push_back(e.T);
     const std::vector<double> f = Evaluate(fin.objective.back(), poses);

@@ -98,6 +98,13 @@ struct DenseRefineOptions {
   /// held-out check is then not independent. Measured not to help (docs/refine.md).
   bool search_on_all_points = false;
   bool polish_on_all_points = false;
+  /// The searches from the starts and the restarts near the best score at most about this
+  /// many points per scene (of the training half; edge points thinned alike): a large scan
+  /// (the sample's 61 k, a terrestrial scan's millions) is thinned to every k-th point (a
+  /// hash of its coordinates) with the depth buffer's cell scaled by sqrt(k), so a cell holds
+  /// as many points. Their ends are ranked, and the re-anchored searches, the checks and the
+  /// uncertainty run, on every point. 0: no limit.
+  int search_max_points = 20000;
   int resamples = 8;  ///< uncertainty (see the file comment); < 2: none
   /// The uncertainty's halves: random halves of these image blocks (at the best pose);
   /// 1 x 1: random halves of the grid tiles (sampling noise only).

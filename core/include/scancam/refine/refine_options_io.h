@@ -6,7 +6,7 @@
 //   edge_weight, starts, start_spread_deg, start_spread_m, hops, initial_step_deg,
 //   initial_step_m, final_step_deg, final_step_m, max_evaluations,
 //   level_sigma_px: [px, ...], level_min_step_deg: [deg, ...], inner_margin_px,
-//   reanchor_rounds, search_on_all_points, polish_on_all_points, resamples,
+//   reanchor_rounds, search_on_all_points, polish_on_all_points, search_max_points, resamples,
 //   curvature_step_deg, curvature_step_m, ambiguous_std_deg, ambiguous_std_m, diverged_deg,
 //   diverged_m, diverged_objective, seed,
 //   alignment: {edge_sigma_px, depth_jump_m, depth_jump_fraction, no_return_is_edge,
