@@ -150,6 +150,7 @@ int main(int argc, char** argv) {
         ro.search_on_all_points = Env("TRAIN_ALL", 0) != 0;
         ro.polish_on_all_points = Env("POLISH_ALL", 0) != 0;
         ro.search_max_points = static_cast<int>(Env("SEARCH_MAX", ro.search_max_points));
+        ro.max_points = static_cast<int>(Env("MAX_POINTS", ro.max_points));
         ro.reanchor_rounds = static_cast<int>(Env("REANCHOR", ro.reanchor_rounds));
         if (std::getenv("EDGE_W")) ro.edge_weight = std::atof(std::getenv("EDGE_W"));
         if (std::getenv("LEVELS")) {  // "s0,s1,s2"

@@ -89,17 +89,18 @@ AlignmentData Smoothed(const AlignmentData& d, double sigma_px) {
   return out;
 }
 
-// `d` with about max_points of its points (DenseRefineOptions::search_max_points): every k-th
-// by a hash of the coordinates, the depth buffer's cell scaled by sqrt(k); `d` itself when it
-// has no more than max_points (or max_points is 0).
-AlignmentData Thinned(const AlignmentData& d, int max_points) {
+// `d` with about max_points of its points (DenseRefineOptions::max_points, search_max_points):
+// every k-th by a hash of the coordinates salted by `salt` (thinning a thinned set again with
+// another salt picks independently), the depth buffer's cell scaled by sqrt(k); `d` itself
+// when it has no more than max_points (or max_points is 0).
+AlignmentData Thinned(const AlignmentData& d, int max_points, std::uint64_t salt) {
   const std::size_t n = d.all_points.size();
   if (max_points <= 0 || n <= static_cast<std::size_t>(max_points)) return d;
   const std::uint64_t k = (n + max_points - 1) / static_cast<std::size_t>(max_points);
-  auto keep = [k](std::uint32_t, const Eigen::Vector3f& p) {
+  auto keep = [k, salt](std::uint32_t, const Eigen::Vector3f& p) {
     std::uint32_t b[3];
     std::memcpy(b, p.data(), sizeof b);
-    const std::uint64_t h = Mix((std::uint64_t{b[0]} << 32 | b[1]) ^ Mix(b[2]));
+    const std::uint64_t h = Mix((std::uint64_t{b[0]} << 32 | b[1]) ^ Mix(b[2] ^ Mix(salt)));
     return h % k == 0;
   };
   AlignmentData out = SubsetAlignment(d, keep);
@@ -332,8 +333,9 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       return uv && uv->x() > -mu && uv->x() < cam.width() + mu && uv->y() > -mv &&
              uv->y() < cam.height() + mv;
     };
-    AlignmentData near =
-        SubsetAlignment(d, [&](std::uint32_t, const Eigen::Vector3f& p) { return reachable(p); });
+    AlignmentData near = Thinned(
+        SubsetAlignment(d, [&](std::uint32_t, const Eigen::Vector3f& p) { return reachable(p); }),
+        o.max_points, 1);
     if (near.all_points.empty()) {
       throw Error("dense refinement: no point of scene " + std::to_string(k + 1) +
                   " projects near the image from the start pose (is the start T_cam_scan "
@@ -394,7 +396,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   // The searches' levels: the training half thinned (search_max_points).
   Levels search_levels = train_levels;
   for (Objective& F : search_levels.objective)
-    for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points);
+    for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points, 2);
 
   // Searches from the start, random starts and the extra starts: independent, so in parallel
   // (each with its own evaluation budget and count; the same ends on any number of threads).
@@ -489,7 +491,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     anchors = {best.T};
     Levels fin = with_prior(subset(train_half));
     for (Objective& F : fin.objective)
-      for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points);
+      for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points, 2);
     std::vector<Eigen::Isometry3d> poses = {best.T};
     for (const SearchResult& e : ends) poses.push_back(e.T);
     const std::vector<double> f = Evaluate(fin.objective.back(), poses);

@@ -48,6 +48,7 @@ void VisitKeys(V& v, DenseRefineOptions& o) {
   v.Bool("search_on_all_points", &o.search_on_all_points);
   v.Bool("polish_on_all_points", &o.polish_on_all_points);
   Int(v, "search_max_points", 0, 2147483647, &o.search_max_points);
+  Int(v, "max_points", 0, 2147483647, &o.max_points);
   Int(v, "resamples", 0, 1000, &o.resamples);
   Int(v, "uncertainty_blocks_u", 1, 1000, &o.uncertainty_blocks_u);
   Int(v, "uncertainty_blocks_v", 1, 1000, &o.uncertainty_blocks_v);
@@ -131,6 +132,7 @@ std::vector<io::OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptio
     io::RequireOption(&p, s > 0.0, "level_min_step_deg", "every step must be > 0", s);
   non_negative("reanchor_rounds", o.reanchor_rounds);
   non_negative("search_max_points", o.search_max_points);
+  non_negative("max_points", o.max_points);
   non_negative("resamples", o.resamples);
   in("uncertainty_blocks_u", o.uncertainty_blocks_u, 1, 1000);
   in("uncertainty_blocks_v", o.uncertainty_blocks_v, 1, 1000);

@@ -105,6 +105,10 @@ struct DenseRefineOptions {
   /// as many points. Their ends are ranked, and the re-anchored searches, the checks and the
   /// uncertainty run, on every point. 0: no limit.
   int search_max_points = 20000;
+  /// Every phase scores at most about this many points per scene (of those near the image
+  /// from the start), thinned as above: a terrestrial scan's millions of points cost minutes
+  /// and add no accuracy the image can resolve. 0: no limit.
+  int max_points = 200000;
   int resamples = 8;  ///< uncertainty (see the file comment); < 2: none
   /// The uncertainty's halves: random halves of these image blocks (at the best pose);
   /// 1 x 1: random halves of the grid tiles (sampling noise only).
