@@ -1,7 +1,7 @@
 // Dense refinement (refine/dense_refine.h; issue 16, item 6): the time of one refinement, its
 // objective evaluations and the time per evaluation, on
 //   sample  the bundled sample scene (`scancam simulate --seed 7`, what scripts/demo.sh runs:
-//           office room, rotating 2D scanner, omni camera 1600 x 1200 px), started 2 deg /
+//           office room, rotating 2D scanner, OCam omni camera 640 x 480 px), started 2 deg /
 //           20 cm off the simulator's truth;
 //   kitti   KITTI frame 000000 (../shared/datasets/kitti-000000: velodyne.bin with the 64
 //           lasers recovered, image_2.png 1224 x 370, calib.txt), started 1.5 deg / 18 cm off
