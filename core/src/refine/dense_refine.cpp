@@ -89,13 +89,14 @@ AlignmentData Smoothed(const AlignmentData& d, double sigma_px) {
   return out;
 }
 
-// `d` with about max_points of its points (DenseRefineOptions::max_points, search_max_points):
-// every k-th by a hash of the coordinates salted by `salt` (thinning a thinned set again with
-// another salt picks independently), the depth buffer's cell scaled by sqrt(k); `d` itself
-// when it has no more than max_points (or max_points is 0).
-AlignmentData Thinned(const AlignmentData& d, int max_points, std::uint64_t salt) {
+// Thins `d` to about max_points of its points (DenseRefineOptions::max_points,
+// search_max_points): every k-th by a hash of the coordinates salted by `salt` (thinning a
+// thinned set again with another salt picks independently), the depth buffer's cell scaled by
+// sqrt(k); leaves `d` as it is when it has no more than max_points (or max_points is 0).
+void Thin(AlignmentData* d_io, int max_points, std::uint64_t salt) {
+  const AlignmentData& d = *d_io;
   const std::size_t n = d.all_points.size();
-  if (max_points <= 0 || n <= static_cast<std::size_t>(max_points)) return d;
+  if (max_points <= 0 || n <= static_cast<std::size_t>(max_points)) return;
   const std::uint64_t k = (n + max_points - 1) / static_cast<std::size_t>(max_points);
   auto keep = [k, salt](std::uint32_t, const Eigen::Vector3f& p) {
     std::uint32_t b[3];
@@ -106,7 +107,7 @@ AlignmentData Thinned(const AlignmentData& d, int max_points, std::uint64_t salt
   AlignmentData out = SubsetAlignment(d, keep);
   out.options.occlusion_cell_px = std::max(
       1, static_cast<int>(std::lround(d.options.occlusion_cell_px * std::sqrt(double(k)))));
-  return out;
+  *d_io = std::move(out);
 }
 
 // The objective at the levels of the search: level l is used while the rotation step is at
@@ -333,9 +334,9 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       return uv && uv->x() > -mu && uv->x() < cam.width() + mu && uv->y() > -mv &&
              uv->y() < cam.height() + mv;
     };
-    AlignmentData near = Thinned(
-        SubsetAlignment(d, [&](std::uint32_t, const Eigen::Vector3f& p) { return reachable(p); }),
-        o.max_points, 1);
+    AlignmentData near =
+        SubsetAlignment(d, [&](std::uint32_t, const Eigen::Vector3f& p) { return reachable(p); });
+    Thin(&near, o.max_points, 1);
     if (near.all_points.empty()) {
       throw Error("dense refinement: no point of scene " + std::to_string(k + 1) +
                   " projects near the image from the start pose (is the start T_cam_scan "
@@ -391,12 +392,15 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     for (Objective& F : L.objective) F.prior = &o.prior;
     return L;
   };
+  // The searches' point set: thinned to search_max_points per scene.
+  auto thinned_for_search = [&](Levels L) {
+    for (Objective& F : L.objective)
+      for (AlignmentData& d : F.scenes) Thin(&d, o.search_max_points, 2);
+    return L;
+  };
   const Levels train_levels = with_prior(subset(train_half));
   const Objective& train = train_levels.objective.back();
-  // The searches' levels: the training half thinned (search_max_points).
-  Levels search_levels = train_levels;
-  for (Objective& F : search_levels.objective)
-    for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points, 2);
+  const Levels search_levels = thinned_for_search(train_levels);
 
   // Searches from the start, random starts and the extra starts: independent, so in parallel
   // (each with its own evaluation budget and count; the same ends on any number of threads).
@@ -489,9 +493,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   // point differs from the best's by the thinning's own noise.
   if (o.inner_margin_px >= 0.0) {
     anchors = {best.T};
-    Levels fin = with_prior(subset(train_half));
-    for (Objective& F : fin.objective)
-      for (AlignmentData& d : F.scenes) d = Thinned(d, o.search_max_points, 2);
+    const Levels fin = thinned_for_search(with_prior(subset(train_half)));
     std::vector<Eigen::Isometry3d> poses = {best.T};
     for (const SearchResult& e : ends) poses.push_back(e.T);
     const std::vector<double> f = Evaluate(fin.objective.back(), poses);
