@@ -71,6 +71,9 @@ std::shared_ptr<const OCamRadiusTable> OCamRadiusTable::Build(const double* para
   auto table = std::make_shared<OCamRadiusTable>();
   const double h = q_max / static_cast<double>(count - 1);
   table->inv_h = 1.0 / h;
+  table->rho_max = rho_max;
+  double dg;
+  table->pol_max = M::G(pol, n, 1.0, 0.0, rho_max, &dg);  // rho_max 0 + pol(rho_max) 1
   table->knots.resize(count);
   for (std::size_t k = 0; k < count; ++k) {
     double rho = 0.0;

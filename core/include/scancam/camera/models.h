@@ -533,8 +533,7 @@ struct OCamModel {
     T r_off, c_off;  // offsets on the sensor (before the affine map)
     if (norm_s == 0.0) {
       if (!(zs > 0.0)) return false;
-      // On the axis rho / norm -> -a0 / Z.
-      const T s = -params[kIdxPol] / p[2];
+      const T s = OnAxisScale(params, p[2]);
       r_off = m_row * s;
       c_off = m_col * s;
     } else {
@@ -555,10 +554,22 @@ struct OCamModel {
       r_off = m_row * s;
       c_off = m_col * s;
     }
-    // [row - cv; col - cu] = [c d; e 1] [r_off; c_off]
+    SensorToPixel(params, r_off, c_off, uv);
+    return true;
+  }
+
+  /// rho / norm on the optical axis (norm -> 0, Z > 0 in OCam's frame): -a0 / Z.
+  template <typename T>
+  static T OnAxisScale(const T* params, const T& z) {
+    return -params[kIdxPol] / z;
+  }
+
+  /// Sensor offsets (r_off, c_off; px, OCam's row and column) to the pixel uv (OpenCV):
+  /// [row - cv; col - cu] = [c d; e 1] [r_off; c_off], u the column, v the row.
+  template <typename T>
+  static void SensorToPixel(const T* params, const T& r_off, const T& c_off, T* uv) {
     uv[1] = params[kIdxAffine] * r_off + params[kIdxAffine + 1] * c_off + params[kIdxCv];
     uv[0] = params[kIdxAffine + 2] * r_off + c_off + params[kIdxCu];
-    return true;
   }
 
   template <typename T>

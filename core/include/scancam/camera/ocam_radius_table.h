@@ -29,6 +29,9 @@ struct OCamRadiusTable {
   };
   std::vector<Knot> knots;  ///< at least 2
   double inv_h = 0.0;       ///< 1 / h
+  /// rho_max and the polynomial there: OCamModel::G at rho_max is rho_max zn + pol_max nn,
+  /// the same arithmetic as G's, so the same rays pass the field-of-view test.
+  double rho_max = 0.0, pol_max = 0.0;
 
   /// rho (px) at q >= 0 (cubic Hermite; q beyond the last knot extrapolates its interval).
   double Radius(double q) const {
@@ -45,23 +48,19 @@ struct OCamRadiusTable {
   /// camera's, whose table this is.
   bool Project(const double* params, const double* p, double* uv) const {
     using M = OCamModel;
-    const int n = static_cast<int>(params[M::kIdxNPol]);
     const double rs = p[1], cs = p[0], zs = p[2];  // OCam's row and column axes; z as Project
     const double norm_s = std::sqrt(rs * rs + cs * cs);
     double s;
     if (norm_s == 0.0) {
       if (!(zs > 0.0)) return false;
-      s = -params[M::kIdxPol] / zs;  // on the axis rho / norm -> -a0 / Z
+      s = M::OnAxisScale(params, zs);
     } else {
       const double len = std::sqrt(norm_s * norm_s + zs * zs);
       const double nn = norm_s / len, zn = zs / len;
-      double dg;
-      if (!(M::G(params + M::kIdxPol, n, nn, zn, params[M::kIdxRhoMax], &dg) >= 0.0)) return false;
+      if (!(rho_max * zn + pol_max * nn >= 0.0)) return false;  // G(rho_max) >= 0
       s = Radius(nn / (1.0 + zn)) / norm_s;
     }
-    const double r_off = rs * s, c_off = cs * s;
-    uv[1] = params[M::kIdxAffine] * r_off + params[M::kIdxAffine + 1] * c_off + params[M::kIdxCv];
-    uv[0] = params[M::kIdxAffine + 2] * r_off + c_off + params[M::kIdxCu];
+    M::SensorToPixel(params, rs * s, cs * s, uv);
     return true;
   }
 
