@@ -348,44 +348,86 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   }
   const std::uint64_t split_seed = Mix(o.seed ^ 0x5ca1ab1eull);
   // The fixed point set (see inner_margin_px): inside the image by the margin at every anchor.
+  // Per scene and point (all_points, edge_points): that flag for `anchors` (recomputed when
+  // they change: one batch projection per anchor), and the point's image block at the best
+  // pose for the uncertainty's halves (filled there; 0 until then).
   std::vector<Eigen::Isometry3d> anchors = {start};
-  auto inside = [&](const AlignmentData& d, const Eigen::Vector3f& p) {
-    if (o.inner_margin_px < 0.0) return true;
-    const double m = o.inner_margin_px;
-    for (const Eigen::Isometry3d& T : anchors) {
-      const auto uv = d.camera.ProjectUnbounded(T * p.cast<double>());
-      if (!uv || uv->x() < m || uv->y() < m || uv->x() > d.camera.width() - 1 - m ||
-          uv->y() > d.camera.height() - 1 - m)
-        return false;
-    }
+  struct PointFlags {
+    std::vector<std::uint8_t> inside[2];  // [0] all_points, [1] edge_points
+    std::vector<std::uint32_t> block[2];
+  };
+  std::vector<PointFlags> flags(all.size());
+  std::vector<Eigen::Isometry3d> flags_anchors;
+  auto same_poses = [](const std::vector<Eigen::Isometry3d>& a,
+                       const std::vector<Eigen::Isometry3d>& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      if (!a[i].matrix().isApprox(b[i].matrix(), 0.0)) return false;
     return true;
   };
-  const AlignmentData* scene_now = nullptr;  // the scene `subset` is taking points from
+  // The pixel of every point of `pts` at T (valid: on the image).
+  auto project_all = [](const camera::CameraModel& cam, const Eigen::Isometry3d& T,
+                        const std::vector<Eigen::Vector3f>& pts, std::vector<Eigen::Vector2f>* uv,
+                        std::vector<std::uint8_t>* ok) {
+    uv->resize(pts.size());
+    ok->resize(pts.size());
+    cam.ProjectBatch(T, pts.data(), pts.size(), uv->data(), ok->data());
+  };
+  auto update_inside = [&] {
+    if (same_poses(anchors, flags_anchors)) return;
+    const double m = o.inner_margin_px;
+    std::vector<Eigen::Vector2f> uv;
+    std::vector<std::uint8_t> ok;
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      const AlignmentData& d = all[k];
+      const double w = d.camera.width(), h = d.camera.height();
+      for (int e = 0; e < 2; ++e) {
+        const std::vector<Eigen::Vector3f>& pts = e == 0 ? d.all_points : d.edge_points;
+        std::vector<std::uint8_t>& in = flags[k].inside[e];
+        in.assign(pts.size(), 1);
+        flags[k].block[e].resize(pts.size(), 0);
+        if (m < 0.0) continue;
+        for (const Eigen::Isometry3d& T : anchors) {
+          project_all(d.camera, T, pts, &uv, &ok);
+          for (std::size_t i = 0; i < pts.size(); ++i)
+            in[i] = in[i] && ok[i] && uv[i].x() >= m && uv[i].y() >= m && uv[i].x() <= w - 1 - m &&
+                    uv[i].y() <= h - 1 - m;
+        }
+      }
+    }
+    flags_anchors = anchors;
+  };
+  // The levels of the points that are inside and pass keep(tile, block).
   auto subset = [&](auto keep) {
+    update_inside();
     Levels L;
     for (const double sigma : o.level_sigma_px) {
       Objective F;
       F.edge_weight = o.edge_weight;
       F.evaluations = &res.evaluations;
-      for (const AlignmentData& d : all)
-        F.scenes.push_back(
-            (scene_now = &d,
-             Smoothed(SubsetAlignment(d,
-                                      [&](std::uint32_t t, const Eigen::Vector3f& p) {
-                                        return keep(t, p) && inside(d, p);
-                                      }),
-                      sigma)));
+      for (std::size_t k = 0; k < all.size(); ++k) {
+        const AlignmentData& d = all[k];
+        const PointFlags& fl = flags[k];
+        F.scenes.push_back(Smoothed(SubsetAlignmentAt(d,
+                                                      [&](bool is_edge, std::size_t i) {
+                                                        const int e = is_edge ? 1 : 0;
+                                                        return fl.inside[e][i] &&
+                                                               keep(is_edge ? d.edge_tile[i]
+                                                                            : d.all_tile[i],
+                                                                    fl.block[e][i]);
+                                                      }),
+                                    sigma));
+      }
       L.objective.push_back(std::move(F));
     }
     L.min_step_deg = o.level_min_step_deg;
     return L;
   };
-  auto train_half = [&](std::uint32_t t, const Eigen::Vector3f&) {
+  auto every_point = [](std::uint32_t, std::uint32_t) { return true; };
+  auto train_half = [&](std::uint32_t t, std::uint32_t) {
     return o.search_on_all_points || (Mix(t ^ split_seed) & 1) == 0;
   };
-  auto held_half = [&](std::uint32_t t, const Eigen::Vector3f&) {
-    return (Mix(t ^ split_seed) & 1) == 1;
-  };
+  auto held_half = [&](std::uint32_t t, std::uint32_t) { return (Mix(t ^ split_seed) & 1) == 1; };
   // The picked pairs' prior (options.prior) joins the search's objective only: the held-out
   // half, the NID / edge figures and the uncertainty stay the scan's alone.
   auto with_prior = [&](Levels L) {
@@ -482,9 +524,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   // a local search on it; repeated.
   for (int r = 0; r < o.reanchor_rounds && o.inner_margin_px >= 0.0; ++r) {
     anchors = {best.T};
-    const Levels L = with_prior(
-        o.polish_on_all_points ? subset([](std::uint32_t, const Eigen::Vector3f&) { return true; })
-                               : subset(train_half));
+    const Levels L = with_prior(o.polish_on_all_points ? subset(every_point) : subset(train_half));
     best = SimplexSearch(L, best.T, o.initial_step_deg / 4, o.initial_step_m / 4, o,
                          res.evaluations + budget_per_start, progress, 0.8, 0.8);
   }
@@ -550,7 +590,7 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     const Vec6 h = (Vec6() << Eigen::Vector3d::Constant(o.curvature_step_deg),
                     Eigen::Vector3d::Constant(o.curvature_step_m))
                        .finished();
-    const Levels full_levels = subset([](std::uint32_t, const Eigen::Vector3f&) { return true; });
+    const Levels full_levels = subset(every_point);
     const Objective& F = full_levels.objective.back();
     // The curvature's poses, evaluated in parallel: f0, then per (i, j >= i) the diagonal's
     // +-e_i or the four corners +-e_i +-e_j.
@@ -597,14 +637,23 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     // an intensity pattern, a moving object) then show in the gradients' difference.
     const int bu = std::max(1, o.uncertainty_blocks_u), bv = std::max(1, o.uncertainty_blocks_v);
     const int blocks = bu * bv;
-    auto block_of = [&](const Eigen::Vector3f& p) {
-      const camera::CameraModel& cam = scene_now->camera;
-      const auto uv = cam.ProjectUnbounded(best.T * p.cast<double>());
-      if (!uv) return 0;
-      const int x = std::clamp(static_cast<int>(uv->x() * bu / cam.width()), 0, bu - 1);
-      const int y = std::clamp(static_cast<int>(uv->y() * bv / cam.height()), 0, bv - 1);
-      return y * bu + x;
-    };
+    {  // every point's block at the best pose
+      std::vector<Eigen::Vector2f> uv;
+      std::vector<std::uint8_t> ok;
+      for (std::size_t k = 0; k < all.size(); ++k) {
+        const camera::CameraModel& cam = all[k].camera;
+        for (int e = 0; e < 2; ++e) {
+          project_all(cam, best.T, e == 0 ? all[k].all_points : all[k].edge_points, &uv, &ok);
+          std::vector<std::uint32_t>& b = flags[k].block[e];
+          for (std::size_t i = 0; i < uv.size(); ++i) {
+            if (!ok[i]) continue;  // not on the image: not inside either, so never kept
+            const int x = std::clamp(static_cast<int>(uv[i].x() * bu / cam.width()), 0, bu - 1);
+            const int y = std::clamp(static_cast<int>(uv[i].y() * bv / cam.height()), 0, bv - 1);
+            b[i] = static_cast<std::uint32_t>(y * bu + x);
+          }
+        }
+      }
+    }
     for (int k = 0; k < o.resamples; ++k) {
       const std::uint64_t seed_k = Mix(o.seed + 1000 + static_cast<std::uint64_t>(k));
       std::vector<int> order(blocks);  // a random half of the blocks (their first half) is A
@@ -612,11 +661,11 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       std::shuffle(order.begin(), order.end(), std::mt19937_64(seed_k));
       std::vector<std::uint8_t> in_a(blocks, 0);
       for (int b = 0; b < blocks / 2; ++b) in_a[order[b]] = 1;
-      const Levels A = subset([&](std::uint32_t t, const Eigen::Vector3f& p) {
-        return blocks > 1 ? in_a[block_of(p)] == 1 : (Mix(t ^ seed_k) & 1) == 0;
+      const Levels A = subset([&](std::uint32_t t, std::uint32_t block) {
+        return blocks > 1 ? in_a[block] == 1 : (Mix(t ^ seed_k) & 1) == 0;
       });
-      const Levels B = subset([&](std::uint32_t t, const Eigen::Vector3f& p) {
-        return blocks > 1 ? in_a[block_of(p)] == 0 : (Mix(t ^ seed_k) & 1) == 1;
+      const Levels B = subset([&](std::uint32_t t, std::uint32_t block) {
+        return blocks > 1 ? in_a[block] == 0 : (Mix(t ^ seed_k) & 1) == 1;
       });
       std::vector<Eigen::Isometry3d> pm;  // +e_i, -e_i for i = 0..5
       for (int i = 0; i < 6; ++i) {

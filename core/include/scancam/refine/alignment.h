@@ -75,9 +75,10 @@ struct AlignmentData {
   std::vector<std::uint32_t> all_tile, edge_tile;  ///< grid tile of each point
 };
 
-/// The points of `data` that pass `keep(tile, point)` (the image, field and options shared).
+/// The points of `data` that pass `keep(is_edge, i)`, i indexing all_points (is_edge false)
+/// or edge_points (true); the image, field and options shared.
 template <typename Keep>
-AlignmentData SubsetAlignment(const AlignmentData& data, Keep keep) {
+AlignmentData SubsetAlignmentAt(const AlignmentData& data, Keep keep) {
   AlignmentData out;
   out.options = data.options;
   out.camera = data.camera;
@@ -85,17 +86,26 @@ AlignmentData SubsetAlignment(const AlignmentData& data, Keep keep) {
   out.edge_field = data.edge_field;
   out.grey = data.grey;
   for (std::size_t i = 0; i < data.all_points.size(); ++i) {
-    if (!keep(data.all_tile[i], data.all_points[i])) continue;
+    if (!keep(false, i)) continue;
     out.all_points.push_back(data.all_points[i]);
     out.all_tile.push_back(data.all_tile[i]);
     if (!data.intensity_bin.empty()) out.intensity_bin.push_back(data.intensity_bin[i]);
   }
   for (std::size_t i = 0; i < data.edge_points.size(); ++i) {
-    if (!keep(data.edge_tile[i], data.edge_points[i])) continue;
+    if (!keep(true, i)) continue;
     out.edge_points.push_back(data.edge_points[i]);
     out.edge_tile.push_back(data.edge_tile[i]);
   }
   return out;
+}
+
+/// The points of `data` that pass `keep(tile, point)` (the image, field and options shared).
+template <typename Keep>
+AlignmentData SubsetAlignment(const AlignmentData& data, Keep keep) {
+  return SubsetAlignmentAt(data, [&](bool is_edge, std::size_t i) {
+    return is_edge ? keep(data.edge_tile[i], data.edge_points[i])
+                   : keep(data.all_tile[i], data.all_points[i]);
+  });
 }
 
 struct AlignmentScore {
