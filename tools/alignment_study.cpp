@@ -80,7 +80,9 @@ int main(int argc, char** argv) {
       view.camera = camera::CameraModel(view.camera.type(), view.camera.params(), view.image.cols,
                                         view.image.rows);
     }
-    view.mask = ChooseViewRegion(view.camera, view.image, "");
+    // MASK=FILE: that mask (e.g. the simulator's mask.png); else the automatic valid region.
+    view.mask =
+        ChooseViewRegion(view.camera, view.image, std::getenv("MASK") ? std::getenv("MASK") : "");
     view.T_cam_scan = LoadExtrinsic(argv[4]);
     const Eigen::Isometry3d ref = view.T_cam_scan;
 
