@@ -192,9 +192,13 @@ int main(int argc, char** argv) {
                                    Eigen::AngleAxisd(e.linear()).angle() * 180 / M_PI;
         const Eigen::Vector3d eba = Eigen::AngleAxisd(eb.linear()).axis() *
                                     Eigen::AngleAxisd(eb.linear()).angle() * 180 / M_PI;
-        std::printf("   best's error, camera frame: rot %.3f %.3f %.3f deg, t %.3f %.3f %.3f m\n",
-                    eba.x(), eba.y(), eba.z(), eb.translation().x(), eb.translation().y(),
-                    eb.translation().z());
+        std::printf(
+            "   best's error, camera frame: rot %.3f %.3f %.3f deg, t %.3f %.3f %.3f m; change "
+            "%.3f deg %.3f m; searches agreeing %d (spread %.3f deg %.3f m)\n",
+            eba.x(), eba.y(), eba.z(), eb.translation().x(), eb.translation().y(),
+            eb.translation().z(), r.rotation_change_deg_cam_xyz.norm(),
+            r.translation_change_m_cam_xyz.norm(), r.starts_agreeing, r.starts_spread_deg,
+            r.starts_spread_m);
         std::printf(
             "   error in the camera frame: rot %.3f %.3f %.3f deg, t %.3f %.3f %.3f m; "
             "heldout %.6f -> %.6f nid %.5f -> %.5f edge %.4f -> %.4f\n",

@@ -307,6 +307,34 @@ TEST(DenseRefine, StartedAtTheTruthItStaysThere) {
   }
 }
 
+// A result beyond the refinement's reach from every start (reach_deg / reach_m) is refused:
+// the start is kept, "diverged", the reason names the reach. Here the reach is cut to 1 deg /
+// 10 cm and the start is 2 deg / 20 cm off, so the result (near the truth) lies beyond it; an
+// extra start near the truth (as picked pairs' solve) brings it within reach again. (From a
+// start 77 deg off on the sample, the default reach refuses a result 5 deg / 1.4 m away that
+// was accepted as "ambiguous" before: docs/refine.md, "Seventh pass".)
+TEST(DenseRefine, AResultBeyondItsReachFromEveryStartIsRefused) {
+  const LidarScene& s = Lidar();
+  std::mt19937 rng(2);
+  const Eigen::Isometry3d start = Perturb(s.sim.T_cam_scan, 2.0, 0.2, &rng);
+  refine::DenseRefineOptions o;
+  o.starts = 2;
+  o.hops = 2;
+  o.resamples = 2;
+  o.reach_deg = 1.0;
+  o.reach_m = 0.1;
+  const refine::DenseRefineResult far = refine::DenseRefine({{&s.sim.scan, s.view}}, start, o);
+  EXPECT_FALSE(far.accepted);
+  EXPECT_EQ(far.verdict, "diverged");
+  EXPECT_NE(far.reason.find("beyond the refinement's reach"), std::string::npos) << far.reason;
+  EXPECT_TRUE(far.T_cam_scan.isApprox(start)) << "the start is kept";
+  EXPECT_LT(AngleDeg(far.T_best, s.sim.T_cam_scan), 0.2) << "the search itself found the truth";
+  o.extra_starts = {Perturb(s.sim.T_cam_scan, 0.3, 0.03, &rng)};
+  const refine::DenseRefineResult near = refine::DenseRefine({{&s.sim.scan, s.view}}, start, o);
+  EXPECT_TRUE(near.accepted) << near.reason;
+  EXPECT_LT(AngleDeg(near.T_cam_scan, s.sim.T_cam_scan), 0.2) << near.reason;
+}
+
 // The searches from the starts, the restarts near the best (two at a time, the second
 // speculatively) and the uncertainty's evaluations run in parallel, and each evaluation's points
 // in chunks: the result must not depend on the number of threads, to the last bit.

@@ -302,6 +302,17 @@ std::vector<SearchResult> ParallelSearches(const Levels& levels,
   return ends;
 }
 
+std::string FormatReach(const DenseRefineOptions& o) {
+  char text[96];
+  if (o.reach_deg > 0.0 && o.reach_m > 0.0)
+    std::snprintf(text, sizeof text, "%.1f deg or %.2f m", o.reach_deg, o.reach_m);
+  else if (o.reach_deg > 0.0)
+    std::snprintf(text, sizeof text, "%.1f deg", o.reach_deg);
+  else
+    std::snprintf(text, sizeof text, "%.2f m", o.reach_m);
+  return text;
+}
+
 std::string AxisWords(int i) {
   static const char* names[6] = {
       "rotation about the camera's x axis (tilt up/down)",
@@ -754,11 +765,39 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
   }
   // Verdict.
   const bool heldout_better = res.heldout_best < res.heldout_start;
+  // The result's distance from the nearest start (the start or an extra start), as a
+  // fraction of the reach (the larger of the angle's and the offset's): beyond it when > 1.
+  double nearest_deg = 0.0, nearest_m = 0.0, nearest_of_reach = 0.0;
+  {
+    std::vector<Eigen::Isometry3d> starts_all = {start};
+    for (const Eigen::Isometry3d& s : o.extra_starts) starts_all.push_back(s);
+    for (std::size_t k = 0; k < starts_all.size(); ++k) {
+      const Vec6 d = Between(starts_all[k], best.T);
+      const double a = d.head<3>().norm(), m = d.tail<3>().norm();
+      const double r = std::max(o.reach_deg > 0.0 ? a / o.reach_deg : 0.0,
+                                o.reach_m > 0.0 ? m / o.reach_m : 0.0);
+      if (k == 0 || r < nearest_of_reach) {
+        nearest_of_reach = r;
+        nearest_deg = a;
+        nearest_m = m;
+      }
+    }
+  }
+  const bool beyond_reach = nearest_of_reach > 1.0;
   if (!heldout_better) {
     res.verdict = "diverged";
     res.reason = "the held-out half of the scan does not confirm the search's result (objective " +
                  std::to_string(res.heldout_best) + " against " +
                  std::to_string(res.heldout_start) + " at the start): the start is kept";
+  } else if (beyond_reach) {
+    char text[160];
+    std::snprintf(text, sizeof text, "%.2f deg / %.3f m from the start", nearest_deg, nearest_m);
+    res.verdict = "diverged";
+    res.reason = std::string("the search's result lies ") + text +
+                 (o.extra_starts.empty() ? "" : " (the nearest of the starts)") +
+                 ", beyond the refinement's reach (" + FormatReach(o) +
+                 "; it is made for starts within about 2 deg / 20 cm of the answer): the start "
+                 "is probably too far off to refine (picked pairs give a closer one)";
   } else if (res.starts_spread_deg > o.diverged_deg || res.starts_spread_m > o.diverged_m) {
     res.verdict = "diverged";
     res.reason = "the searches from different starts end in different places (" +

@@ -59,6 +59,8 @@ void VisitKeys(V& v, DenseRefineOptions& o) {
   v.Number("diverged_deg", &o.diverged_deg);
   v.Number("diverged_m", &o.diverged_m);
   v.Number("diverged_objective", &o.diverged_objective);
+  v.Number("reach_deg", &o.reach_deg);
+  v.Number("reach_m", &o.reach_m);
   long long seed = static_cast<long long>(o.seed);
   v.Integer("seed", 0, 2147483647, &seed);  // as the CLI's --seed and the dialog's box
   o.seed = static_cast<std::uint64_t>(seed);
@@ -143,6 +145,8 @@ std::vector<io::OptionProblem> ValidateDenseRefineOptions(const DenseRefineOptio
   positive("diverged_deg", o.diverged_deg);
   positive("diverged_m", o.diverged_m);
   non_negative("diverged_objective", o.diverged_objective);
+  non_negative("reach_deg", o.reach_deg);
+  non_negative("reach_m", o.reach_m);
   io::RequireOption(&p, o.seed <= 2147483647u, "seed", "must be in [0, 2147483647]",
                     static_cast<double>(o.seed));
   const AlignmentOptions& a = o.alignment;

@@ -44,9 +44,12 @@
 // The sampling_* figures are the local part
 // alone. Measured coverage (docs/refine.md, "The reported std").
 //
-// Verdict: "diverged" when the held-out half rejects the result, or when starts that end
-// within diverged_objective of the best objective lie more than diverged_deg / diverged_m from
-// it (two equally good, different answers); then the start is returned. Else "ambiguous" when
+// Verdict: "diverged" when the held-out half rejects the result, when the result lies
+// farther than reach_deg / reach_m from the start and from every extra start (a start far
+// outside the basin the searches are made for: the objective there is an unrelated image's),
+// or when starts that end within diverged_objective of the best objective lie more than
+// diverged_deg / diverged_m from it (two equally good, different answers); then the start is
+// returned. Else "ambiguous" when
 // a reported std (the sum above) exceeds ambiguous_std_deg / ambiguous_std_m (the data do not
 // pin that direction, named in `unconstrained`), else "converged"; both return the result.
 #pragma once
@@ -121,6 +124,11 @@ struct DenseRefineOptions {
   double diverged_deg = 0.5;
   double diverged_m = 0.10;
   double diverged_objective = 0.0005;
+  /// The refinement's reach: a result farther than this from every start (the start and
+  /// extra_starts; rotation angle, deg, or offset, m) is "diverged" (the start is kept). Three
+  /// times the basin it is made for (2 deg / 20 cm); 0: no limit.
+  double reach_deg = 6.0;
+  double reach_m = 0.6;
   std::uint64_t seed = 1;
   /// Optional prior added to the SEARCH's objective (the training half; lower is better, in
   /// the objective's units): refine/pair_prior.h builds one from picked pairs. The held-out

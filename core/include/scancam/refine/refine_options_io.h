@@ -9,7 +9,7 @@
 //   reanchor_rounds, search_on_all_points, polish_on_all_points, search_max_points, max_points,
 //   resamples,
 //   curvature_step_deg, curvature_step_m, ambiguous_std_deg, ambiguous_std_m, diverged_deg,
-//   diverged_m, diverged_objective, seed,
+//   diverged_m, diverged_objective, reach_deg, reach_m, seed,
 //   alignment: {edge_sigma_px, depth_jump_m, depth_jump_fraction, no_return_is_edge,
 //               edge_at_boundary, nid_bins, nid_weight, occlusion_cell_px,
 //               occlusion_tolerance_m, occlusion_tolerance_fraction, min_range_m, max_range_m,
