@@ -584,6 +584,18 @@ TEST(CameraModelBatch, MatchesSinglePointProjection) {
     cam.ProjectBatch(T, pts.data(), pts.size(), uv.data(), valid.data());
     std::vector<Eigen::Vector3d> pc;
     for (const auto& p : pts) pc.push_back(T * p.cast<double>());
+    // With range_m asked for: the same pixels and flags, and each visible point's distance from
+    // the camera centre.
+    std::vector<Eigen::Vector2f> uv_r(pts.size());
+    std::vector<std::uint8_t> valid_r(pts.size());
+    std::vector<float> range_m(pts.size(), -1.f);
+    cam.ProjectBatch(T, pts.data(), pts.size(), uv_r.data(), valid_r.data(), range_m.data());
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      ASSERT_EQ(valid_r[i], valid[i]) << i;
+      if (!valid[i]) continue;
+      ASSERT_EQ(uv_r[i], uv[i]) << i;
+      ASSERT_NEAR(range_m[i], pc[i].norm(), 1e-6 * pc[i].norm()) << i;
+    }
     std::vector<Eigen::Vector2d> uvd;
     std::vector<std::uint8_t> validd;
     cam.ProjectBatch(pc, &uvd, &validd);

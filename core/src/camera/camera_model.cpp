@@ -525,25 +525,28 @@ namespace {
 template <typename ProjectFn>
 void BatchLoopWith(ProjectFn project, double cos_max, bool all_dirs, double w, double h,
                    const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Eigen::Vector3f* pts,
-                   std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
+                   std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid, float* range_m) {
   const float fnan = std::numeric_limits<float>::quiet_NaN();
 #pragma omp parallel for if (n >= 65536) schedule(static, 4096)
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p = R * pts[i].cast<double>() + t;
-    bool ok = WithinFieldOfView(p, cos_max, all_dirs);
+    // WithinFieldOfView (camera_projector.h), its norm kept for the projection and range_m.
+    const double len = p.norm();
+    bool ok = len > 0.0 && std::isfinite(len) && (all_dirs || p.z() >= len * cos_max);
     double px[2] = {0.0, 0.0};
-    if (ok) ok = project(p.data(), px);
+    if (ok) ok = project(p.data(), len, px);
     ok = ok && PixelOnImage(px[0], px[1], w, h);
     uv[i] = ok ? Eigen::Vector2f(static_cast<float>(px[0]), static_cast<float>(px[1]))
                : Eigen::Vector2f(fnan, fnan);
     valid[i] = ok ? 1 : 0;
+    if (range_m) range_m[i] = static_cast<float>(len);
   }
 }
 
 template <typename Model>
 void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs, double w, double h,
                const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Eigen::Vector3f* pts,
-               std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid) {
+               std::ptrdiff_t n, Eigen::Vector2f* uv, std::uint8_t* valid, float* range_m) {
   const double* prm = params.data();
   if constexpr (std::is_same_v<Model, PinholeModel>) {
     // A pinhole without distortion (a rectified image, as KITTI's): DistortRadTan8 is then the
@@ -551,7 +554,7 @@ void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs,
     if (std::all_of(prm + PinholeModel::kIdxDist, prm + PinholeModel::kNumParams,
                     [](double k) { return k == 0.0; })) {
       BatchLoopWith(
-          [prm](const double* p, double* px) {
+          [prm](const double* p, double, double* px) {
             if (!(p[2] > 0.0)) return false;
             const double x = p[0] / p[2];
             const double y = p[1] / p[2];
@@ -559,19 +562,21 @@ void BatchLoop(const std::vector<double>& params, double cos_max, bool all_dirs,
             px[1] = prm[PinholeModel::kIdxFy] * y + prm[PinholeModel::kIdxCy];
             return true;
           },
-          cos_max, all_dirs, w, h, R, t, pts, n, uv, valid);
+          cos_max, all_dirs, w, h, R, t, pts, n, uv, valid, range_m);
       return;
     }
   }
-  BatchLoopWith([prm](const double* p, double* px) { return Model::Project(prm, p, px); }, cos_max,
-                all_dirs, w, h, R, t, pts, n, uv, valid);
+  BatchLoopWith([prm](const double* p, double, double* px) { return Model::Project(prm, p, px); },
+                cos_max, all_dirs, w, h, R, t, pts, n, uv, valid, range_m);
 }
 
 }  // namespace
 
 void CameraModel::ProjectBatch(const Eigen::Isometry3d& T_cam_src, const Eigen::Vector3f* points,
-                               std::size_t n, Eigen::Vector2f* uv, std::uint8_t* valid) const {
+                               std::size_t n, Eigen::Vector2f* uv, std::uint8_t* valid,
+                               float* range_m) const {
   if (!this->valid()) {
+    if (range_m) std::fill(range_m, range_m + n, std::numeric_limits<float>::quiet_NaN());
     std::fill(valid, valid + n, std::uint8_t{0});
     std::fill(uv, uv + n, Eigen::Vector2f::Constant(std::numeric_limits<float>::quiet_NaN()));
     return;
@@ -582,14 +587,15 @@ void CameraModel::ProjectBatch(const Eigen::Isometry3d& T_cam_src, const Eigen::
   if (type_ == CameraType::kOCam && ocam_table_) {  // the root finding tabulated
     const double* prm = params_.data();
     const OCamRadiusTable& table = *ocam_table_;
-    BatchLoopWith([prm, &table](const double* p, double* px) { return table.Project(prm, p, px); },
+    BatchLoopWith([prm, &table](const double* p, double len,
+                                double* px) { return table.ProjectAtLength(prm, p, len, px); },
                   cos_max_angle_, all_dirs, width_, height_, R, t, points,
-                  static_cast<std::ptrdiff_t>(n), uv, valid);
+                  static_cast<std::ptrdiff_t>(n), uv, valid, range_m);
     return;
   }
   VisitCameraModel(type_, [&](auto m) {
     BatchLoop<decltype(m)>(params_, cos_max_angle_, all_dirs, width_, height_, R, t, points,
-                           static_cast<std::ptrdiff_t>(n), uv, valid);
+                           static_cast<std::ptrdiff_t>(n), uv, valid, range_m);
     return 0;
   });
 }

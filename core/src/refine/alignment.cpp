@@ -217,7 +217,7 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   // thread's, shared with the chunks' threads.
   thread_local std::vector<Eigen::Vector2f> uv_s, euv_s;
   thread_local std::vector<std::uint8_t> ok_s, eok_s, use_s;
-  thread_local std::vector<float> dist_s, zbuf_s;
+  thread_local std::vector<float> dist_s, edist_s, zbuf_s;
   thread_local std::vector<std::uint32_t> cell_s, ecell_s;
   thread_local std::vector<double> partial_s;
   thread_local std::vector<std::size_t> touched_s;
@@ -229,6 +229,7 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   cell_s.resize(n);
   euv_s.resize(m);
   eok_s.resize(m);
+  edist_s.resize(m);
   ecell_s.resize(m);
   // Plain pointers: the loops below keep them in registers (a thread_local vector is looked
   // up again on every access).
@@ -237,11 +238,10 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
   std::uint8_t* const ok = ok_s.data();
   std::uint8_t* const eok = eok_s.data();  // projected onto a usable pixel
   std::uint8_t* const use = use_s.data();  // projected onto a usable pixel, with intensity
-  float* const dist = dist_s.data();
+  float* const dist = dist_s.data();       // distance from the camera centre, m
+  float* const edist = edist_s.data();
   std::uint32_t* const cell_at = cell_s.data();  // each point's depth grid cell
   std::uint32_t* const ecell_at = ecell_s.data();
-  const Eigen::Matrix3f R = T_cam_scan.linear().cast<float>();
-  const Eigen::Vector3f t = T_cam_scan.translation().cast<float>();
   // A pixel coordinate's depth grid column and row, clamp(int(x + 0.5) / cell, 0, gw - 1), by
   // table (projected points lie within half a pixel of the image).
   std::vector<int>& col_of = col_of_s;
@@ -281,20 +281,20 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
     if (c < nc) {
       const std::size_t i0 = static_cast<std::size_t>(c) * kChunk, i1 = std::min(n, i0 + kChunk);
       const Eigen::Vector3f* const pts = d.all_points.data();
-      d.camera.ProjectBatch(T_cam_scan, pts + i0, i1 - i0, uv + i0, ok + i0);
+      d.camera.ProjectBatch(T_cam_scan, pts + i0, i1 - i0, uv + i0, ok + i0, dist + i0);
       for (std::size_t i = i0; i < i1; ++i) {
         if (!ok[i]) {  // dist and cell_at unset: every later pass skips the point by ok / use
           use[i] = 0;
           continue;
         }
-        dist[i] = (R * pts[i] + t).norm();
         cell_at[i] = cell_of(uv[i]);
         use[i] = (!with_nid || ibin[i] != 255) && in_mask(uv[i]);
       }
     } else {
       const std::size_t i0 = static_cast<std::size_t>(c - nc) * kChunk,
                         i1 = std::min(m, i0 + kChunk);
-      d.camera.ProjectBatch(T_cam_scan, d.edge_points.data() + i0, i1 - i0, euv + i0, eok + i0);
+      d.camera.ProjectBatch(T_cam_scan, d.edge_points.data() + i0, i1 - i0, euv + i0, eok + i0,
+                            edist + i0);
       for (std::size_t i = i0; i < i1; ++i) {
         eok[i] = eok[i] && in_mask(euv[i]);
         if (eok[i]) ecell_at[i] = cell_of(euv[i]);
@@ -356,9 +356,7 @@ AlignmentScore ScoreAlignment(const AlignmentData& d, const Eigen::Isometry3d& T
                         i1 = std::min(m, i0 + kChunk);
       double sum = 0.0, count = 0.0;
       for (std::size_t i = i0; i < i1; ++i) {
-        if (!eok[i]) continue;
-        const float r = (R * d.edge_points[i] + t).norm();
-        if (!visible(ecell_at[i], r)) continue;
+        if (!eok[i] || !visible(ecell_at[i], edist[i])) continue;
         sum += Bilinear(d.edge_field, euv[i].x(), euv[i].y());
         count += 1.0;
       }

@@ -373,38 +373,41 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
                        const std::vector<Eigen::Isometry3d>& b) {
     if (a.size() != b.size()) return false;
     for (std::size_t i = 0; i < a.size(); ++i)
-      if (!a[i].matrix().isApprox(b[i].matrix(), 0.0)) return false;
+      if (a[i].matrix() != b[i].matrix()) return false;
     return true;
   };
-  // The pixel of every point of `pts` at T (valid: on the image).
-  auto project_all = [](const camera::CameraModel& cam, const Eigen::Isometry3d& T,
-                        const std::vector<Eigen::Vector3f>& pts, std::vector<Eigen::Vector2f>* uv,
-                        std::vector<std::uint8_t>* ok) {
-    uv->resize(pts.size());
-    ok->resize(pts.size());
-    cam.ProjectBatch(T, pts.data(), pts.size(), uv->data(), ok->data());
-  };
-  auto update_inside = [&] {
-    if (same_poses(anchors, flags_anchors)) return;
-    const double m = o.inner_margin_px;
+  // fn(k, e, i, ok, uv) for every point i of every scene k (e = 0: all_points, 1: edge_points):
+  // its pixel at T (ok: on the image), from one batch projection per scene and point kind.
+  auto for_each_pixel = [&all](const Eigen::Isometry3d& T, auto fn) {
     std::vector<Eigen::Vector2f> uv;
     std::vector<std::uint8_t> ok;
     for (std::size_t k = 0; k < all.size(); ++k) {
-      const AlignmentData& d = all[k];
-      const double w = d.camera.width(), h = d.camera.height();
       for (int e = 0; e < 2; ++e) {
-        const std::vector<Eigen::Vector3f>& pts = e == 0 ? d.all_points : d.edge_points;
-        std::vector<std::uint8_t>& in = flags[k].inside[e];
-        in.assign(pts.size(), 1);
-        flags[k].block[e].resize(pts.size(), 0);
-        if (m < 0.0) continue;
-        for (const Eigen::Isometry3d& T : anchors) {
-          project_all(d.camera, T, pts, &uv, &ok);
-          for (std::size_t i = 0; i < pts.size(); ++i)
-            in[i] = in[i] && ok[i] && uv[i].x() >= m && uv[i].y() >= m && uv[i].x() <= w - 1 - m &&
-                    uv[i].y() <= h - 1 - m;
-        }
+        const std::vector<Eigen::Vector3f>& pts = e == 0 ? all[k].all_points : all[k].edge_points;
+        uv.resize(pts.size());
+        ok.resize(pts.size());
+        all[k].camera.ProjectBatch(T, pts.data(), pts.size(), uv.data(), ok.data());
+        for (std::size_t i = 0; i < pts.size(); ++i) fn(k, e, i, ok[i] != 0, uv[i]);
       }
+    }
+  };
+  auto update_inside = [&] {
+    if (same_poses(anchors, flags_anchors)) return;
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      for (int e = 0; e < 2; ++e) {
+        const std::size_t n = e == 0 ? all[k].all_points.size() : all[k].edge_points.size();
+        flags[k].inside[e].assign(n, 1);
+        flags[k].block[e].resize(n, 0);
+      }
+    }
+    const double m = o.inner_margin_px;
+    for (const Eigen::Isometry3d& T : m < 0.0 ? std::vector<Eigen::Isometry3d>{} : anchors) {
+      for_each_pixel(T, [&](std::size_t k, int e, std::size_t i, bool ok,
+                            const Eigen::Vector2f& uv) {
+        const double w = all[k].camera.width(), h = all[k].camera.height();
+        std::uint8_t& in = flags[k].inside[e][i];
+        in = in && ok && uv.x() >= m && uv.y() >= m && uv.x() <= w - 1 - m && uv.y() <= h - 1 - m;
+      });
     }
     flags_anchors = anchors;
   };
@@ -648,23 +651,16 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
     // an intensity pattern, a moving object) then show in the gradients' difference.
     const int bu = std::max(1, o.uncertainty_blocks_u), bv = std::max(1, o.uncertainty_blocks_v);
     const int blocks = bu * bv;
-    {  // every point's block at the best pose
-      std::vector<Eigen::Vector2f> uv;
-      std::vector<std::uint8_t> ok;
-      for (std::size_t k = 0; k < all.size(); ++k) {
-        const camera::CameraModel& cam = all[k].camera;
-        for (int e = 0; e < 2; ++e) {
-          project_all(cam, best.T, e == 0 ? all[k].all_points : all[k].edge_points, &uv, &ok);
-          std::vector<std::uint32_t>& b = flags[k].block[e];
-          for (std::size_t i = 0; i < uv.size(); ++i) {
-            if (!ok[i]) continue;  // not on the image: not inside either, so never kept
-            const int x = std::clamp(static_cast<int>(uv[i].x() * bu / cam.width()), 0, bu - 1);
-            const int y = std::clamp(static_cast<int>(uv[i].y() * bv / cam.height()), 0, bv - 1);
-            b[i] = static_cast<std::uint32_t>(y * bu + x);
-          }
-        }
-      }
-    }
+    // Every point's block at the best pose (a point not on the image is not inside either, so
+    // never kept).
+    for_each_pixel(
+        best.T, [&](std::size_t k, int e, std::size_t i, bool ok, const Eigen::Vector2f& uv) {
+          if (!ok) return;
+          const camera::CameraModel& cam = all[k].camera;
+          const int x = std::clamp(static_cast<int>(uv.x() * bu / cam.width()), 0, bu - 1);
+          const int y = std::clamp(static_cast<int>(uv.y() * bv / cam.height()), 0, bv - 1);
+          flags[k].block[e][i] = static_cast<std::uint32_t>(y * bu + x);
+        });
     for (int k = 0; k < o.resamples; ++k) {
       const std::uint64_t seed_k = Mix(o.seed + 1000 + static_cast<std::uint64_t>(k));
       std::vector<int> order(blocks);  // a random half of the blocks (their first half) is A

@@ -172,9 +172,11 @@ class CameraModel {
   /// (and uv[i] is then set; else uv[i] is NaN, valid[i] = 0). Points with NaN coordinates are
   /// invalid. OCam: the radius from ocam_radius_table() (within float precision of Project;
   /// valid[i] by Project's own test). OpenMP-parallel, no allocation per point; meant for colouring
-  /// 10^7 points.
+  /// 10^7 points. range_m (optional, n entries): |T_cam_src * points[i]| (m, from the camera
+  /// centre), where valid[i] (else unspecified).
   void ProjectBatch(const Eigen::Isometry3d& T_cam_src, const Eigen::Vector3f* points,
-                    std::size_t n, Eigen::Vector2f* uv, std::uint8_t* valid) const;
+                    std::size_t n, Eigen::Vector2f* uv, std::uint8_t* valid,
+                    float* range_m = nullptr) const;
   /// Batch in double, points already in the camera frame; resizes the outputs.
   void ProjectBatch(const std::vector<Eigen::Vector3d>& p_cam, std::vector<Eigen::Vector2d>* uv,
                     std::vector<std::uint8_t>* valid) const;

@@ -47,6 +47,12 @@ struct OCamRadiusTable {
   /// OCamModel::Project(params, p, uv) in double with rho from the table; `params` the
   /// camera's, whose table this is.
   bool Project(const double* params, const double* p, double* uv) const {
+    return ProjectAtLength(params, p, std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]), uv);
+  }
+
+  /// Project with len = |p| (> 0) already known (a batch's field-of-view test has it).
+  /// q = nn / (1 + zn) = norm_s / (len + zs): two divisions per point.
+  bool ProjectAtLength(const double* params, const double* p, double len, double* uv) const {
     using M = OCamModel;
     const double rs = p[1], cs = p[0], zs = p[2];  // OCam's row and column axes; z as Project
     const double norm_s = std::sqrt(rs * rs + cs * cs);
@@ -55,13 +61,22 @@ struct OCamRadiusTable {
       if (!(zs > 0.0)) return false;
       s = M::OnAxisScale(params, zs);
     } else {
-      const double len = std::sqrt(norm_s * norm_s + zs * zs);
-      const double nn = norm_s / len, zn = zs / len;
-      if (!(rho_max * zn + pol_max * nn >= 0.0)) return false;  // G(rho_max) >= 0
-      s = Radius(nn / (1.0 + zn)) / norm_s;
+      if (!InFieldOfView(norm_s, zs)) return false;
+      s = Radius(norm_s / (len + zs)) / norm_s;
     }
     M::SensorToPixel(params, rs * s, cs * s, uv);
     return true;
+  }
+
+  /// G(rho_max) >= 0 for the ray (norm_s, zs), norm_s > 0, decided as G's own arithmetic on
+  /// the unit ray (nn, zn) would: by the sign of rho_max zs + pol_max norm_s unless that is
+  /// within rounding of 0, then on the unit ray exactly as Project.
+  bool InFieldOfView(double norm_s, double zs) const {
+    const double a = rho_max * zs, b = pol_max * norm_s, g = a + b;
+    if (std::abs(g) > 1e-9 * (std::abs(a) + std::abs(b))) return g > 0.0;
+    const double len = std::sqrt(norm_s * norm_s + zs * zs);
+    const double nn = norm_s / len, zn = zs / len;
+    return rho_max * zn + pol_max * nn >= 0.0;
   }
 
   /// The table of an OCam camera's parameters (params[kIdxRhoMax] set); nullptr when a root
