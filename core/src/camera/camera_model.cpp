@@ -530,9 +530,8 @@ void BatchLoopWith(ProjectFn project, double cos_max, bool all_dirs, double w, d
 #pragma omp parallel for if (n >= 65536) schedule(static, 4096)
   for (std::ptrdiff_t i = 0; i < n; ++i) {
     const Eigen::Vector3d p = R * pts[i].cast<double>() + t;
-    // WithinFieldOfView (camera_projector.h), its norm kept for the projection and range_m.
-    const double len = p.norm();
-    bool ok = len > 0.0 && std::isfinite(len) && (all_dirs || p.z() >= len * cos_max);
+    double len;  // |p|: the projection's and range_m's
+    bool ok = WithinFieldOfView(p, cos_max, all_dirs, &len);
     double px[2] = {0.0, 0.0};
     if (ok) ok = project(p.data(), len, px);
     ok = ok && PixelOnImage(px[0], px[1], w, h);

@@ -401,13 +401,15 @@ DenseRefineResult DenseRefine(const std::vector<RefineScene>& scenes,
       }
     }
     const double m = o.inner_margin_px;
-    for (const Eigen::Isometry3d& T : m < 0.0 ? std::vector<Eigen::Isometry3d>{} : anchors) {
-      for_each_pixel(T, [&](std::size_t k, int e, std::size_t i, bool ok,
-                            const Eigen::Vector2f& uv) {
-        const double w = all[k].camera.width(), h = all[k].camera.height();
-        std::uint8_t& in = flags[k].inside[e][i];
-        in = in && ok && uv.x() >= m && uv.y() >= m && uv.x() <= w - 1 - m && uv.y() <= h - 1 - m;
-      });
+    if (m >= 0.0) {  // < 0: every point counts as inside
+      for (const Eigen::Isometry3d& T : anchors) {
+        for_each_pixel(T, [&](std::size_t k, int e, std::size_t i, bool ok,
+                              const Eigen::Vector2f& uv) {
+          const double w = all[k].camera.width(), h = all[k].camera.height();
+          std::uint8_t& in = flags[k].inside[e][i];
+          in = in && ok && uv.x() >= m && uv.y() >= m && uv.x() <= w - 1 - m && uv.y() <= h - 1 - m;
+        });
+      }
     }
     flags_anchors = anchors;
   };

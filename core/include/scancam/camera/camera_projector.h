@@ -32,9 +32,12 @@
 namespace scancam::camera {
 
 /// The field-of-view test: camera-frame point p (metres) has a finite, non-zero norm and its
-/// angle from +z is at most acos(cos_max) (every direction when all_dirs).
-inline bool WithinFieldOfView(const Eigen::Vector3d& p_cam, double cos_max, bool all_dirs) {
+/// angle from +z is at most acos(cos_max) (every direction when all_dirs). norm_m (optional):
+/// |p|, set whatever the answer.
+inline bool WithinFieldOfView(const Eigen::Vector3d& p_cam, double cos_max, bool all_dirs,
+                              double* norm_m = nullptr) {
   const double n = p_cam.norm();
+  if (norm_m) *norm_m = n;
   if (!(n > 0.0) || !std::isfinite(n)) return false;
   return all_dirs || p_cam.z() >= n * cos_max;
 }
